@@ -1,0 +1,32 @@
+# griploop: `make demo` and `make test` set everything up on a fresh machine.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.griploop-installed
+export MUJOCO_GL ?= egl
+export PYOPENGL_PLATFORM ?= egl
+export MPLBACKEND ?= Agg
+
+.PHONY: demo test bench lint clean
+
+$(STAMP): pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e ".[dev]"
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(VENV)/bin/griploop demo --out demo_out
+
+test: $(STAMP)
+	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks
+	$(PY) -m pytest -q
+
+bench: $(STAMP)
+	for f in benchmarks/bench_*.py; do echo "== $$f"; $(PY) $$f || exit 1; done
+
+lint: $(STAMP)
+	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks
+
+clean:
+	rm -rf $(VENV) demo_out .pytest_cache

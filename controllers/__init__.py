@@ -1,0 +1,1 @@
+"""What the prosthesis does with the force estimate: controllers and loop analysis."""

@@ -1,0 +1,1 @@
+"""Experiments: scenario schema, episode runner, sweeps, results store, reports, CLI."""
