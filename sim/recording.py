@@ -292,7 +292,9 @@ def _load_npz(path: Path) -> Recording:
              "intent_force_n"}
     extra = sorted(set(arrays) - known)
     if extra:
-        raise RecordingError(f"{path}: unknown arrays {extra}; expected a subset of {sorted(known)}")
+        raise RecordingError(
+            f"{path}: unknown arrays {extra}; expected a subset of {sorted(known)}"
+        )
     return Recording(
         emg=arrays["emg"],
         fs_hz=float(arrays["fs_hz"]),
@@ -350,7 +352,7 @@ def _load_csv(path: Path, emg_unit: str | None) -> Recording:
     if numbers != list(range(1, len(numbers) + 1)):
         raise RecordingError(
             f"{path}: sEMG columns must be emg1..emg{len(numbers)} without gaps or repeats, "
-            f"found {['emg%d' % k for k in numbers]}"
+            f"found {[f'emg{k}' for k in numbers]}"
         )
     try:
         data = np.loadtxt(path, delimiter=",", skiprows=n_comment, ndmin=2)
