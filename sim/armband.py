@@ -1,0 +1,200 @@
+"""The MYO-like armband: electrode ring, crosstalk, analog front end, noise, int8 ADC.
+
+Eight electrodes sit on a ring around the forearm, one spacing apart, so
+channel 8 neighbours channel 1. Muscle ``m`` (0-based) lies under electrode
+``m`` when the band is in its reference position; rotating the band by
+``electrode_shift`` spacings moves every electrode to ``c + shift``. Each
+electrode sees each muscle with weight ``exp(-d / crosstalk_length)``, ``d``
+the ring distance in spacings (crosstalk falls with distance).
+
+The front end band-limits the signal (default Butterworth 15 Hz high-pass,
+200 Hz low-pass, 2nd order each) and the ADC samples at 200 Hz *without* an
+anti-aliasing filter below Nyquist, so sEMG power above 100 Hz folds back:
+with 1.5 ms MUAPs this gives the real MYO's spectrum (median about 64 Hz;
+CALIBRATION.md). Values are rounded to int8 counts and clipped at -128..127.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import signal
+
+N_CHANNELS = 8
+INT8_MIN, INT8_MAX = -128, 127
+
+
+class ArmbandError(ValueError):
+    """Armband settings or inputs out of range."""
+
+
+@dataclass(frozen=True)
+class FrontEnd:
+    """Analog band-limiting before the ADC (Butterworth high-pass and low-pass).
+
+    Parameters
+    ----------
+    highpass_hz, lowpass_hz : float
+        Corner frequencies in hertz.
+    order : int
+        Order of each of the two Butterworth sections.
+    """
+
+    highpass_hz: float = 15.0
+    lowpass_hz: float = 200.0
+    order: int = 2
+
+    def __post_init__(self) -> None:
+        if not (0 < self.highpass_hz < self.lowpass_hz) or self.order < 1:
+            raise ArmbandError(
+                "FrontEnd: expected 0 < highpass_hz < lowpass_hz and order >= 1, found "
+                f"{self.highpass_hz}, {self.lowpass_hz}, {self.order}"
+            )
+
+    def power_response(self, f_hz: np.ndarray) -> np.ndarray:
+        """Squared magnitude of the analog response at ``f_hz`` (shape kept)."""
+        f = np.abs(np.asarray(f_hz, dtype=float))
+        n2 = 2 * self.order
+        hp = (f / self.highpass_hz) ** n2
+        return hp / (1.0 + hp) / (1.0 + (f / self.lowpass_hz) ** n2)
+
+    def sos(self, fs_hz: float) -> np.ndarray:
+        """Digital second-order sections of the front end at rate ``fs_hz``.
+
+        Raises
+        ------
+        ArmbandError
+            If ``fs_hz`` is not above twice the low-pass corner.
+        """
+        if fs_hz <= 2.0 * self.lowpass_hz:
+            raise ArmbandError(
+                f"internal rate must exceed 2 x lowpass_hz = {2 * self.lowpass_hz} Hz, "
+                f"found {fs_hz} Hz"
+            )
+        hp = signal.butter(self.order, self.highpass_hz, "highpass", fs=fs_hz, output="sos")
+        lp = signal.butter(self.order, self.lowpass_hz, "lowpass", fs=fs_hz, output="sos")
+        return np.vstack([hp, lp])
+
+    def folded_psd(
+        self,
+        source_psd: Callable[[np.ndarray], np.ndarray],
+        f_hz: np.ndarray,
+        fs_hz: float,
+        n_images: int = 5,
+    ) -> np.ndarray:
+        """PSD after the front end and sampling at ``fs_hz`` (aliasing included).
+
+        Parameters
+        ----------
+        source_psd : callable
+            Two-sided source PSD ``S(f)`` of the muscle signal (any scale),
+            vectorized over ``f``.
+        f_hz : ndarray, shape (n_freq,)
+            Frequencies in ``[0, fs_hz / 2]``.
+        fs_hz : float
+            Sampling rate of the ADC in hertz.
+        n_images : int
+            Number of spectral images folded in on each side (sEMG power above
+            ``n_images * fs_hz`` is negligible: 1 kHz at 200 Hz).
+
+        Returns
+        -------
+        ndarray, shape (n_freq,)
+            ``sum_k S(f + k fs) |H(f + k fs)|^2`` over all integer ``k``.
+        """
+        f = np.asarray(f_hz, dtype=float)
+        k = np.arange(-n_images, n_images + 1)[:, None] * fs_hz
+        g = f[None, :] + k
+        return np.sum(source_psd(g) * self.power_response(g), axis=0)
+
+
+def ring_distance(a: np.ndarray | float, b: np.ndarray | float, n: int = N_CHANNELS) -> np.ndarray:
+    """Shortest distance around a ring of ``n`` equally spaced positions (in spacings)."""
+    d = np.mod(np.asarray(a, dtype=float) - np.asarray(b, dtype=float), n)
+    return np.minimum(d, n - d)
+
+
+@dataclass(frozen=True)
+class Armband:
+    """Electrode ring, crosstalk and digitization of one subject's MYO.
+
+    Parameters
+    ----------
+    crosstalk_length : float
+        Decay length of crosstalk in electrode spacings; weight of a muscle
+        one spacing away is ``exp(-1 / crosstalk_length)`` (0.55 gives 16 %).
+    electrode_shift : float
+        Rotation of the band in electrode spacings (positive: towards higher
+        channel numbers); 0 is the reference placement of the paper.
+    noise_lsb : float
+        Skin/electrode/amplifier noise std in counts (rest std about 1.9 LSB).
+    extra_noise_lsb : float
+        Scenario knob: additional noise std in counts, added in quadrature.
+    channel_gain : tuple of float
+        Electrode-skin contact gain per channel (multiplies that channel).
+    front_end : FrontEnd
+        Analog band-limiting before the ADC.
+    """
+
+    crosstalk_length: float = 0.55
+    electrode_shift: float = 0.0
+    noise_lsb: float = 1.9
+    extra_noise_lsb: float = 0.0
+    channel_gain: tuple[float, ...] = (1.0,) * N_CHANNELS
+    front_end: FrontEnd = field(default_factory=FrontEnd)
+
+    def __post_init__(self) -> None:
+        if self.crosstalk_length <= 0 or self.noise_lsb < 0 or self.extra_noise_lsb < 0:
+            raise ArmbandError(
+                "Armband: expected crosstalk_length > 0 and noise levels >= 0, found "
+                f"{self.crosstalk_length}, {self.noise_lsb}, {self.extra_noise_lsb}"
+            )
+        if len(self.channel_gain) != N_CHANNELS:
+            raise ArmbandError(
+                f"Armband.channel_gain: expected {N_CHANNELS} values, found "
+                f"{len(self.channel_gain)}"
+            )
+
+    @property
+    def total_noise_lsb(self) -> float:
+        """Additive noise std in counts (base and extra in quadrature)."""
+        return float(np.hypot(self.noise_lsb, self.extra_noise_lsb))
+
+    def mixing_matrix(self, n_muscles: int = N_CHANNELS) -> np.ndarray:
+        """Crosstalk weights, shape (n_channels, n_muscles); 1 on the diagonal at zero shift."""
+        pos = np.arange(N_CHANNELS) + self.electrode_shift
+        d = ring_distance(pos[:, None], np.arange(n_muscles)[None, :])
+        gain = np.asarray(self.channel_gain, dtype=float)[:, None]
+        return gain * np.exp(-d / self.crosstalk_length)
+
+    def nearest_muscles(self) -> list[int]:
+        """0-based index of the muscle closest to each electrode."""
+        pos = np.arange(N_CHANNELS) + self.electrode_shift
+        return [int(np.mod(np.rint(p), N_CHANNELS)) for p in pos]
+
+    def digitize(
+        self, muscle_emg_lsb: np.ndarray, rng: np.random.Generator
+    ) -> tuple[np.ndarray, int]:
+        """Mix muscle signals onto the electrodes, add noise and quantize to int8.
+
+        Parameters
+        ----------
+        muscle_emg_lsb : ndarray, shape (n_samples, n_muscles)
+            Each muscle's sEMG after the front end, at the ADC rate, in counts
+            as an electrode directly above it would see it.
+        rng : numpy.random.Generator
+
+        Returns
+        -------
+        emg : ndarray of int8, shape (n_samples, n_channels)
+        n_saturated : int
+            Number of samples (over all channels) clipped at -128 or 127.
+        """
+        s = np.asarray(muscle_emg_lsb, dtype=float)
+        x = s @ self.mixing_matrix(s.shape[1]).T
+        x += self.total_noise_lsb * rng.standard_normal(x.shape)
+        q = np.rint(x)
+        n_sat = int(np.count_nonzero((q < INT8_MIN) | (q > INT8_MAX)))
+        return np.clip(q, INT8_MIN, INT8_MAX).astype(np.int8), n_sat

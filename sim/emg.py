@@ -1,0 +1,66 @@
+"""The interface shared by the sEMG generators.
+
+A generator turns per-muscle neural drive into each muscle's sEMG (as the
+front end and ADC sampling see it, aliasing included) and each muscle's force.
+The subject then mixes the sEMG onto the electrodes (:mod:`sim.armband`) and
+sums the forces into grip force. Both implementations,
+:class:`sim.emg_noise.NoiseEmgGenerator` and
+:class:`sim.motor_units.MotorUnitEmgGenerator`, satisfy :class:`EmgGenerator`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from sim.armband import FrontEnd
+from sim.muscles import MuscleParams
+
+
+@dataclass(frozen=True)
+class MuscleSignals:
+    """What the muscles produce, sampled at the ADC rate.
+
+    Attributes
+    ----------
+    emg : ndarray, shape (n_samples, n_muscles)
+        Each muscle's sEMG after the front end and sampling, scaled so that
+        its RMS is about 1 at full drive (multiply by ``amplitude_lsb``).
+    force : ndarray, shape (n_samples, n_muscles)
+        Each muscle's force normalized to its steady force at full drive.
+    info : dict
+        Generator-specific JSON-ready statistics (e.g. spike counts).
+    """
+
+    emg: np.ndarray
+    force: np.ndarray
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+@runtime_checkable
+class EmgGenerator(Protocol):
+    """A model from neural drive to muscle sEMG and force."""
+
+    name: str
+
+    def generate(
+        self,
+        drive: np.ndarray,
+        muscles: MuscleParams,
+        front_end: FrontEnd,
+        *,
+        fs_hz: float,
+        rng: np.random.Generator,
+    ) -> MuscleSignals:
+        """Muscle sEMG and force for a drive of shape (n_samples, n_muscles) at ``fs_hz``."""
+        ...
+
+    def steady_force(self, drive: np.ndarray, muscles: MuscleParams) -> np.ndarray:
+        """Normalized steady muscle force at constant drive, shape (n_muscles,)."""
+        ...
+
+    def params(self) -> dict[str, Any]:
+        """JSON-ready generator settings for recording metadata."""
+        ...

@@ -1,0 +1,267 @@
+"""Forearm muscles under the MYO band and their drive-to-force physiology.
+
+The eight MYO channels sit over the muscles of the paper's electrode table
+(Table 1): 1 pronator teres ... 8 flexor carpi radialis. This module holds
+that table, the per-subject muscle parameters (:class:`MuscleParams`) and the
+signal-level building blocks shared by both sEMG generators:
+
+* activation dynamics: a critically damped second-order low-pass (about
+  3 Hz, tau about 50 ms) from neural drive to muscle force;
+* electromechanical delay (EMD, 40-140 ms): force lags the sEMG;
+* slow drive fluctuations (Ornstein-Uhlenbeck), the per-muscle
+  non-stationarity that keeps sEMG and force from being a fixed map.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+from scipy import signal
+
+MUSCLES = (
+    "pronator_teres",
+    "brachioradialis",
+    "extensor_carpi_radialis",
+    "extensor_digitorum_communis",
+    "extensor_carpi_ulnaris",
+    "flexor_carpi_ulnaris",
+    "palmaris_longus",
+    "flexor_carpi_radialis",
+)
+"""Muscle under each MYO channel 1..8 (paper Table 1)."""
+
+MUSCLE_ABBREVIATIONS = ("PT", "BR", "ECR", "EDC", "ECU", "FCU", "PL", "FCR")
+MUSCLE_ROLES = ("other", "other", "extensor", "extensor", "extensor", "flexor", "flexor", "flexor")
+"""Role in the grip synergy: flexors drive grip, extensors co-contract, others weakly."""
+
+N_MUSCLES = len(MUSCLES)
+
+
+class MuscleParamsError(ValueError):
+    """Per-muscle parameters have the wrong length or an out-of-range value."""
+
+
+@dataclass(frozen=True)
+class MuscleParams:
+    """Per-muscle physiology of one subject; every tuple has one entry per muscle.
+
+    Parameters
+    ----------
+    synergy : tuple of float
+        Neural drive of each muscle per unit grip intent (0..1): the grip
+        synergy. Flexors about 0.8-1, co-contracting extensors 0.35-0.65,
+        other muscles 0.1-0.3.
+    grip_share : tuple of float
+        Relative contribution of each muscle's force to grip force (flexors
+        only in the default population).
+    amplitude_exponent : tuple of float
+        EMG amplitude = drive ** exponent while force follows drive linearly
+        (noise generator): 1 is linear, > 1 curvilinear.
+    amplitude_lsb : tuple of float
+        sEMG RMS in MYO counts (LSB) that the muscle produces on an electrode
+        directly above it at full drive (after the front end).
+    emd_s : tuple of float
+        Electromechanical delay in seconds (40-140 ms).
+    activation_cutoff_hz : tuple of float
+        Corner frequency of the critically damped activation dynamics (Hz).
+    muap_width_ms : tuple of float
+        Characteristic MUAP width (Gaussian sigma, ms); sets the sEMG spectrum.
+    muap_exponent : tuple of float
+        Motor-unit generator: MUAP amplitude grows as twitch force ** exponent
+        (sets that generator's EMG-force curvature).
+    fluctuation_std : tuple of float
+        Relative std of the slow multiplicative drive fluctuation.
+    fluctuation_time_s : float
+        Correlation time of that fluctuation, seconds.
+    emg_gain_std : tuple of float
+        Relative std of a multiplicative sEMG amplitude fluctuation that
+        leaves force unchanged (muscle moving under the electrode, skin
+        impedance): with the FSR contact fluctuation, the main source of
+        estimation error.
+    emg_gain_time_s : float
+        Correlation time of that fluctuation, seconds.
+    fatigue_per_min : float
+        Fatigue rate: per minute of recording the median frequency falls by
+        this fraction and the sEMG amplitude rises by twice it (0 = none).
+    anatomy_seed : int
+        Seed of the subject's fixed motor-unit anatomy (MUAP shapes, sizes),
+        so that every session of a subject uses the same motor units.
+    """
+
+    synergy: tuple[float, ...]
+    grip_share: tuple[float, ...]
+    amplitude_exponent: tuple[float, ...]
+    amplitude_lsb: tuple[float, ...]
+    emd_s: tuple[float, ...]
+    activation_cutoff_hz: tuple[float, ...]
+    muap_width_ms: tuple[float, ...]
+    muap_exponent: tuple[float, ...]
+    fluctuation_std: tuple[float, ...]
+    emg_gain_std: tuple[float, ...] = (0.0,) * N_MUSCLES
+    fluctuation_time_s: float = 1.0
+    emg_gain_time_s: float = 0.5
+    fatigue_per_min: float = 0.0
+    anatomy_seed: int = 0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, tuple):
+                if len(value) != N_MUSCLES:
+                    raise MuscleParamsError(
+                        f"MuscleParams.{f.name}: expected {N_MUSCLES} values, found {len(value)}"
+                    )
+                if not all(np.isfinite(v) and v >= 0 for v in value):
+                    raise MuscleParamsError(
+                        f"MuscleParams.{f.name}: expected finite non-negative values, "
+                        f"found {value}"
+                    )
+        if sum(self.grip_share) <= 0:
+            raise MuscleParamsError("MuscleParams.grip_share: expected a positive sum, found 0")
+        if self.fatigue_per_min < 0 or min(self.fluctuation_time_s, self.emg_gain_time_s) <= 0:
+            raise MuscleParamsError(
+                "MuscleParams: expected fatigue_per_min >= 0 and positive correlation times, "
+                f"found {self.fatigue_per_min}, {self.fluctuation_time_s}, "
+                f"{self.emg_gain_time_s}"
+            )
+
+    def array(self, name: str) -> np.ndarray:
+        """One per-muscle parameter as a float array of shape (n_muscles,)."""
+        return np.asarray(getattr(self, name), dtype=float)
+
+    def to_dict(self) -> dict[str, list[float] | float]:
+        """JSON-ready parameters (tuples become lists)."""
+        return {
+            f.name: list(getattr(self, f.name))
+            if isinstance(getattr(self, f.name), tuple)
+            else getattr(self, f.name)
+            for f in fields(self)
+        }
+
+
+def activation_dynamics(
+    drive: np.ndarray, fs_hz: float, cutoff_hz: np.ndarray | float
+) -> np.ndarray:
+    """Critically damped second-order low-pass from neural drive to force.
+
+    Two identical first-order lags with time constant ``1 / (2 pi cutoff_hz)``
+    in cascade, each discretized exactly for a zero-order-held input; unit DC
+    gain, no overshoot. Columns sharing a cutoff are filtered in one call.
+
+    Parameters
+    ----------
+    drive : ndarray, shape (n_samples, n_muscles)
+        Neural drive (0..1).
+    fs_hz : float
+        Sampling rate in hertz.
+    cutoff_hz : float or ndarray, shape (n_muscles,)
+        Corner frequency per muscle in hertz (about 3 Hz).
+
+    Returns
+    -------
+    ndarray, shape (n_samples, n_muscles)
+        Normalized muscle force, starting from rest at the first drive value.
+    """
+    x = np.asarray(drive, dtype=float)
+    cut = np.broadcast_to(np.asarray(cutoff_hz, dtype=float), (x.shape[1],))
+    levels = np.unique(cut)
+    out = None if levels.size == 1 else np.empty_like(x)
+    for fc in levels:
+        cols = slice(None) if out is None else np.flatnonzero(cut == fc)
+        r = float(np.exp(-2.0 * np.pi * fc / fs_hz))
+        b, a = [(1.0 - r) ** 2], [1.0, -2.0 * r, r * r]
+        # direct-form-II-transposed state of a filter resting at the first value x0
+        x0 = x[0, cols]
+        zi = np.stack([x0 * (2.0 * r - r * r), -r * r * x0], axis=0)
+        y = signal.lfilter(b, a, x[:, cols], axis=0, zi=zi)[0]
+        if out is None:
+            return y
+        out[:, cols] = y
+    return out
+
+
+def muscle_force(
+    drive: np.ndarray, fs_hz: float, cutoff_hz: np.ndarray | float, emd_s: np.ndarray | float
+) -> np.ndarray:
+    """Neural drive to normalized force: electromechanical delay, then activation dynamics.
+
+    Parameters
+    ----------
+    drive : ndarray, shape (n_samples, n_muscles)
+        Neural drive (0..1).
+    fs_hz : float
+        Sampling rate in hertz.
+    cutoff_hz : float or ndarray, shape (n_muscles,)
+        Activation corner frequency in hertz (about 3 Hz).
+    emd_s : float or ndarray, shape (n_muscles,)
+        Electromechanical delay in seconds (40-140 ms).
+
+    Returns
+    -------
+    ndarray, shape (n_samples, n_muscles)
+    """
+    return activation_dynamics(fractional_delay(drive, emd_s, fs_hz), fs_hz, cutoff_hz)
+
+
+def fractional_delay(x: np.ndarray, delay_s: np.ndarray | float, fs_hz: float) -> np.ndarray:
+    """Delay every column by its own (fractional) time, holding the first value.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n_samples, n_columns)
+    delay_s : float or ndarray, shape (n_columns,)
+        Non-negative delays in seconds; linear interpolation between samples.
+    fs_hz : float
+        Sampling rate in hertz.
+
+    Returns
+    -------
+    ndarray, shape (n_samples, n_columns)
+        ``y[k, j] = x(t_k - delay_s[j])``.
+    """
+    x = np.asarray(x, dtype=float)
+    n = x.shape[0]
+    d = np.broadcast_to(np.asarray(delay_s, dtype=float), (x.shape[1],)) * fs_hz
+    out = np.empty_like(x)
+    for j, dj in enumerate(d):
+        w = int(np.floor(dj))
+        f = float(dj - w)
+        out[: min(w, n), j] = x[0, j]
+        if w >= n:
+            continue
+        # y[k] = (1 - f) x[k - w] + f x[k - w - 1], with x[i < 0] = x[0]
+        out[w:, j] = (1.0 - f) * x[: n - w, j]
+        if f > 0:
+            out[w + 1:, j] += f * x[: n - w - 1, j]
+            out[w, j] += f * x[0, j]
+    return out
+
+
+def slow_fluctuation(
+    n_samples: int, fs_hz: float, std: np.ndarray, time_s: float, rng: np.random.Generator
+) -> np.ndarray:
+    """Stationary Ornstein-Uhlenbeck noise, one independent column per muscle.
+
+    Parameters
+    ----------
+    n_samples : int
+    fs_hz : float
+        Sampling rate in hertz.
+    std : ndarray, shape (n_columns,)
+        Stationary standard deviation of each column.
+    time_s : float
+        Correlation time in seconds.
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    ndarray, shape (n_samples, n_columns)
+        Zero-mean; starts in the stationary distribution.
+    """
+    std = np.asarray(std, dtype=float)
+    a = np.exp(-1.0 / (time_s * fs_hz))
+    w = rng.standard_normal((n_samples, std.size))
+    w[0] /= np.sqrt(1.0 - a * a)  # stationary start
+    z = signal.lfilter([np.sqrt(1.0 - a * a)], [1.0, -a], w, axis=0)
+    return z * std[None, :]

@@ -1,0 +1,244 @@
+"""Intent profiles: what the subject tries to do, as normalized grip force over time.
+
+An :class:`IntentProfile` is a smooth curve in 0..1 (fraction of MVC) with the
+cues the subject followed. Profiles are built from segments (hold a level, or
+move to a new level along a raised-cosine ramp), so every profile shares the
+same machinery:
+
+* :func:`paper_protocol`: the paper's session: three squeezes at small,
+  medium and highest force after start cues, released after end cues, with
+  rests between (timing, levels and reaction times jittered per subject);
+* :func:`ramp_profile`: slow trapezoidal ramps (force tracking);
+* :func:`grasp_lift_hold`: rest, ramp to a hold level, hold, release (the
+  intent of a closed-loop grasp-and-lift episode).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+
+class ProfileError(ValueError):
+    """An intent profile was asked for with impossible timing or levels."""
+
+
+def as_rng(rng: np.random.Generator | int | None) -> np.random.Generator:
+    """A ``numpy.random.Generator`` from a generator, a seed or ``None`` (fresh entropy)."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    return np.random.default_rng(rng)
+
+
+@dataclass(frozen=True)
+class IntentProfile:
+    """Normalized grip intent sampled at ``fs_hz`` with the cues that shaped it.
+
+    Attributes
+    ----------
+    intent : ndarray, shape (n_samples,)
+        Intended grip force as a fraction of MVC, 0..1.
+    fs_hz : float
+        Sampling rate in hertz.
+    cues : tuple of (str, float)
+        ``("start", t_s)`` / ``("end", t_s)`` cue times in seconds, in order.
+    levels : tuple of float
+        Target level of each contraction (fraction of MVC).
+    name : str
+        Which builder made it.
+    """
+
+    intent: np.ndarray
+    fs_hz: float
+    cues: tuple[tuple[str, float], ...]
+    levels: tuple[float, ...]
+    name: str
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples."""
+        return int(self.intent.size)
+
+    @property
+    def duration_s(self) -> float:
+        """Duration in seconds."""
+        return self.n_samples / self.fs_hz
+
+    @property
+    def t_s(self) -> np.ndarray:
+        """Sample times in seconds, shape (n_samples,)."""
+        return np.arange(self.n_samples) / self.fs_hz
+
+    def cue_times(self, kind: str) -> np.ndarray:
+        """Times in seconds of the cues of one kind (``"start"`` or ``"end"``)."""
+        return np.array([t for k, t in self.cues if k == kind])
+
+    def resampled(self, fs_hz: float) -> IntentProfile:
+        """The same profile at another sampling rate (linear interpolation)."""
+        if fs_hz == self.fs_hz:
+            return self
+        n = int(round(self.duration_s * fs_hz))
+        intent = np.interp(np.arange(n) / fs_hz, self.t_s, self.intent)
+        return IntentProfile(intent, float(fs_hz), self.cues, self.levels, self.name)
+
+    def to_metadata(self) -> dict:
+        """JSON-ready description (name, levels, cues)."""
+        return {
+            "name": self.name,
+            "levels": [float(v) for v in self.levels],
+            "cues": [[k, float(t)] for k, t in self.cues],
+        }
+
+
+def from_segments(
+    segments: Sequence[tuple[float, float]],
+    *,
+    fs_hz: float,
+    cues: Sequence[tuple[str, float]] = (),
+    levels: Sequence[float] = (),
+    name: str = "segments",
+) -> IntentProfile:
+    """Build a profile from ``(duration_s, end_level)`` segments starting at 0.
+
+    Each segment moves from the previous level to ``end_level`` along a
+    raised-cosine ramp lasting ``duration_s`` (a hold when the levels are
+    equal), so the intent and its slope are continuous.
+
+    Raises
+    ------
+    ProfileError
+        For a negative duration, a level outside 0..1 or ``fs_hz <= 0``.
+    """
+    if fs_hz <= 0:
+        raise ProfileError(f"fs_hz must be positive, found {fs_hz}")
+    durations = np.array([d for d, _ in segments], dtype=float)
+    ends = np.array([v for _, v in segments], dtype=float)
+    if durations.size == 0 or np.any(durations < 0) or np.any((ends < 0) | (ends > 1)):
+        raise ProfileError(
+            "segments must be non-empty (duration_s >= 0, end_level in 0..1), found "
+            f"{list(segments)}"
+        )
+    edges = np.concatenate([[0.0], np.cumsum(durations)])
+    starts = np.concatenate([[0.0], ends[:-1]])
+    n = int(round(edges[-1] * fs_hz))
+    t = np.arange(n) / fs_hz
+    seg = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, durations.size - 1)
+    span = np.where(durations[seg] > 0, durations[seg], 1.0)
+    frac = np.clip((t - edges[seg]) / span, 0.0, 1.0)
+    shape = 0.5 - 0.5 * np.cos(np.pi * frac)
+    intent = starts[seg] + (ends[seg] - starts[seg]) * shape
+    return IntentProfile(intent, float(fs_hz), tuple((k, float(c)) for k, c in cues),
+                         tuple(float(v) for v in levels), name)
+
+
+def paper_protocol(
+    rng: np.random.Generator | int | None = None,
+    *,
+    fs_hz: float = 200.0,
+    levels: Sequence[float] | None = None,
+) -> IntentProfile:
+    """The paper's calibration session: three squeezes of increasing force.
+
+    Timing (uniform jitter per call): initial rest 3-4 s; for each squeeze a
+    start cue, a reaction time of 0.2-0.4 s, a 0.6-1.0 s ramp up, a hold so
+    that cue-to-cue lasts 3-5 s, an end cue, the reaction time again, a
+    0.5-0.9 s ramp down and a 3-4 s rest (4-6 s after the last squeeze, so
+    that the 50 % split falls inside the medium squeeze). Levels: 20-35 %,
+    45-60 % and 80-100 % of MVC. A session lasts about 28-40 s.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator, int or None
+        Source of the jitter.
+    fs_hz : float
+        Sampling rate in hertz.
+    levels : sequence of 3 floats, optional
+        Fixed squeeze levels instead of the jittered ones.
+
+    Returns
+    -------
+    IntentProfile
+        With cues ``start, end`` for each squeeze, in time order.
+    """
+    g = as_rng(rng)
+    if levels is None:
+        lv = (g.uniform(0.20, 0.35), g.uniform(0.45, 0.60), g.uniform(0.80, 1.00))
+    else:
+        lv = tuple(float(v) for v in levels)
+        if len(lv) != 3:
+            raise ProfileError(f"paper_protocol needs 3 levels, found {len(lv)}")
+    t = g.uniform(3.0, 4.0)
+    segments: list[tuple[float, float]] = [(t, 0.0)]
+    cues: list[tuple[str, float]] = []
+    for i, level in enumerate(lv):
+        reaction = g.uniform(0.2, 0.4)
+        rise = g.uniform(0.6, 1.0)
+        squeeze = g.uniform(3.0, 5.0)
+        fall = g.uniform(0.5, 0.9)
+        rest = g.uniform(3.0, 4.0) if i < len(lv) - 1 else g.uniform(4.0, 6.0)
+        cues.append(("start", t))
+        segments += [(reaction, 0.0), (rise, level), (squeeze - rise, level)]
+        cues.append(("end", t + reaction + squeeze))
+        segments += [(reaction, level), (fall, 0.0), (rest, 0.0)]
+        t += reaction + squeeze + reaction + fall + rest
+    return from_segments(segments, fs_hz=fs_hz, cues=cues, levels=lv, name="paper_protocol")
+
+
+def ramp_profile(
+    rng: np.random.Generator | int | None = None,
+    *,
+    fs_hz: float = 200.0,
+    peaks: Sequence[float] = (0.5, 0.9),
+    rise_s: float = 4.0,
+    hold_s: float = 1.0,
+    fall_s: float = 4.0,
+    rest_s: float = 2.0,
+    jitter: float = 0.1,
+) -> IntentProfile:
+    """Slow trapezoidal ramps to each of ``peaks`` (force-tracking task).
+
+    Durations are scaled by ``1 + U(-jitter, jitter)`` each; cues mark the
+    start of each rise and the start of each fall.
+    """
+    g = as_rng(rng)
+
+    def j(d: float) -> float:
+        return d * (1.0 + g.uniform(-jitter, jitter))
+
+    t = j(rest_s)
+    segments: list[tuple[float, float]] = [(t, 0.0)]
+    cues: list[tuple[str, float]] = []
+    for peak in peaks:
+        r, h, f, s = j(rise_s), j(hold_s), j(fall_s), j(rest_s)
+        cues += [("start", t), ("end", t + r + h)]
+        segments += [(r, float(peak)), (h, float(peak)), (f, 0.0), (s, 0.0)]
+        t += r + h + f + s
+    return from_segments(segments, fs_hz=fs_hz, cues=cues, levels=peaks, name="ramp_profile")
+
+
+def grasp_lift_hold(
+    rng: np.random.Generator | int | None = None,
+    *,
+    fs_hz: float = 200.0,
+    hold_level: float = 0.3,
+    rest_s: float = 1.0,
+    ramp_s: float = 0.5,
+    hold_s: float = 4.0,
+    release_s: float = 0.5,
+    final_rest_s: float = 1.0,
+    jitter: float = 0.1,
+) -> IntentProfile:
+    """Rest, ramp to ``hold_level``, hold, release, rest: one grasp-and-lift.
+
+    Durations are scaled by ``1 + U(-jitter, jitter)``; cues: ``start`` at the
+    ramp onset, ``end`` at the release onset.
+    """
+    g = as_rng(rng)
+    d = [v * (1.0 + g.uniform(-jitter, jitter))
+         for v in (rest_s, ramp_s, hold_s, release_s, final_rest_s)]
+    segments = [(d[0], 0.0), (d[1], hold_level), (d[2], hold_level), (d[3], 0.0), (d[4], 0.0)]
+    cues = [("start", d[0]), ("end", d[0] + d[1] + d[2])]
+    return from_segments(segments, fs_hz=fs_hz, cues=cues, levels=(hold_level,),
+                         name="grasp_lift_hold")

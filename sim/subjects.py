@@ -1,0 +1,345 @@
+"""Virtual subjects: a seeded population that produces MYO sEMG and FSR force.
+
+A :class:`VirtualSubject` is a frozen set of parameters (anatomy, physiology,
+armband fit, FSR device) plus the methods that turn an intent profile into a
+:class:`~sim.recording.Recording`:
+
+    intent u(t) (0..1)
+      -> target force_m(t) = synergy_m u(t) (1 + eta_m(t))  (grip synergy, slow fluctuation)
+      -> drive_m(t): inverse of the generator's steady force-drive curve
+      -> generator: muscle sEMG s_m(t) and force F_m(t)    ("noise" or "motor_units")
+      -> sEMG gain (1 + xi_m(t)): amplitude changes that force does not share
+      -> armband: sum_m M[c, m] amplitude_lsb_m s_m + noise -> int8     (crosstalk ring)
+      -> grip force = mvc_n sum_m share_m F_m / sum_m share_m synergy_m
+      -> contact fraction (1 + zeta(t)) -> FSR 402 -> measured force (N)
+
+``eta``, ``xi`` and ``zeta`` are Ornstein-Uhlenbeck fluctuations.
+
+See docs/SUBJECTS.md for the parameter ranges and which ones set the
+estimation difficulty.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from sim.armband import Armband
+from sim.emg import EmgGenerator
+from sim.emg_noise import NoiseEmgGenerator
+from sim.fsr import FSR402
+from sim.motor_units import MotorUnitEmgGenerator
+from sim.muscles import (
+    MUSCLE_ABBREVIATIONS,
+    MUSCLE_ROLES,
+    MUSCLES,
+    N_MUSCLES,
+    MuscleParams,
+    slow_fluctuation,
+)
+from sim.protocol import IntentProfile, as_rng, paper_protocol
+from sim.recording import Recording
+
+GENERATORS = ("noise", "motor_units")
+
+# Per-role uniform ranges of the sampled muscle parameters: (low, high).
+_SYNERGY = {"flexor": (0.80, 1.00), "extensor": (0.35, 0.65), "other": (0.10, 0.30)}
+_EXPONENT = {"flexor": (0.85, 1.15), "extensor": (1.00, 1.80), "other": (1.00, 2.00)}
+_AMPLITUDE_LSB = {"flexor": (22.0, 34.0), "extensor": (20.0, 35.0), "other": (15.0, 30.0)}
+# Motor-unit MUAP-size exponent gamma that gives, with the default pool, about
+# the same log-log sEMG-force slope over 3-100 % MVC as ``amplitude_exponent``
+# p in the noise generator (measured: p = 0.16 + 0.77 gamma for gamma in 0.3..1.6).
+_MUAP_EXPONENT_FIT = (0.16, 0.77)
+
+
+class UnknownGeneratorError(LookupError):
+    """A generator name that is not one of :data:`GENERATORS`."""
+
+
+def make_generator(generator: str | EmgGenerator, **settings: Any) -> EmgGenerator:
+    """An sEMG generator from its name (``"noise"`` or ``"motor_units"``) or as given.
+
+    Parameters
+    ----------
+    generator : str or EmgGenerator
+        Name, or an object already satisfying :class:`sim.emg.EmgGenerator`.
+    **settings
+        Passed to the generator class (e.g. ``n_units=300`` for motor units).
+
+    Raises
+    ------
+    UnknownGeneratorError
+        For an unknown name.
+    """
+    if not isinstance(generator, str):
+        return generator
+    if generator == "noise":
+        return NoiseEmgGenerator(**settings)
+    if generator == "motor_units":
+        return MotorUnitEmgGenerator(**settings)
+    raise UnknownGeneratorError(f"unknown generator {generator!r}; expected one of {GENERATORS}")
+
+
+@dataclass(frozen=True)
+class VirtualSubject:
+    """One virtual subject: parameters and the methods that record from them.
+
+    Parameters
+    ----------
+    subject_id : int
+        1-based number within the population.
+    seed : int
+        Population seed; with ``subject_id`` it determines every parameter
+        and the default session noise.
+    mvc_n : float
+        Maximum voluntary grip force in newtons (30-50 N, inside the FSR range).
+    muscles : MuscleParams
+        Per-muscle physiology (synergy, nonlinearity, EMD, dynamics, MUAPs).
+    armband : Armband
+        Electrode ring fit: crosstalk, shift, noise, contact gains.
+    fsr : FSR402
+        The subject's force sensor (device spread).
+    contact_std : float
+        Relative std of the fluctuating fraction of grip force that loads the
+        FSR inside the soft ball (finger and ball contact shifting under the
+        sensor); seen by the FSR only, not by the sEMG.
+    contact_time_s : float
+        Correlation time of that fraction, seconds.
+    """
+
+    subject_id: int
+    seed: int
+    mvc_n: float
+    muscles: MuscleParams
+    armband: Armband = field(default_factory=Armband)
+    fsr: FSR402 = field(default_factory=FSR402)
+    contact_std: float = 0.23
+    contact_time_s: float = 0.15
+
+    # -------------------------------------------------------------- creation
+    @classmethod
+    def sample(cls, seed: int, subject_id: int) -> VirtualSubject:
+        """Draw a subject's parameters from ``SeedSequence(seed, spawn_key=(subject_id, 0))``."""
+        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(subject_id, 0)))
+
+        def per_role(table: dict[str, tuple[float, float]]) -> tuple[float, ...]:
+            return tuple(float(rng.uniform(*table[role])) for role in MUSCLE_ROLES)
+
+        flexor = np.array([role == "flexor" for role in MUSCLE_ROLES])
+        share = np.where(flexor, rng.uniform(0.7, 1.3, N_MUSCLES), 0.0)
+        synergy = per_role(_SYNERGY)
+        exponent = per_role(_EXPONENT)
+        muscles = MuscleParams(
+            synergy=synergy,
+            grip_share=tuple(float(v) for v in share),
+            amplitude_exponent=exponent,
+            amplitude_lsb=per_role(_AMPLITUDE_LSB),
+            emd_s=tuple(float(v) for v in rng.uniform(0.04, 0.14, N_MUSCLES)),
+            activation_cutoff_hz=(float(rng.uniform(2.5, 3.5)),) * N_MUSCLES,
+            muap_width_ms=tuple(float(v) for v in rng.uniform(1.3, 1.7, N_MUSCLES)),
+            muap_exponent=tuple((p - _MUAP_EXPONENT_FIT[0]) / _MUAP_EXPONENT_FIT[1]
+                                for p in exponent),
+            fluctuation_std=tuple(float(v) for v in rng.uniform(0.05, 0.12, N_MUSCLES)),
+            fluctuation_time_s=float(rng.uniform(0.3, 1.0)),
+            emg_gain_std=tuple(float(v) for v in rng.uniform(0.45, 0.60, N_MUSCLES)),
+            emg_gain_time_s=float(rng.uniform(0.1, 0.3)),
+            anatomy_seed=int(rng.integers(2**31)),
+        )
+        armband = Armband(
+            crosstalk_length=float(rng.uniform(0.45, 0.65)),
+            noise_lsb=float(rng.uniform(1.5, 2.3)),
+            channel_gain=tuple(float(v) for v in np.exp(0.1 * rng.standard_normal(N_MUSCLES))),
+        )
+        return cls(
+            subject_id=int(subject_id),
+            seed=int(seed),
+            mvc_n=float(rng.uniform(30.0, 50.0)),
+            muscles=muscles,
+            armband=armband,
+            fsr=FSR402.sample(rng),
+            contact_std=float(rng.uniform(0.12, 0.16)),
+            contact_time_s=float(rng.uniform(0.1, 0.2)),
+        )
+
+    def with_scenario(
+        self,
+        *,
+        electrode_shift: float | None = None,
+        extra_noise_lsb: float | None = None,
+        fatigue_per_min: float | None = None,
+    ) -> VirtualSubject:
+        """The same subject under a scenario: band rotated, extra noise, fatigue.
+
+        Parameters
+        ----------
+        electrode_shift : float, optional
+            Band rotation in electrode spacings (e.g. 0.5 = half a spacing).
+        extra_noise_lsb : float, optional
+            Additional sEMG noise std in counts.
+        fatigue_per_min : float, optional
+            Fractional median-frequency fall per minute (amplitude rises 2x that).
+        """
+        armband = self.armband
+        muscles = self.muscles
+        if electrode_shift is not None:
+            armband = dataclasses.replace(armband, electrode_shift=float(electrode_shift))
+        if extra_noise_lsb is not None:
+            armband = dataclasses.replace(armband, extra_noise_lsb=float(extra_noise_lsb))
+        if fatigue_per_min is not None:
+            muscles = dataclasses.replace(muscles, fatigue_per_min=float(fatigue_per_min))
+        return dataclasses.replace(self, armband=armband, muscles=muscles)
+
+    # -------------------------------------------------------------- metadata
+    def session_rng(self, session: int = 1) -> np.random.Generator:
+        """The subject's reproducible stream for session number ``session``."""
+        return np.random.default_rng(
+            np.random.SeedSequence(self.seed, spawn_key=(self.subject_id, int(session)))
+        )
+
+    def channel_muscles(self) -> list[str]:
+        """Name of the muscle nearest each electrode (changes with electrode shift)."""
+        return [MUSCLES[m] for m in self.armband.nearest_muscles()]
+
+    def params(self) -> dict[str, Any]:
+        """Every parameter, JSON-ready."""
+        armband = dataclasses.asdict(self.armband)
+        armband["channel_gain"] = list(self.armband.channel_gain)
+        return {
+            "subject_id": self.subject_id,
+            "seed": self.seed,
+            "mvc_n": self.mvc_n,
+            "muscles": self.muscles.to_dict(),
+            "armband": armband,
+            "fsr": self.fsr.to_dict(),
+            "contact_std": self.contact_std,
+            "contact_time_s": self.contact_time_s,
+        }
+
+    # -------------------------------------------------------------- recording
+    def drive(
+        self,
+        intent: np.ndarray,
+        fs_hz: float,
+        rng: np.random.Generator,
+        generator: str | EmgGenerator = "noise",
+    ) -> np.ndarray:
+        """Neural drive per muscle, shape (n_samples, n_muscles), 0..1.
+
+        Each muscle aims at the force ``target_m = synergy_m u (1 + eta_m)``
+        (``eta_m`` an independent Ornstein-Uhlenbeck fluctuation); the drive
+        is the inverse of the generator's steady force-drive curve at that
+        target (identity for the noise generator, the convex recruitment and
+        rate-coding curve for motor units), clipped to 0..1.
+        """
+        gen = make_generator(generator)
+        u = np.clip(np.asarray(intent, dtype=float), 0.0, 1.0)
+        eta = slow_fluctuation(u.size, fs_hz, self.muscles.array("fluctuation_std"),
+                               self.muscles.fluctuation_time_s, rng)
+        target = np.clip(self.muscles.array("synergy")[None, :] * u[:, None] * (1.0 + eta), 0, 1)
+        grid = np.repeat(np.linspace(0.0, 1.0, 257)[:, None], N_MUSCLES, axis=1)
+        curve = np.maximum.accumulate(gen.steady_force(grid, self.muscles), axis=0)
+        return np.stack(
+            [np.interp(target[:, m], curve[:, m], grid[:, m]) for m in range(N_MUSCLES)], axis=1
+        )
+
+    def record(
+        self,
+        profile: IntentProfile,
+        *,
+        generator: str | EmgGenerator = "noise",
+        fs_hz: float = 200.0,
+        rng: np.random.Generator | int | None = None,
+    ) -> Recording:
+        """Record sEMG and FSR force while the subject follows ``profile``.
+
+        Parameters
+        ----------
+        profile : IntentProfile
+            Intended grip force (0..1 of MVC); resampled to ``fs_hz`` if needed.
+        generator : {"noise", "motor_units"} or EmgGenerator
+            The sEMG model.
+        fs_hz : float
+            MYO sampling rate in hertz.
+        rng : numpy.random.Generator, int or None
+            Session noise; ``None`` uses :meth:`session_rng` (reproducible).
+
+        Returns
+        -------
+        Recording
+            ``emg`` int8 (n_samples, 8); ``force_n`` FSR reading (N);
+            ``intent`` (0..1); ``intent_force_n`` true grip force (N);
+            metadata with subject id, seed, generator, muscles per channel,
+            mvc_n, cues, saturation count and every parameter.
+        """
+        gen = make_generator(generator)
+        g = self.session_rng() if rng is None else as_rng(rng)
+        prof = profile.resampled(fs_hz)
+        drive = self.drive(prof.intent, fs_hz, g, gen)
+        out = gen.generate(drive, self.muscles, self.armband.front_end, fs_hz=fs_hz, rng=g)
+        xi = slow_fluctuation(drive.shape[0], fs_hz, self.muscles.array("emg_gain_std"),
+                              self.muscles.emg_gain_time_s, g)
+        gain = np.clip(1.0 + xi, 0.0, None)
+        muscle_lsb = out.emg * gain * self.muscles.array("amplitude_lsb")
+        emg, n_sat = self.armband.digitize(muscle_lsb, g)
+        share = self.muscles.array("grip_share")
+        grip_n = self.mvc_n * (out.force @ share) / float(self.muscles.array("synergy") @ share)
+        contact = 1.0 + slow_fluctuation(grip_n.size, fs_hz, np.array([self.contact_std]),
+                                         self.contact_time_s, g)[:, 0]
+        force_n = self.fsr.measure(grip_n * np.clip(contact, 0.0, None), g)
+        metadata = {
+            "subject_id": self.subject_id,
+            "seed": self.seed,
+            "generator": gen.name,
+            "generator_params": gen.params(),
+            "muscles_per_channel": self.channel_muscles(),
+            "muscle_abbreviations": list(MUSCLE_ABBREVIATIONS),
+            "mvc_n": self.mvc_n,
+            "profile": prof.to_metadata(),
+            "cues": [[k, float(t)] for k, t in prof.cues],
+            "n_saturated": n_sat,
+            "generator_info": out.info,
+            "params": self.params(),
+        }
+        return Recording(
+            emg=emg,
+            fs_hz=fs_hz,
+            force_n=force_n,
+            channel_names=[f"emg{i + 1}" for i in range(emg.shape[1])],
+            emg_unit="int8",
+            intent=prof.intent,
+            intent_force_n=grip_n,
+            metadata=metadata,
+            source=f"subject{self.subject_id:02d}",
+        )
+
+    def paper_session(
+        self,
+        rng: np.random.Generator | int | None = None,
+        *,
+        generator: str | EmgGenerator = "noise",
+        fs_hz: float = 200.0,
+    ) -> Recording:
+        """A whole paper-protocol calibration session (about 25-36 s).
+
+        The protocol's timing and levels and the session noise both come from
+        ``rng`` (``None``: the subject's reproducible :meth:`session_rng`).
+        """
+        g = self.session_rng() if rng is None else as_rng(rng)
+        profile = paper_protocol(g, fs_hz=fs_hz)
+        return self.record(profile, generator=generator, fs_hz=fs_hz, rng=g)
+
+
+def make_population(n: int = 10, seed: int = 0) -> list[VirtualSubject]:
+    """``n`` distinct virtual subjects, numbered 1..n, reproducible from ``seed``.
+
+    Raises
+    ------
+    ValueError
+        If ``n < 1``.
+    """
+    if int(n) < 1:
+        raise ValueError(f"population size must be at least 1, found {n}")
+    return [VirtualSubject.sample(int(seed), i) for i in range(1, int(n) + 1)]
