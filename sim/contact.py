@@ -1,0 +1,246 @@
+"""Hand-object contact measurement: grip force, load force and slip speed.
+
+Definitions (all from the contacts of the last physics step, vectorized over
+``data.contact``; valid for elliptic friction cones, where the first
+constraint row of a contact is its normal force):
+
+grip force (N)
+    Sum of the contact normal forces between the object and the thumb geoms
+    (``thumb_link``, ``thumb_pad``): the force pressing the object against the
+    opposing fingers. In static equilibrium it equals the finger-side sum when
+    the contact normals are horizontal; it is what a force sensor in the thumb
+    pad would read, and the quantity the controllers regulate.
+finger force (N)
+    The same sum over the index and middle geoms (reported, not regulated).
+load force (N)
+    Magnitude of the summed tangential (friction) forces the hand applies to
+    the object: the weight and inertial load carried by friction. With a
+    two-sided grasp the object slips when ``load > mu (grip + finger)``, i.e.
+    ``grip / load < 1 / (2 mu)`` (Johansson and Westling's slip ratio).
+slip speed (m/s)
+    Largest relative tangential velocity between object and digit at the
+    hand-object contact points: the friction rows of ``efc_vel = J qvel``,
+    computed by MuJoCo in the contact frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from sim.hand import HandIds
+
+
+@dataclass
+class ContactReading:
+    """Hand-object contact state of one physics step.
+
+    Attributes
+    ----------
+    grip_force_n : float
+        Thumb-side normal force sum, N.
+    finger_force_n : float
+        Finger-side (index + middle) normal force sum, N.
+    load_force_n : float
+        Magnitude of the summed tangential force on the object, N.
+    slip_speed_m_s : float
+        Largest tangential relative speed at a hand-object contact, m/s.
+    n_contacts : int
+        Number of hand-object contacts.
+    thumb_contact, finger_contact : bool
+        Whether each side touches the object.
+    """
+
+    grip_force_n: float = 0.0
+    finger_force_n: float = 0.0
+    load_force_n: float = 0.0
+    slip_speed_m_s: float = 0.0
+    n_contacts: int = 0
+    thumb_contact: bool = False
+    finger_contact: bool = False
+
+
+def read_contacts(model: mujoco.MjModel, data: mujoco.MjData, ids: HandIds,
+                  out: ContactReading | None = None) -> ContactReading:
+    """Measure hand-object contact forces and slip from ``data``.
+
+    Parameters
+    ----------
+    model, data : MuJoCo model and data after ``mj_step`` or ``mj_forward``.
+    ids : HandIds
+        Resolved ids of the model.
+    out : ContactReading, optional
+        Reused in place to avoid allocation in the step loop.
+
+    Returns
+    -------
+    ContactReading
+    """
+    out = out if out is not None else ContactReading()
+    if data.ncon == 0:
+        _zero(out)
+        return out
+    # Plain Python over the few contacts is faster here than numpy's per-call
+    # overhead (a grasp has 2-8 contacts).
+    con = data.contact
+    pair_side = ids.pair_side
+    hits = [(i, pair_side[g]) for i, g in enumerate(map(tuple, con.geom.tolist()))
+            if g in pair_side]
+    if not hits:
+        _zero(out)
+        return out
+    adr = con.efc_address.tolist()
+    frame = con.frame.tolist()
+    efc_f = data.efc_force
+    efc_v = data.efc_vel
+    grip = finger = lx = ly = lz = slip2 = 0.0
+    for i, (side, sign) in hits:
+        # Elliptic cones: rows a, a+1, a+2 are the normal and the two tangent
+        # directions of the contact frame (forces act on geom2).
+        a = adr[i]
+        if side == 1:
+            grip += efc_f.item(a)
+        else:
+            finger += efc_f.item(a)
+        f1 = sign * efc_f.item(a + 1)
+        f2 = sign * efc_f.item(a + 2)
+        fr = frame[i]
+        lx += f1 * fr[3] + f2 * fr[6]
+        ly += f1 * fr[4] + f2 * fr[7]
+        lz += f1 * fr[5] + f2 * fr[8]
+        # Relative tangential velocity: the friction rows of efc_vel = J qvel.
+        v1 = efc_v.item(a + 1)
+        v2 = efc_v.item(a + 2)
+        v = v1 * v1 + v2 * v2
+        if v > slip2:
+            slip2 = v
+    out.grip_force_n = grip
+    out.finger_force_n = finger
+    out.load_force_n = math.sqrt(lx * lx + ly * ly + lz * lz)
+    out.slip_speed_m_s = math.sqrt(slip2)
+    out.n_contacts = len(hits)
+    out.thumb_contact = any(h[1][0] == 1 for h in hits)
+    out.finger_contact = any(h[1][0] == 2 for h in hits)
+    return out
+
+
+def _zero(out: ContactReading) -> None:
+    out.grip_force_n = 0.0
+    out.finger_force_n = 0.0
+    out.load_force_n = 0.0
+    out.slip_speed_m_s = 0.0
+    out.n_contacts = 0
+    out.thumb_contact = False
+    out.finger_contact = False
+
+
+def contact_force_reference(model: mujoco.MjModel, data: mujoco.MjData,
+                            ids: HandIds) -> tuple[float, float]:
+    """Thumb- and finger-side normal sums via ``mj_contactForce``, contact by contact.
+
+    A slow, independent re-computation of :func:`read_contacts` used in tests
+    and valid for any cone type.
+    """
+    thumb = finger = 0.0
+    wrench = np.zeros(6)
+    for i in range(data.ncon):
+        g1, g2 = data.contact.geom[i]
+        if ids.object_geom not in (g1, g2):
+            continue
+        side = ids.geom_side[g1 if g2 == ids.object_geom else g2]
+        if side == 0:
+            continue
+        mujoco.mj_contactForce(model, data, i, wrench)
+        if side == 1:
+            thumb += wrench[0]
+        else:
+            finger += wrench[0]
+    return thumb, finger
+
+
+class OutcomeTracker:
+    """Slip events, slip distance, drop and crush over one episode.
+
+    Parameters
+    ----------
+    slip_threshold_m_s : float
+        Contact slip speed above which the grasp is slipping. A slip event is a
+        rising crossing of this threshold while the hand touches the object; it
+        counts once until the speed falls below half the threshold (hysteresis)
+        or contact is lost.
+    drop_distance_m : float
+        The object is dropped when no digit touches it and it has moved more
+        than this from its starting position in the palm frame.
+    break_force_n : float or None
+        Crush threshold on the larger of the thumb- and finger-side normal sums.
+
+    Attributes
+    ----------
+    slip_events : int
+        Number of slip events so far.
+    slip_distance_m : float
+        Path length (m) of the object centre relative to the palm while the
+        hand touches the object, accumulated step by step.
+    dropped, crushed : bool
+        Latched outcomes.
+    """
+
+    def __init__(self, slip_threshold_m_s: float = 0.005, drop_distance_m: float = 0.03,
+                 break_force_n: float | None = None) -> None:
+        if not slip_threshold_m_s > 0:
+            raise ValueError(
+                f"slip_threshold_m_s: expected a positive speed, found {slip_threshold_m_s!r}"
+            )
+        if not drop_distance_m > 0:
+            raise ValueError(
+                f"drop_distance_m: expected a positive distance, found {drop_distance_m!r}"
+            )
+        self.slip_threshold_m_s = float(slip_threshold_m_s)
+        self.drop_distance_m = float(drop_distance_m)
+        self.break_force_n = break_force_n
+        self.reset((0.0, 0.0, 0.0))
+
+    def reset(self, rel_pos_m: tuple[float, float, float]) -> None:
+        """Start an episode with the object at ``rel_pos_m`` in the palm frame (m)."""
+        self.start = tuple(float(v) for v in rel_pos_m)
+        self.prev = self.start
+        self.slip_events = 0
+        self.slip_distance_m = 0.0
+        self.slipping = False
+        self.dropped = False
+        self.crushed = False
+        self.displacement_m = 0.0
+
+    def update(self, reading: ContactReading, rel_pos_m: tuple[float, float, float]) -> None:
+        """Account one control step given the contact reading and the object position.
+
+        Parameters
+        ----------
+        reading : ContactReading
+            Contacts of the step.
+        rel_pos_m : tuple of 3 floats
+            Object centre in the palm frame, m.
+        """
+        x, y, z = rel_pos_m
+        px, py, pz = self.prev
+        sx, sy, sz = self.start
+        touching = reading.n_contacts > 0
+        if touching:
+            self.slip_distance_m += math.sqrt((x - px) ** 2 + (y - py) ** 2 + (z - pz) ** 2)
+            if not self.slipping and reading.slip_speed_m_s > self.slip_threshold_m_s:
+                self.slipping = True
+                self.slip_events += 1
+        if self.slipping and (not touching
+                              or reading.slip_speed_m_s < 0.5 * self.slip_threshold_m_s):
+            self.slipping = False
+        self.prev = (x, y, z)
+        self.displacement_m = math.sqrt((x - sx) ** 2 + (y - sy) ** 2 + (z - sz) ** 2)
+        if reading.n_contacts == 0 and self.displacement_m > self.drop_distance_m:
+            self.dropped = True
+        if self.break_force_n is not None and max(
+            reading.grip_force_n, reading.finger_force_n
+        ) > self.break_force_n:
+            self.crushed = True

@@ -1,0 +1,479 @@
+"""``GraspEnv``: grasp, lift and hold an object with the MuJoCo prosthetic hand.
+
+Episode: the object rests on the table with the open hand around it. The agent
+commands the motor (normalized armature voltage, -1..1) every control period
+to track a grip-force reference; the wrist follows a :class:`WristSchedule`
+(lift once the grip is established, hold, optionally shake and place).
+
+Observation (float32, ``GraspEnv.OBS_NAMES``)::
+
+    0 reference_n            grip-force reference, N
+    1 grip_force_n           thumb-side contact normal force sum, N (sim.contact)
+    2 finger_position_rad    index joint encoder, rad (0 = straight down, + closes)
+    3 finger_velocity_rad_s  index joint velocity, rad/s
+    4 motor_current_a        armature current, A (sim.hand.MotorSpec)
+
+Physical readings of the last physics substep are in ``info`` and in
+``env.last_info``; reward terms in ``info["reward_terms"]``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from gymnasium import spaces
+
+from sim.contact import ContactReading, OutcomeTracker, read_contacts
+from sim.hand import HandIds, MotorSpec, build_model
+from sim.objects import ObjectSpec, as_object_spec
+from sim.references import Reference, StreamReference, as_reference
+
+G_M_S2 = 9.81
+
+
+@dataclass(frozen=True)
+class WristSchedule:
+    """Wrist trajectory of an episode (offsets from the approach pose, m and s).
+
+    Parameters
+    ----------
+    lift_after_s : float
+        Earliest lift time. The lift starts at the first control step at or
+        after it where the grip force reaches ``lift_min_grip_n`` with both
+        sides touching (the grip is established); without a grip, no lift.
+    lift_min_grip_n : float
+        Grip force that counts as established, N.
+    lift_height_m : float
+        Lift height, reached along a minimum-jerk path in ``lift_duration_s``.
+    lift_duration_s : float
+        Duration of the lift, s.
+    shake_amplitude_m : float
+        Vertical shake amplitude (0 = no shake), m.
+    shake_frequency_hz : float
+        Shake frequency, Hz.
+    shake_delay_s : float
+        Shake starts this long after the lift ends, s.
+    shake_duration_s : float
+        Shake duration, s; the amplitude is windowed by ``sin^2`` so the wrist
+        velocity stays continuous.
+    place_delay_s : float or None
+        If set, the object is put back down this long after the lift ends.
+    """
+
+    lift_after_s: float = 0.8
+    lift_min_grip_n: float = 1.0
+    lift_height_m: float = 0.08
+    lift_duration_s: float = 0.6
+    shake_amplitude_m: float = 0.0
+    shake_frequency_hz: float = 3.0
+    shake_delay_s: float = 0.3
+    shake_duration_s: float = 1.0
+    place_delay_s: float | None = None
+
+    def height_m(self, t_s: float, lift_start_s: float | None) -> float:
+        """Wrist height offset at ``t_s`` given when the lift started (or ``None``)."""
+        if lift_start_s is None:
+            return 0.0
+        tau = t_s - lift_start_s
+        z = self.lift_height_m * _min_jerk(tau / self.lift_duration_s)
+        after = tau - self.lift_duration_s
+        if self.shake_amplitude_m > 0 and 0 < after - self.shake_delay_s < self.shake_duration_s:
+            s = after - self.shake_delay_s
+            window = math.sin(math.pi * s / self.shake_duration_s) ** 2
+            phase = 2 * math.pi * self.shake_frequency_hz * s
+            z += self.shake_amplitude_m * window * math.sin(phase)
+        if self.place_delay_s is not None and after > self.place_delay_s:
+            z -= self.lift_height_m * _min_jerk((after - self.place_delay_s) / self.lift_duration_s)
+        return z
+
+
+def _min_jerk(s: float) -> float:
+    s = 0.0 if s < 0 else 1.0 if s > 1 else s
+    return s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
+
+
+@dataclass(frozen=True)
+class RewardWeights:
+    """Weights of the reward terms (all terms are <= 0).
+
+    ``tracking = -tracking * |reference - grip| / force_scale_n``;
+    ``slip = -slip * slip_speed / 0.01 m/s`` while grasped;
+    ``drop = -drop`` and ``crush = -crush`` on the step where they happen.
+    """
+
+    tracking: float = 1.0
+    force_scale_n: float = 10.0
+    slip: float = 0.1
+    drop: float = 100.0
+    crush: float = 100.0
+
+
+class GraspEnv(gym.Env):
+    """Grasp-and-lift of one object by the single-drive prosthetic hand.
+
+    Parameters
+    ----------
+    object : ObjectSpec, str or dict
+        The object (library name, spec, or ``{"name": ..., **overrides}``).
+    reference : float, array, callable, Recording or Reference
+        Grip-force reference (see :mod:`sim.references`); arrays are sampled at
+        ``control_dt_s``.
+    control_dt_s : float
+        Control period in seconds (default 10 ms, 100 Hz); a whole multiple of
+        ``physics_dt_s``.
+    physics_dt_s : float
+        MuJoCo timestep in seconds (1-2 ms).
+    episode_s : float
+        Episode duration; ``truncated`` is set when it is reached.
+    schedule : WristSchedule
+        Wrist trajectory.
+    motor : MotorSpec
+        Drive parameters.
+    reward_weights : RewardWeights
+        Reward composition.
+    slip_threshold_m_s, drop_distance_m : float
+        See :class:`sim.contact.OutcomeTracker`.
+    position_jitter_m : float
+        Half-width of a uniform random offset of the object in x and y at
+        reset, drawn from ``self.np_random`` (0 = none).
+    render_mode : {None, "rgb_array"}
+        ``"rgb_array"`` renders headless with ``mujoco.Renderer``.
+    render_size : tuple of int
+        ``(height, width)`` of rendered frames in pixels.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 100}
+    OBS_NAMES = ("reference_n", "grip_force_n", "finger_position_rad", "finger_velocity_rad_s",
+                 "motor_current_a")
+
+    def __init__(self, object: ObjectSpec | str | dict = "ball", reference: Any = 10.0, *,
+                 control_dt_s: float = 0.01, physics_dt_s: float = 0.002,
+                 episode_s: float = 4.0, schedule: WristSchedule | None = None,
+                 motor: MotorSpec | None = None, reward_weights: RewardWeights | None = None,
+                 slip_threshold_m_s: float = 0.005, drop_distance_m: float = 0.03,
+                 position_jitter_m: float = 0.0, render_mode: str | None = None,
+                 render_size: tuple[int, int] = (480, 640)) -> None:
+        if not 0.001 <= physics_dt_s <= 0.002 + 1e-12:
+            raise ValueError(f"physics_dt_s: expected 0.001..0.002 s, found {physics_dt_s!r}")
+        n_sub = round(control_dt_s / physics_dt_s)
+        if n_sub < 1 or abs(n_sub * physics_dt_s - control_dt_s) > 1e-9:
+            raise ValueError(
+                f"control_dt_s: expected a whole multiple of physics_dt_s={physics_dt_s} s, "
+                f"found {control_dt_s!r}"
+            )
+        if not episode_s > 0:
+            raise ValueError(f"episode_s: expected a positive duration, found {episode_s!r}")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode: expected None or 'rgb_array', found {render_mode!r}")
+        if not 0 <= position_jitter_m <= 0.01:
+            raise ValueError(
+                f"position_jitter_m: expected 0..0.01 m, found {position_jitter_m!r}"
+            )
+        self.control_dt_s = float(control_dt_s)
+        self.physics_dt_s = float(physics_dt_s)
+        self.n_substeps = int(n_sub)
+        self.episode_s = float(episode_s)
+        self.max_steps = int(round(episode_s / control_dt_s))
+        self.schedule = schedule or WristSchedule()
+        self.motor = motor or MotorSpec()
+        self.weights = reward_weights or RewardWeights()
+        self.position_jitter_m = float(position_jitter_m)
+        self.render_mode = render_mode
+        self.render_size = render_size
+        self.metadata = {**self.metadata, "render_fps": int(round(1.0 / control_dt_s))}
+        self.reference: Reference = as_reference(reference, self.control_dt_s)
+        self.tracker = OutcomeTracker(slip_threshold_m_s, drop_distance_m)
+        self._renderer: mujoco.Renderer | None = None
+        self._load_object(as_object_spec(object))
+
+        i_max = 2.0 * self.motor.stall_current_a
+        high = np.array([500.0, 1000.0, 1.6, 100.0, i_max], dtype=np.float32)
+        low = np.array([0.0, 0.0, -0.6, -100.0, -i_max], dtype=np.float32)
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+        self._obs_lo, self._obs_hi = low.tolist(), high.tolist()
+        self.last_info: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ setup
+    def _load_object(self, obj: ObjectSpec) -> None:
+        self.object_spec = obj
+        self.model = build_model(obj, self.motor, self.physics_dt_s)
+        self.data = mujoco.MjData(self.model)
+        self.ids = HandIds.from_model(self.model)
+        self.tracker.break_force_n = obj.break_force_n
+        self._obj_rgba = self.model.geom_rgba[self.ids.object_geom].copy()
+        self._contacts = ContactReading()
+        # Persistent views on mjData and plain-int indices for the step loop.
+        self._ctrl = self.data.ctrl
+        self._sens = self.data.sensordata
+        self._i_motor = int(self.ids.motor)
+        self._i_wrist_z = int(self.ids.wrist_act[2])
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def set_reference(self, force_n: float) -> None:
+        """Push the next reference value (N), e.g. an estimator's output.
+
+        Switches to a :class:`sim.references.StreamReference` if needed.
+        """
+        if not isinstance(self.reference, StreamReference):
+            self.reference = StreamReference(force_n)
+        self.reference.push(force_n)
+
+    # ------------------------------------------------------------------ API
+    def reset(self, *, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start an episode.
+
+        Parameters
+        ----------
+        seed : int, optional
+            Seeds ``self.np_random`` (object placement jitter).
+        options : dict, optional
+            ``"reference"``: a new reference (any :func:`as_reference` input);
+            ``"object"``: a new object (rebuilds the model).
+        """
+        super().reset(seed=seed)
+        options = options or {}
+        if "object" in options:
+            obj = as_object_spec(options["object"])
+            if obj != self.object_spec:
+                self._load_object(obj)
+        if "reference" in options:
+            self.reference = as_reference(options["reference"], self.control_dt_s)
+        self.reference.reset()
+        m, d, ids = self.model, self.data, self.ids
+        mujoco.mj_resetData(m, d)
+        m.geom_rgba[ids.object_geom] = self._obj_rgba
+        if self.position_jitter_m > 0:
+            jitter = self.np_random.uniform(-self.position_jitter_m, self.position_jitter_m, 2)
+            d.qpos[ids.object_qpos:ids.object_qpos + 2] += jitter
+        mujoco.mj_forward(m, d)
+        self._step_count = 0
+        self._lift_start_s: float | None = None
+        self._clipped = 0
+        self._warn_view = d.warning.number  # a view on mjData, updated in place
+        self._warnings = self._warn_view.tolist()
+        s = d.sensordata
+        k = ids.sens_object_in_palm
+        self.tracker.reset((s.item(k), s.item(k + 1), s.item(k + 2)))
+        read_contacts(m, d, ids, self._contacts)
+        ref = self.reference.value(0.0)
+        obs = self._observe(ref)
+        info = self._info(ref, {"tracking": 0.0, "slip": 0.0, "drop": 0.0, "crush": 0.0}, None)
+        return obs, info
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Apply the motor command for one control period.
+
+        Parameters
+        ----------
+        action : array, shape (1,)
+            Normalized motor command; values outside -1..1 (or NaN, taken as 0)
+            are clipped and counted in ``info["action_clipped_count"]``.
+        """
+        m, d, ids = self.model, self.data, self.ids
+        try:
+            u = float(action[0])
+        except (TypeError, IndexError):
+            u = float(np.asarray(action).reshape(-1)[0])
+        if not -1.0 <= u <= 1.0:
+            self._clipped += 1
+            u = 0.0 if u != u else (1.0 if u > 1.0 else -1.0)
+        ctrl = self._ctrl
+        ctrl[self._i_motor] = u
+        t = d.time
+        if self._lift_start_s is None and t >= self.schedule.lift_after_s - 1e-9:
+            c = self._contacts
+            if (c.thumb_contact and c.finger_contact
+                    and c.grip_force_n >= self.schedule.lift_min_grip_n):
+                self._lift_start_s = t
+        ctrl[self._i_wrist_z] = self.schedule.height_m(t + self.control_dt_s, self._lift_start_s)
+        mujoco.mj_step(m, d, self.n_substeps)
+        self._step_count += 1
+
+        # MuJoCo checks qpos/qvel/qacc for NaN, inf and huge values itself
+        # (mjWARN_BADQPOS/BADQVEL/BADQACC, then resets the state): any new
+        # warning ends the episode.
+        failure = None
+        warnings_now = self._warn_view.tolist()
+        if warnings_now != self._warnings:
+            failure = self._warning_name(warnings_now)
+            self._warnings = warnings_now
+
+        c = read_contacts(m, d, ids, self._contacts)
+        s = self._sens
+        k = ids.sens_object_in_palm
+        tr = self.tracker
+        was_dropped, was_crushed = tr.dropped, tr.crushed
+        tr.update(c, (s.item(k), s.item(k + 1), s.item(k + 2)))
+        if tr.crushed and not was_crushed:
+            m.geom_rgba[ids.object_geom] = (0.3, 0.25, 0.2, 1.0)
+        ref = self.reference.value(d.time)
+        w = self.weights
+        grasped = c.thumb_contact and c.finger_contact
+        terms = {
+            "tracking": -w.tracking * abs(ref - c.grip_force_n) / w.force_scale_n,
+            "slip": -w.slip * c.slip_speed_m_s / 0.01 if grasped else 0.0,
+            "drop": -w.drop if tr.dropped and not was_dropped else 0.0,
+            "crush": -w.crush if tr.crushed and not was_crushed else 0.0,
+        }
+        reward = terms["tracking"] + terms["slip"] + terms["drop"] + terms["crush"]
+        obs = self._observe(ref)
+        terminated = tr.dropped or tr.crushed
+        truncated = self._step_count >= self.max_steps or failure is not None
+        info = self._info(ref, terms, failure)
+        return obs, float(reward), bool(terminated), bool(truncated), info
+
+    def render(self) -> np.ndarray | None:
+        """An RGB frame ``(height, width, 3)`` uint8 from the ``front`` camera."""
+        if self.render_mode != "rgb_array":
+            return None
+        if self._renderer is None:
+            h, w = self.render_size
+            self._renderer = mujoco.Renderer(self.model, height=h, width=w)
+        self._renderer.update_scene(self.data, camera="front")
+        return self._renderer.render()
+
+    def close(self) -> None:
+        """Release the renderer."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        super().close()
+
+    # --------------------------------------------------------------- helpers
+    def _observe(self, ref: float) -> np.ndarray:
+        s = self._sens
+        ids = self.ids
+        values = (ref, self._contacts.grip_force_n, s.item(ids.sens_finger_pos),
+                  s.item(ids.sens_finger_vel),
+                  self.motor.current_a(s.item(ids.sens_motor_force)))
+        # Clamp into the declared Box (plain floats: cheaper than numpy here).
+        return np.array([lo if v < lo else hi if v > hi else v
+                         for v, lo, hi in zip(values, self._obs_lo, self._obs_hi, strict=True)],
+                        dtype=np.float32)
+
+    def _info(self, ref: float, terms: dict[str, float], failure: str | None) -> dict[str, Any]:
+        c, tr, d, ids = self._contacts, self.tracker, self.data, self.ids
+        s = self._sens
+        load = c.load_force_n
+        info = {
+            "time_s": d.time,
+            "reference_n": ref,
+            "grip_force_n": c.grip_force_n,
+            "finger_force_n": c.finger_force_n,
+            "load_force_n": load,
+            "grip_load_ratio": c.grip_force_n / load if load > 1e-6 else math.inf,
+            "slip_speed_m_s": c.slip_speed_m_s,
+            "slip_distance_m": tr.slip_distance_m,
+            "slip_events": tr.slip_events,
+            "dropped": tr.dropped,
+            "crushed": tr.crushed,
+            "object_height_m": s.item(ids.sens_object_pos + 2),
+            "object_displacement_m": tr.displacement_m,
+            "finger_position_rad": s.item(ids.sens_finger_pos),
+            "finger_velocity_rad_s": s.item(ids.sens_finger_vel),
+            "motor_current_a": self.motor.current_a(s.item(ids.sens_motor_force)),
+            "motor_command": self._ctrl.item(self._i_motor),
+            "lifted": self._lift_start_s is not None,
+            "action_clipped_count": self._clipped,
+            "reward_terms": terms,
+        }
+        if failure is not None:
+            info["failure"] = failure
+        self.last_info = info
+        return info
+
+    def _warning_name(self, numbers: list[int]) -> str:
+        pairs = zip(numbers, self._warnings, strict=True)
+        new = [mujoco.mjtWarning(i).name for i, (a, b) in enumerate(pairs) if a != b]
+        return ",".join(new) if new else "mujoco_warning"
+
+    # ------------------------------------------------------------- analysis
+    def steady_grasp(self, grip_force_n: float, *, lifted: bool = False,
+                     settle_s: float = 0.5, tol: float = 0.01, max_iter: int = 10,
+                     close_command: float = 0.3) -> float:
+        """Bring the current episode to a steady grasp at ``grip_force_n`` (N).
+
+        Closes with ``close_command`` until both sides touch the object, then
+        (with ``lifted=True``) raises the wrist by the schedule's lift height,
+        holding at least twice the slip threshold ``m g / (2 mu)`` while it moves,
+        and finally calls :meth:`hold_grip`. Physics advances outside the
+        episode clock's schedule: afterwards the wrist stays where it is.
+
+        Returns
+        -------
+        float
+            The motor command holding the grasp.
+
+        Raises
+        ------
+        RuntimeError
+            If no grasp forms or the target cannot be reached.
+        """
+        if not 0 < grip_force_n < 0.9 * self.motor.max_grip_force_n:
+            raise ValueError(
+                f"grip_force_n: expected 0..{0.9 * self.motor.max_grip_force_n:.0f} N, "
+                f"found {grip_force_n!r}"
+            )
+        m, d, ids = self.model, self.data, self.ids
+        u = grip_force_n / self.motor.max_grip_force_n
+        d.ctrl[ids.motor] = close_command
+        c = self._contacts
+        for _ in range(int(round(2.0 / self.physics_dt_s))):
+            mujoco.mj_step(m, d)
+            read_contacts(m, d, ids, c)
+            if c.thumb_contact and c.finger_contact:
+                break
+        else:
+            raise RuntimeError("steady_grasp: the digits did not close on the object in 2 s")
+        obj = self.object_spec
+        safe_u = 2.0 * obj.mass_kg * G_M_S2 / (2.0 * obj.friction) / self.motor.max_grip_force_n
+        d.ctrl[ids.motor] = max(u, safe_u) if lifted else u
+        mujoco.mj_step(m, d, int(round(0.2 / self.physics_dt_s)))
+        if lifted:
+            steps = int(round(self.schedule.lift_duration_s / self.physics_dt_s))
+            for i in range(steps + 1):
+                d.ctrl[ids.wrist_act[2]] = self.schedule.lift_height_m * _min_jerk(i / steps)
+                mujoco.mj_step(m, d)
+            self._lift_start_s = -math.inf
+        # Lifted: start from the (safe) current command and come down to the target.
+        return self.hold_grip(grip_force_n, None if lifted else u, settle_s=settle_s, tol=tol,
+                              max_iter=max_iter)
+
+    def hold_grip(self, grip_force_n: float, command: float | None = None, *,
+                  settle_s: float = 0.5, tol: float = 0.01, max_iter: int = 10) -> float:
+        """Adjust a held command until the settled grip force is ``grip_force_n`` (N).
+
+        The stalled drive is close to proportional (grip ~ command), so each
+        iteration scales the command by target / measured after ``settle_s``.
+
+        Returns
+        -------
+        float
+            The command; the grip is within ``tol`` (relative) of the target.
+        """
+        m, d, ids = self.model, self.data, self.ids
+        u = float(d.ctrl[ids.motor]) if command is None else float(command)
+        n = max(1, int(round(settle_s / self.physics_dt_s)))
+        grip = 0.0
+        for _ in range(max_iter):
+            d.ctrl[ids.motor] = u
+            mujoco.mj_step(m, d, n)
+            grip = read_contacts(m, d, ids, self._contacts).grip_force_n
+            if grip <= 0:
+                raise RuntimeError(f"hold_grip: no thumb contact with command {u:.4f}")
+            if abs(grip - grip_force_n) <= tol * grip_force_n:
+                return u
+            u = float(np.clip(u * grip_force_n / grip, -1.0, 1.0))
+        raise RuntimeError(
+            f"hold_grip: grip {grip:.3f} N after {max_iter} corrections, "
+            f"expected {grip_force_n:.3f} N within {tol:.0%}"
+        )

@@ -1,0 +1,219 @@
+"""Graspable objects generated from parameters, and a small named library.
+
+An :class:`ObjectSpec` describes one rigid or soft object resting on the table:
+shape, size, mass, Coulomb friction, contact softness (MuJoCo ``solref`` /
+``solimp``) and a fragility threshold. It is validated at construction; every
+invalid field raises :class:`ObjectSpecError` naming the field, the value found
+and the valid range.
+
+Library defaults (CALIBRATION.md "Prosthetic hands"): the paper's anti-stress
+ball (about 70 mm, soft), a soda can (0.386 kg, 66 mm x 122 mm), a paper cup
+(light, crushes at a few newtons), an egg (about 0.06 kg; the Virtual Eggs Test
+uses break forces of 0.4-11.5 N) and an aluminium block (0.461 kg).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+SHAPES = ("sphere", "cylinder", "box")
+MASS_RANGE_KG = (0.02, 2.0)
+FRICTION_RANGE = (0.2, 1.5)
+# Largest object the open hand can surround (inner gap about 0.16 m), and the
+# smallest it can close on (fully closed, the digits cross at about 0 mm).
+WIDTH_RANGE_M = (0.02, 0.12)
+HEIGHT_RANGE_M = (0.02, 0.25)
+
+
+class ObjectSpecError(ValueError):
+    """An object parameter is outside its valid range or of the wrong kind."""
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    """Parameters of one graspable object.
+
+    Parameters
+    ----------
+    name : str
+        Label used for the MuJoCo body (``"object"`` geoms are named after it).
+    shape : {"sphere", "cylinder", "box"}
+        Geometry.
+    size_m : tuple of float
+        Sphere: ``(radius,)``; cylinder: ``(radius, half_height)``; box:
+        ``(half_x, half_y, half_z)``. Metres, MuJoCo's half-size convention.
+    mass_kg : float
+        Mass in kg, within 0.02..2.
+    friction : float
+        Sliding (Coulomb) friction coefficient, within 0.2..1.5. The object geom
+        has contact priority, so this is the coefficient of every hand-object and
+        object-table contact.
+    solref : tuple of float
+        MuJoCo contact ``(timeconst_s, dampratio)``; larger timeconst is softer.
+    solimp : tuple of float
+        MuJoCo contact impedance ``(dmin, dmax, width_m)``; a low ``dmin`` and
+        wide ``width_m`` give a soft, progressively stiffening contact.
+    break_force_n : float or None
+        Grip force in N above which the object is crushed; ``None`` means
+        unbreakable.
+    rgba : tuple of float
+        Display colour.
+    """
+
+    name: str
+    shape: str
+    size_m: tuple[float, ...]
+    mass_kg: float
+    friction: float = 1.0
+    solref: tuple[float, float] = (0.004, 1.0)
+    solimp: tuple[float, float, float] = (0.95, 0.99, 0.001)
+    break_force_n: float | None = None
+    rgba: tuple[float, float, float, float] = (0.8, 0.5, 0.2, 1.0)
+
+    def __post_init__(self) -> None:
+        if self.shape not in SHAPES:
+            raise ObjectSpecError(f"shape: expected one of {SHAPES}, found {self.shape!r}")
+        n_size = {"sphere": 1, "cylinder": 2, "box": 3}[self.shape]
+        size = tuple(float(s) for s in self.size_m)
+        object.__setattr__(self, "size_m", size)
+        if len(size) != n_size:
+            raise ObjectSpecError(
+                f"size_m: a {self.shape} needs {n_size} half-sizes, found {len(size)} ({size})"
+            )
+        if not all(math.isfinite(s) and s > 0 for s in size):
+            raise ObjectSpecError(f"size_m: expected positive finite sizes, found {size}")
+        _check_range("mass_kg", self.mass_kg, MASS_RANGE_KG)
+        _check_range("friction", self.friction, FRICTION_RANGE)
+        _check_range("width_m", self.width_m, WIDTH_RANGE_M)
+        _check_range("height_m", self.height_m, HEIGHT_RANGE_M)
+        if len(self.solref) != 2 or not (0.002 <= self.solref[0] <= 0.2 and self.solref[1] > 0):
+            raise ObjectSpecError(
+                f"solref: expected (timeconst_s in 0.002..0.2, dampratio > 0), found {self.solref}"
+            )
+        if len(self.solimp) != 3 or not (
+            0 < self.solimp[0] <= self.solimp[1] < 1 and self.solimp[2] > 0
+        ):
+            raise ObjectSpecError(
+                f"solimp: expected (dmin, dmax, width_m) with 0 < dmin <= dmax < 1 and "
+                f"width_m > 0, found {self.solimp}"
+            )
+        if self.break_force_n is not None and not (
+            math.isfinite(self.break_force_n) and self.break_force_n > 0
+        ):
+            raise ObjectSpecError(
+                f"break_force_n: expected a positive force in N or None, found "
+                f"{self.break_force_n!r}"
+            )
+        if len(self.rgba) != 4:
+            raise ObjectSpecError(f"rgba: expected 4 values, found {self.rgba}")
+
+    @property
+    def width_m(self) -> float:
+        """Extent along the grasp axis (x) in metres."""
+        return 2.0 * self.size_m[0]
+
+    @property
+    def half_height_m(self) -> float:
+        """Half of the vertical extent in metres (rest height of the centre)."""
+        return {"sphere": self.size_m[0], "cylinder": self.size_m[-1], "box": self.size_m[-1]}[
+            self.shape
+        ]
+
+    @property
+    def height_m(self) -> float:
+        """Vertical extent in metres."""
+        return 2.0 * self.half_height_m
+
+    @property
+    def breakable(self) -> bool:
+        """Whether the object has a finite break force."""
+        return self.break_force_n is not None
+
+    def replace(self, **overrides: Any) -> ObjectSpec:
+        """A copy with some fields replaced (validated again)."""
+        return dataclasses.replace(self, **overrides)
+
+
+def _check_range(field: str, value: float, bounds: tuple[float, float]) -> None:
+    lo, hi = bounds
+    ok = isinstance(value, (int, float)) and math.isfinite(value) and lo <= value <= hi
+    if not ok:
+        raise ObjectSpecError(f"{field}: expected a number in {lo}..{hi}, found {value!r}")
+
+
+_SOFT_SOLREF = (0.02, 1.0)
+_SOFT_SOLIMP = (0.3, 0.95, 0.01)
+
+LIBRARY: dict[str, ObjectSpec] = {
+    # The paper's anti-stress ball: 70 mm foam, squeezes by ~10 mm at 20 N.
+    "ball": ObjectSpec("ball", "sphere", (0.035,), 0.05, friction=1.0, solref=_SOFT_SOLREF,
+                       solimp=_SOFT_SOLIMP, rgba=(0.85, 0.2, 0.2, 1.0)),
+    # Soda can: 0.386 kg, 66 mm x 122 mm, rigid aluminium.
+    "can": ObjectSpec("can", "cylinder", (0.033, 0.061), 0.386, friction=0.5,
+                      rgba=(0.75, 0.75, 0.8, 1.0)),
+    # Paper cup: 75 mm x 90 mm, 10 g (at the 0.02 kg lower bound), crushes at ~4 N.
+    "cup": ObjectSpec("cup", "cylinder", (0.0375, 0.045), 0.02, friction=0.8,
+                      solref=(0.01, 1.0), solimp=(0.8, 0.95, 0.003), break_force_n=4.0,
+                      rgba=(0.95, 0.95, 0.9, 1.0)),
+    # Egg: ~0.06 kg, 45 mm x 57 mm (modelled as a sphere of the short axis), breaks at 5 N
+    # (the Virtual Eggs Test spans 0.4-11.5 N).
+    "egg": ObjectSpec("egg", "sphere", (0.0225,), 0.06, friction=0.6, break_force_n=5.0,
+                      rgba=(0.95, 0.9, 0.75, 1.0)),
+    # Aluminium block 0.461 kg: 60 x 50 x 57 mm -> 2.7 g/cm^3 * 171 cm^3.
+    "block": ObjectSpec("block", "box", (0.03, 0.025, 0.0285), 0.461, friction=0.6,
+                        rgba=(0.6, 0.62, 0.66, 1.0)),
+}
+
+
+def make_object(name: str = "ball", **overrides: Any) -> ObjectSpec:
+    """A library object with any parameter overridden.
+
+    Parameters
+    ----------
+    name : str
+        One of ``LIBRARY`` (``ball``, ``can``, ``cup``, ``egg``, ``block``).
+    **overrides
+        Any :class:`ObjectSpec` field, e.g. ``mass_kg=0.4, friction=0.5``.
+
+    Returns
+    -------
+    ObjectSpec
+        Validated specification.
+
+    Raises
+    ------
+    ObjectSpecError
+        Unknown name, unknown field or invalid value.
+
+    Examples
+    --------
+    >>> make_object("can", mass_kg=0.4, friction=0.5).mass_kg
+    0.4
+    """
+    if name not in LIBRARY:
+        raise ObjectSpecError(f"object name: expected one of {sorted(LIBRARY)}, found {name!r}")
+    fields = {f.name for f in dataclasses.fields(ObjectSpec)}
+    unknown = sorted(set(overrides) - fields)
+    if unknown:
+        raise ObjectSpecError(
+            f"object field: unknown {unknown}; expected a subset of {sorted(fields)}"
+        )
+    return LIBRARY[name].replace(**overrides)
+
+
+def as_object_spec(obj: ObjectSpec | str | dict[str, Any]) -> ObjectSpec:
+    """Coerce a spec, a library name, or a dict ``{"name": ..., **overrides}``."""
+    if isinstance(obj, ObjectSpec):
+        return obj
+    if isinstance(obj, str):
+        return make_object(obj)
+    if isinstance(obj, dict):
+        params = dict(obj)
+        base = params.pop("name", "ball")
+        return make_object(base, **params)
+    raise ObjectSpecError(
+        f"object: expected an ObjectSpec, a library name or a dict, found {type(obj).__name__}"
+    )
