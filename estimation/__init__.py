@@ -19,3 +19,45 @@ __all__ = [
     "emg_features",
     "extract_features",
 ]
+
+# Force estimation (issue 3): identification, filters, baselines, metrics, protocol.
+from estimation.errors import (  # noqa: E402
+    ConstantInputError,
+    EstimationInputError,
+    InsufficientDataError,
+    ModeError,
+    RiccatiError,
+    UnknownEstimatorError,
+    UnstableModelError,
+)
+from estimation.kalman import SteadyStateKalman, design_kalman  # noqa: E402
+from estimation.metrics import nrmse_fit, r2_score, rmse, total_variation_rate  # noqa: E402
+from estimation.order import OrderSelection, select_order  # noqa: E402
+from estimation.pipeline import ForcePipeline  # noqa: E402
+from estimation.protocol import aggregate, evaluate_subject  # noqa: E402
+from estimation.registry import ESTIMATOR_NAMES, make_estimator  # noqa: E402
+from estimation.state_space import SSEstimator  # noqa: E402
+
+__all__ += [
+    "ESTIMATOR_NAMES",
+    "ConstantInputError",
+    "EstimationInputError",
+    "ForcePipeline",
+    "InsufficientDataError",
+    "ModeError",
+    "OrderSelection",
+    "RiccatiError",
+    "SSEstimator",
+    "SteadyStateKalman",
+    "UnknownEstimatorError",
+    "UnstableModelError",
+    "aggregate",
+    "design_kalman",
+    "evaluate_subject",
+    "make_estimator",
+    "nrmse_fit",
+    "r2_score",
+    "rmse",
+    "select_order",
+    "total_variation_rate",
+]

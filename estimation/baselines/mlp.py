@@ -1,0 +1,144 @@
+"""Multi-layer perceptron baseline (paper section 3.4.1) on scikit-learn.
+
+Three layers, logistic hidden units (as many as the SS order, 4), linear output,
+MSE loss, mini-batch 1, at most 1000 epochs. scikit-learn has no RMSprop; Adam
+with ``beta_1 = 0`` is RMSprop (decay ``beta_2``) with bias correction, so that
+is used. Training stops early when the training loss has not improved by
+``tol`` for ``n_iter_no_change`` epochs; ``n_epochs_`` records the real count.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from scipy.special import expit
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.neural_network import MLPRegressor
+
+from estimation.errors import check_features, check_mode, check_target
+from estimation.normalize import MinMaxScaling
+from estimation.streaming import scaled
+
+
+def seed_from(rng: np.random.Generator | int | None) -> int:
+    """An ``int`` seed for scikit-learn's ``random_state`` drawn from ``rng``."""
+    return int(np.random.default_rng(rng).integers(0, 2**31 - 1))
+
+
+def make_mlp(hidden: int, *, max_epochs: int, learning_rate: float, rho: float, tol: float,
+             n_iter_no_change: int, rng: np.random.Generator | int | None) -> MLPRegressor:
+    """The paper's network as an unfitted :class:`~sklearn.neural_network.MLPRegressor`."""
+    return MLPRegressor(
+        hidden_layer_sizes=(hidden,), activation="logistic", solver="adam",
+        beta_1=0.0, beta_2=rho, learning_rate_init=learning_rate, batch_size=1,
+        max_iter=max_epochs, tol=tol, n_iter_no_change=n_iter_no_change, shuffle=True,
+        early_stopping=False, random_state=seed_from(rng),
+    )
+
+
+def fit_quietly(net: MLPRegressor, X: np.ndarray, y: np.ndarray) -> bool:
+    """Fit ``net``; return True if it stopped on the loss criterion before ``max_iter``."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        net.fit(X, y)
+    return net.n_iter_ < net.max_iter
+
+
+class MLPForward:
+    """Allocation-free forward pass of a fitted one-hidden-layer logistic regressor."""
+
+    def __init__(self, net: MLPRegressor) -> None:
+        self._W1 = np.ascontiguousarray(net.coefs_[0].T)  # (hidden, n_in)
+        self._b1 = net.intercepts_[0].copy()
+        self._w2 = net.coefs_[1][:, 0].copy()
+        self._b2 = float(net.intercepts_[1][0])
+        self._h = np.empty(self._b1.size)
+        self._mdot = self._W1.dot
+        self._odot = self._w2.dot
+
+    def __call__(self, x: np.ndarray) -> float:
+        """Network output for one input vector ``x`` (n_in,)."""
+        h = self._h
+        self._mdot(x, h)
+        h += self._b1
+        expit(h, out=h)
+        return float(self._odot(h)) + self._b2
+
+
+class MLPBaseline:
+    """Static MLP from the current window's features to force.
+
+    Parameters
+    ----------
+    hidden : int
+        Hidden logistic units (paper: 4, the SS order).
+    max_epochs : int
+        Epoch limit (paper: 1000).
+    learning_rate : float
+        RMSprop step size.
+    rho : float
+        RMSprop decay of the squared-gradient average (Adam's ``beta_2``).
+    tol, n_iter_no_change :
+        Early stop on the training loss.
+    random_state : numpy.random.Generator, int or None
+        Seeds weight initialization and shuffling.
+
+    Attributes
+    ----------
+    net_ : MLPRegressor
+    n_epochs_ : int
+    converged_ : bool
+    """
+
+    modes = ("one_step", "free_run")  # the force is never used: both modes coincide
+
+    def __init__(self, *, hidden: int = 4, max_epochs: int = 1000, learning_rate: float = 1e-2,
+                 rho: float = 0.9, tol: float = 1e-4, n_iter_no_change: int = 10,
+                 random_state: np.random.Generator | int | None = None) -> None:
+        self.hidden = hidden
+        self.max_epochs = max_epochs
+        self.learning_rate = learning_rate
+        self.rho = rho
+        self.tol = tol
+        self.n_iter_no_change = n_iter_no_change
+        self.random_state = random_state
+
+    def fit(self, U: np.ndarray, y: np.ndarray) -> MLPBaseline:
+        """Train on normalized features ``U`` (n_samples, n_inputs) and force ``y``."""
+        U = check_features(U)
+        y = check_target(y, U.shape[0])
+        self.net_ = make_mlp(self.hidden, max_epochs=self.max_epochs,
+                             learning_rate=self.learning_rate, rho=self.rho, tol=self.tol,
+                             n_iter_no_change=self.n_iter_no_change, rng=self.random_state)
+        self.converged_ = fit_quietly(self.net_, U, y)
+        self.n_epochs_ = int(self.net_.n_iter_)
+        self.n_features_in_ = U.shape[1]
+        return self
+
+    def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
+                mode: str = "free_run") -> np.ndarray:
+        """Force estimate, shape (n_samples,); ``y`` is ignored."""
+        check_mode(mode, self.modes, "MLPBaseline")
+        return self.net_.predict(check_features(U, n_inputs=self.n_features_in_))
+
+    def streaming(self, mode: str = "free_run", *,
+                  scaling: MinMaxScaling | None = None) -> object:
+        """A stream running the forward pass per window."""
+        check_mode(mode, self.modes, "MLPBaseline")
+        return scaled(_MLPStream(MLPForward(self.net_), mode), scaling)
+
+
+class _MLPStream:
+    uses_force = False
+
+    def __init__(self, forward: MLPForward, mode: str) -> None:
+        self._forward = forward
+        self.mode = mode
+
+    def reset(self) -> None:
+        """Stateless: nothing to reset."""
+
+    def step(self, u: np.ndarray, y_prev: float | None = None) -> float:
+        """Force estimate for features ``u(k)`` (normalized)."""
+        return self._forward(u)

@@ -1,0 +1,134 @@
+"""NARX network baseline (paper section 3.4.2): the MLP on delayed inputs and outputs.
+
+Regressor at tick ``k`` (eq. 24), zero before the start of the record::
+
+    r(k) = [u(k), u(k-1), ..., u(k-d), y(k-1), ..., y(k-d)]
+
+with ``d`` the SS order (4). Trained series-parallel (measured ``y`` in the
+regressor). ``one_step`` predicts with measured past force; ``free_run`` feeds
+back its own past predictions (parallel / closed-loop NARX, sEMG only).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from estimation.baselines.mlp import MLPForward, fit_quietly, make_mlp
+from estimation.errors import (
+    ModeError,
+    check_features,
+    check_mode,
+    check_target,
+    require_force,
+)
+from estimation.normalize import MinMaxScaling
+from estimation.streaming import scaled
+
+
+def narx_regressors(U: np.ndarray, y: np.ndarray, delays: int) -> np.ndarray:
+    """Series-parallel regressors, shape (n_samples, (delays + 1) n_inputs + delays)."""
+    n, m = U.shape
+    Up = np.vstack([np.zeros((delays, m)), U])
+    yp = np.concatenate([np.zeros(delays), y])
+    cols = [Up[delays - j: delays - j + n] for j in range(delays + 1)]
+    cols += [yp[delays - j: delays - j + n, None] for j in range(1, delays + 1)]
+    return np.hstack(cols)
+
+
+class NARXBaseline:
+    """Nonlinear ARX network; hyperparameters as :class:`MLPBaseline` plus ``delays``.
+
+    Attributes
+    ----------
+    net_ : MLPRegressor
+    n_epochs_ : int
+    converged_ : bool
+    """
+
+    modes = ("one_step", "free_run")
+
+    def __init__(self, *, delays: int = 4, hidden: int = 4, max_epochs: int = 1000,
+                 learning_rate: float = 1e-2, rho: float = 0.9, tol: float = 1e-4,
+                 n_iter_no_change: int = 10,
+                 random_state: np.random.Generator | int | None = None) -> None:
+        self.delays = delays
+        self.hidden = hidden
+        self.max_epochs = max_epochs
+        self.learning_rate = learning_rate
+        self.rho = rho
+        self.tol = tol
+        self.n_iter_no_change = n_iter_no_change
+        self.random_state = random_state
+
+    def fit(self, U: np.ndarray, y: np.ndarray) -> NARXBaseline:
+        """Train series-parallel on normalized ``U`` (n_samples, n_inputs) and ``y``."""
+        U = check_features(U)
+        y = check_target(y, U.shape[0])
+        self.net_ = make_mlp(self.hidden, max_epochs=self.max_epochs,
+                             learning_rate=self.learning_rate, rho=self.rho, tol=self.tol,
+                             n_iter_no_change=self.n_iter_no_change, rng=self.random_state)
+        self.converged_ = fit_quietly(self.net_, narx_regressors(U, y, self.delays), y)
+        self.n_epochs_ = int(self.net_.n_iter_)
+        self.n_features_in_ = U.shape[1]
+        return self
+
+    def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
+                mode: str = "one_step") -> np.ndarray:
+        """Force estimate, shape (n_samples,); ``one_step`` needs the measured ``y``."""
+        check_mode(mode, self.modes, "NARXBaseline")
+        U = check_features(U, n_inputs=self.n_features_in_)
+        if mode == "one_step":
+            y = check_target(require_force(y, mode, "NARXBaseline"), U.shape[0])
+            return self.net_.predict(narx_regressors(U, y, self.delays))
+        stream = self.streaming("free_run")
+        return np.array([stream.step(u) for u in U])
+
+    def streaming(self, mode: str = "one_step", *,
+                  scaling: MinMaxScaling | None = None) -> object:
+        """A stream with preallocated delay lines."""
+        check_mode(mode, self.modes, "NARXBaseline")
+        return scaled(_NARXStream(MLPForward(self.net_), self.n_features_in_, self.delays, mode),
+                      scaling)
+
+
+class _NARXStream:
+    def __init__(self, forward: MLPForward, n_inputs: int, delays: int, mode: str) -> None:
+        self._forward = forward
+        self.mode = mode
+        self.uses_force = mode == "one_step"
+        m, d = n_inputs, delays
+        self._r = np.zeros((d + 1) * m + d)
+        nu = (d + 1) * m
+        r = self._r
+        # views for shifting the delay lines without allocation
+        self._u_now, self._u_old_dst, self._u_old_src = r[:m], r[m:nu], r[:nu - m]
+        self._y_now, self._y_old_dst, self._y_old_src = r[nu:nu + 1], r[nu + 1:], r[nu:nu + d - 1]
+        self._u_tmp = np.empty(nu - m)
+        self._y_tmp = np.empty(max(d - 1, 0))
+        self._last = 0.0
+        self._first = True
+
+    def reset(self) -> None:
+        """Zero the delay lines."""
+        self._r[:] = 0.0
+        self._last = 0.0
+        self._first = True
+
+    def step(self, u: np.ndarray, y_prev: float | None = None) -> float:
+        """Shift in ``u(k)`` and ``y(k-1)`` (measured or own), return ``yhat(k)``."""
+        np.copyto(self._u_tmp, self._u_old_src)
+        np.copyto(self._u_old_dst, self._u_tmp)
+        self._u_now[...] = u
+        np.copyto(self._y_tmp, self._y_old_src)
+        np.copyto(self._y_old_dst, self._y_tmp)
+        if self.uses_force:
+            if y_prev is None:
+                if not self._first:
+                    raise ModeError("one_step NARX stream needs y_prev (the force at k-1)")
+                y_prev = 0.0
+            self._y_now[0] = y_prev
+        else:
+            self._y_now[0] = self._last
+        self._first = False
+        self._last = self._forward(self._r)
+        return self._last

@@ -1,0 +1,58 @@
+"""Min-max normalization of features and force to 0..1 (the paper's preprocessing).
+
+Fitted on identification data only; validation data may fall outside 0..1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from estimation.errors import check_features, check_not_constant, check_target
+
+
+@dataclass(frozen=True)
+class MinMaxScaling:
+    """Affine maps ``u_n = (u - u_min_) * u_inv_span_`` and ``y_n = (y - y_min_n) / y_span_n``.
+
+    Attributes
+    ----------
+    u_min : ndarray, shape (n_inputs,)
+        Per-feature minimum on identification data (feature units).
+    u_span : ndarray, shape (n_inputs,)
+        Per-feature range (max - min), > 0.
+    y_min_n, y_span_n : float
+        Force minimum and range in newtons, range > 0.
+    """
+
+    u_min: np.ndarray
+    u_span: np.ndarray
+    y_min_n: float
+    y_span_n: float
+
+    @classmethod
+    def fit(cls, U: np.ndarray, y_n: np.ndarray) -> MinMaxScaling:
+        """Learn the ranges of ``U`` (n_samples, n_inputs) and ``y_n`` (n_samples,) in N.
+
+        Raises
+        ------
+        ConstantInputError
+            A feature column or the force is constant.
+        """
+        U = check_features(U)
+        y_n = check_target(y_n, U.shape[0])
+        check_not_constant(U, y_n)
+        return cls(U.min(axis=0), np.ptp(U, axis=0), float(y_n.min()), float(np.ptp(y_n)))
+
+    def transform_u(self, U: np.ndarray) -> np.ndarray:
+        """Normalized features, shape (n_samples, n_inputs)."""
+        return (np.asarray(U, dtype=np.float64) - self.u_min) / self.u_span
+
+    def transform_y(self, y_n: np.ndarray) -> np.ndarray:
+        """Normalized force from newtons."""
+        return (np.asarray(y_n, dtype=np.float64) - self.y_min_n) / self.y_span_n
+
+    def inverse_y(self, y_norm: np.ndarray) -> np.ndarray:
+        """Force in newtons from normalized force."""
+        return np.asarray(y_norm, dtype=np.float64) * self.y_span_n + self.y_min_n

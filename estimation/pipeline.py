@@ -1,0 +1,73 @@
+"""An estimator together with its normalization: raw features and newtons in and out.
+
+This is what a closed-loop runner uses::
+
+    from estimation import make_estimator
+    est = make_estimator("ss_kf").fit(fs.X, fs.y)        # features as extracted, force in N
+    force_n = est.predict(X_new, mode="free_run")          # newtons
+    stream = est.streaming(mode="free_run")                # raw features in, newtons out
+    stream.reset(); f = stream.step(u)                     # allocation-free
+
+Normalization (min-max to 0..1, the paper's preprocessing) is learned in
+``fit`` from the calibration data only and folded into the stream.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from estimation.errors import check_features, check_target
+from estimation.normalize import MinMaxScaling
+
+
+class ForcePipeline:
+    """Min-max normalization around a normalized-unit estimator.
+
+    Parameters
+    ----------
+    estimator : object
+        Unfitted estimator with ``fit``, ``predict``, ``streaming`` and ``modes``.
+
+    Attributes
+    ----------
+    scaling_ : MinMaxScaling
+        Feature and force ranges of the calibration data.
+    modes : tuple of str
+        The wrapped estimator's supported modes.
+    """
+
+    def __init__(self, estimator: object) -> None:
+        self.estimator = estimator
+
+    @property
+    def modes(self) -> tuple[str, ...]:
+        """Modes the wrapped estimator supports."""
+        return tuple(self.estimator.modes)
+
+    def fit(self, U: np.ndarray, y_n: np.ndarray) -> ForcePipeline:
+        """Learn the scaling and fit the estimator.
+
+        Parameters
+        ----------
+        U : ndarray, shape (n_samples, n_inputs)
+            Raw features.
+        y_n : ndarray, shape (n_samples,)
+            Measured force in newtons.
+        """
+        U = check_features(U)
+        y_n = check_target(y_n, U.shape[0], name="y_n")
+        self.scaling_ = MinMaxScaling.fit(U, y_n)
+        self.estimator.fit(self.scaling_.transform_u(U), self.scaling_.transform_y(y_n))
+        return self
+
+    def predict(self, U: np.ndarray, y_n: np.ndarray | None = None, *,
+                mode: str = "one_step") -> np.ndarray:
+        """Force estimate in newtons, shape (n_samples,). ``y_n`` (N) for ``one_step``."""
+        U = check_features(U)
+        y = None if y_n is None else self.scaling_.transform_y(check_target(y_n, U.shape[0]))
+        y_hat = self.estimator.predict(self.scaling_.transform_u(U), y, mode=mode)
+        return self.scaling_.inverse_y(y_hat)
+
+    def streaming(self, mode: str = "one_step") -> object:
+        """A stream taking raw features and the force in N, returning N."""
+        return self.estimator.streaming(mode, scaling=self.scaling_)

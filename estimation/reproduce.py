@@ -1,0 +1,398 @@
+"""Reproduction of the paper's Tables 2 and 3 on virtual subjects.
+
+This module is the only place that depends on the virtual-subject API
+(:func:`sim.subjects.make_population`, ``VirtualSubject.paper_session``).
+
+``run_reproduction`` returns the JSON contract::
+
+    {"estimators": {name: {mode: {"r2_mean", "r2_sd", "nrmse_mean", "nrmse_sd",
+                                  "per_subject": [...]}}},
+     "timing": {name: {"train_ms_median", "step_us_median", ...}},
+     "model": {"A", "B", "C", "Gamma", "Q", "R", "predictor_gain", "order", ...},
+     "order_selection": {...}, "properties": {...}, "config": {...}}
+
+``format_report`` renders Table 2 (per mode) and Table 3 next to the paper's numbers.
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from estimation.features import PAPER_CHANNELS, extract_features
+from estimation.order import select_order
+from estimation.paper import PAPER_ORDER, SECTION_4_2, TABLE2_SUMMARY, TABLE3
+from estimation.protocol import aggregate, evaluate_subject, split_index
+from estimation.registry import ESTIMATOR_NAMES
+
+#: Paper Table 2/3 estimators, in the paper's column order.
+PAPER_ESTIMATORS = ("ss_kf", "mlp", "narx", "lda_qpf")
+_LABELS = {"ss_kf": "SS_KF", "mlp": "MLP", "narx": "NARX", "lda_qpf": "LDA_QPF", "ss": "SS",
+           "latent_kf": "LATENT_KF", "persistence": "PERSIST", "features_mav": "F_MAV",
+           "features_rms": "F_RMS", "features_wl": "F_WL"}
+_SEEDED = ("mlp", "narx")
+
+
+def to_jsonable(obj: object) -> object:
+    """Recursively convert numpy scalars/arrays and drop private (``_``) keys."""
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items() if not str(k).startswith("_")}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        value = float(obj)
+        return value if np.isfinite(value) else None
+    if isinstance(obj, complex):
+        return [obj.real, obj.imag]
+    return obj
+
+
+def model_summary(est: object) -> dict:
+    """The fitted SS_KF matrices of the JSON contract (nested lists via :func:`to_jsonable`)."""
+    return {
+        "order": est.order_, "dt_s": est.dt_s,
+        "A": est.A_, "B": est.B_, "C": est.C_, "Gamma": est.Gamma_,
+        "Q": est.Q_, "R": est.R_, "sigma_w2": est.sigma_w2_,
+        "predictor_gain": est.predictor_gain_, "filter_gain": est.filter_gain_,
+        "poles_abs": np.abs(est.poles_), "kalman_poles_abs": np.abs(est.kalman_poles_),
+        "stable": est.stable_, "controllable": est.controllable_, "observable": est.observable_,
+    }
+
+
+def estimator_params(names: Sequence[str], rng: np.random.Generator, order: int,
+                     nn_params: dict | None = None, *, dt_s: float) -> dict[str, dict]:
+    """Hyperparameters per estimator: SS order and sample time, NARX delays, NN seeds."""
+    params: dict[str, dict] = {}
+    for name in names:
+        p: dict = {}
+        if name in ("ss_kf", "ss"):
+            p["order"] = order
+            p["dt_s"] = dt_s
+        if name in _SEEDED:
+            p["random_state"] = int(rng.integers(0, 2**31 - 1))
+            p["hidden"] = order
+            p.update(nn_params or {})
+        if name == "narx":
+            p["delays"] = order
+        params[name] = p
+    return params
+
+
+def run_reproduction(
+    n_subjects: int = 10,
+    seed: int = 0,
+    *,
+    generator: str = "noise",
+    order: int = PAPER_ORDER,
+    estimators: Sequence[str] = ESTIMATOR_NAMES,
+    orders: Sequence[int] = tuple(range(1, 13)),
+    nn_params: dict | None = None,
+) -> dict:
+    """Run the paper's protocol on ``n_subjects`` virtual subjects.
+
+    Parameters
+    ----------
+    n_subjects : int
+        Population size (paper: 10).
+    seed : int
+        Seeds the population, each session and the networks' initialization.
+    generator : {"noise", "motor_units"}
+        Virtual subjects' sEMG model.
+    order : int
+        SS order used for the tables (paper: 4); NARX delays and hidden units follow it.
+    estimators : sequence of str
+        Registry names to evaluate (must include ``"ss_kf"`` for the ``model`` entry).
+    orders : sequence of int
+        Candidate orders for the per-subject AIC curve (paper: 1..12).
+    nn_params : dict, optional
+        Overrides for the MLP/NARX hyperparameters (e.g. ``{"max_epochs": 50}``).
+
+    Returns
+    -------
+    dict
+        The JSON contract (see the module docstring); private keys start with ``_``.
+    """
+    from sim.subjects import make_population  # the only dependency on the subject API
+
+    # Every matrix here is tiny: BLAS threads only add overhead (and noise in timings).
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _run(make_population, n_subjects, seed, generator, order, estimators, orders,
+                    nn_params)
+
+
+def _run(make_population: object, n_subjects: int, seed: int, generator: str, order: int,
+         estimators: Sequence[str], orders: Sequence[int], nn_params: dict | None) -> dict:
+    subjects = make_population(n=n_subjects, seed=seed)
+    children = np.random.SeedSequence([seed, 0x5EED]).spawn(n_subjects)
+    per_subject, order_curves, features_info = [], [], []
+    model = None
+    for subject, child in zip(subjects, children, strict=True):
+        session_ss, est_ss = child.spawn(2)
+        rec = subject.paper_session(rng=np.random.default_rng(session_ss), generator=generator)
+        fs = extract_features(rec, channels=PAPER_CHANNELS)
+        params = estimator_params(estimators, np.random.default_rng(est_ss), order, nn_params,
+                                  dt_s=fs.dt_s)
+        res = evaluate_subject(fs.X, fs.y, params, dt_s=fs.dt_s)
+        per_subject.append(res)
+        n_id = split_index(fs.n_windows)
+        features_info.append({"subject_id": subject.subject_id, "n_windows": fs.n_windows,
+                              "n_identification": n_id, "duration_s": rec.duration_s})
+        if "ss_kf" in res and "_pipeline" in res["ss_kf"]:
+            pipe = res["ss_kf"]["_pipeline"]
+            if model is None:
+                model = model_summary(pipe.estimator)
+            sel = select_order(pipe.scaling_.transform_u(fs.X[:n_id]),
+                               pipe.scaling_.transform_y(fs.y[:n_id]), orders=orders,
+                               dt_s=fs.dt_s)
+            order_curves.append({"subject_id": subject.subject_id, "orders": sel.orders,
+                                 "aic": sel.aic, "order": sel.order, "n_obs": sel.n_obs})
+    result = aggregate(per_subject)
+    result["model"] = model
+    result["order_selection"] = {
+        "per_subject": order_curves,
+        "chosen_orders": [c["order"] for c in order_curves],
+        "order_used": order,
+        "paper_order": PAPER_ORDER,
+    }
+    result["properties"] = _properties(per_subject)
+    result["subjects"] = features_info
+    result["config"] = {"n_subjects": n_subjects, "seed": seed, "generator": generator,
+                        "order": order, "channels": list(PAPER_CHANNELS),
+                        "identification_fraction": 0.5, "estimators": list(estimators),
+                        "nn_params": nn_params or {}}
+    result["nn_epochs"] = {name: [s[name]["info"].get("n_epochs") for s in per_subject]
+                           for name in estimators if name in _SEEDED}
+    return to_jsonable(result)
+
+
+def _properties(per_subject: Sequence[dict]) -> dict:
+    """Counts of controllable / observable / stable identified models per estimator."""
+    props: dict = {}
+    for name in per_subject[0]:
+        infos = [s[name]["info"] for s in per_subject if s[name]["info"]]
+        if infos and "stable" in infos[0]:
+            props[name] = {key: sum(bool(i[key]) for i in infos)
+                           for key in ("controllable", "observable", "stable")}
+            props[name]["n"] = len(infos)
+    return props
+
+
+# ------------------------------------------------------------------ formatting
+def _fmt(value: float | None, width: int = 8, digits: int = 4) -> str:
+    return f"{'n/a':>{width}}" if value is None else f"{value:>{width}.{digits}f}"
+
+
+def format_table2(result: dict, mode: str) -> str:
+    """Paper Table 2 (per-subject R^2 / NRMSE) in one mode, with the paper's rows below."""
+    est = result["estimators"]
+    names = [n for n in PAPER_ESTIMATORS if n in est and mode in est[n]]
+    head = f"{'':10s}" + "".join(f"{_LABELS[n] + ' R2':>11s}{'NRMSE':>8s}" for n in names)
+    lines = [f"Table 2 ({mode}) -- ours, virtual subjects", head]
+    n_sub = len(est[names[0]][mode]["per_subject"]) if names else 0
+    for i in range(n_sub):
+        row = f"{'V' + str(i + 1):10s}"
+        for n in names:
+            r = est[n][mode]["per_subject"][i]
+            row += f"{_fmt(r['r2'], 11)}{_fmt(r['nrmse'])}"
+        lines.append(row)
+    for label, key in (("Average", "mean"), ("SD", "sd")):
+        row = f"{label:10s}"
+        for n in names:
+            e = est[n][mode]
+            row += f"{_fmt(e['r2_' + key], 11)}{_fmt(e['nrmse_' + key])}"
+        lines.append(row)
+    for label, idx in (("Paper avg", (0, 2)), ("Paper SD", (1, 3))):
+        row = f"{label:10s}"
+        for n in names:
+            p = TABLE2_SUMMARY[n]
+            row += f"{p[idx[0]]:>11.4f}{p[idx[1]]:>8.4f}"
+        lines.append(row)
+    unstable = [n for n in names if est[n][mode]["n_ok"] < n_sub]
+    for n in unstable:
+        lines.append(f"  {_LABELS[n]}: {n_sub - est[n][mode]['n_ok']} subject(s) unstable, "
+                     "excluded from the mean")
+    return "\n".join(lines)
+
+
+def format_others(result: dict, mode: str) -> str:
+    """Mean +/- SD of the estimators outside Table 2 in one mode, with section 4.2 figures."""
+    est = result["estimators"]
+    lines = [f"Other estimators ({mode}): R2 mean +/- SD, NRMSE mean +/- SD, RMSE (N)"]
+    paper_ref = {"ss": SECTION_4_2["ss"] if mode == "one_step" else None,
+                 "features_mav": SECTION_4_2["features"], "features_rms": SECTION_4_2["features"],
+                 "features_wl": SECTION_4_2["features"]}
+    for n in est:
+        if n in PAPER_ESTIMATORS or mode not in est[n]:
+            continue
+        e = est[n][mode]
+        line = (f"  {_LABELS.get(n, n):10s} R2 {_fmt(e['r2_mean'], 7)} +/- {_fmt(e['r2_sd'], 6)}"
+                f"  NRMSE {_fmt(e['nrmse_mean'], 7)} +/- {_fmt(e['nrmse_sd'], 6)}"
+                f"  RMSE {_fmt(e['rmse_n_mean'], 6, 2)} N")
+        ref = paper_ref.get(n)
+        if ref is not None:
+            line += (f"   paper R2 {ref[0]:.4f} +/- {ref[1]:.4f}, "
+                     f"NRMSE {ref[2]:.4f} +/- {ref[3]:.4f}")
+        lines.append(line)
+    return "\n".join(lines)
+
+
+def format_table3(result: dict) -> str:
+    """Paper Table 3: training time, loop runtime and system properties, ours vs paper."""
+    timing, props = result["timing"], result.get("properties", {})
+    lines = ["Table 3 -- training time (ms, mean +/- SD), loop runtime (ms per update, "
+             "median), controllable/observable/stable (ours: count of subjects)",
+             f"{'model':9s}{'train ours':>20s}{'train paper':>18s}{'loop ours':>11s}"
+             f"{'loop paper':>18s}{'ctrb/obsv/stable ours':>24s}{'paper':>14s}"]
+    for n in PAPER_ESTIMATORS:
+        if n not in timing:
+            continue
+        t, p = timing[n], TABLE3[n]
+        if t["train_ms_mean"] is None:
+            lines.append(f"{_LABELS[n]:9s} failed on every subject")
+            continue
+        loop = t["step_us_median"]
+        loop_ms = "n/a" if loop is None else f"{loop / 1e3:.5f}"
+        if n in props:
+            q = props[n]
+            ours = f"{q['controllable']}/{q['observable']}/{q['stable']} of {q['n']}"
+        else:
+            ours = "-/-/-"
+        paper_p = f"{p['controllable']}/{p['observable']}/{p['stable']}"
+        lines.append(
+            f"{_LABELS[n]:9s}{t['train_ms_mean']:>11.2f} +/- {t['train_ms_sd']:<7.2f}"
+            f"{p['train_ms'][0]:>9.2f} +/- {p['train_ms'][1]:<6.2f}{loop_ms:>11s}"
+            f"{p['loop_ms'][0]:>10.5f} +/- {p['loop_ms'][1]:<5.4f}{ours:>22s}{paper_p:>14s}"
+        )
+    epochs = result.get("nn_epochs", {})
+    for n, counts in epochs.items():
+        lines.append(f"  {_LABELS[n]} epochs (early stop on training loss): {counts}")
+    return "\n".join(lines)
+
+
+def format_report(result: dict) -> str:
+    """Every table of the reproduction as plain text."""
+    parts = []
+    for mode in ("one_step", "free_run"):
+        parts += [format_table2(result, mode), format_others(result, mode)]
+    parts.append(format_table3(result))
+    sel = result.get("order_selection", {})
+    if sel.get("chosen_orders"):
+        parts.append(f"AIC order per subject (1..12): {sel['chosen_orders']}; tables use "
+                     f"n = {sel['order_used']} (paper: {sel['paper_order']})")
+    return "\n\n".join(parts)
+
+
+def write_csv(result: dict, directory: str | Path) -> list[Path]:
+    """Write ``table2_one_step.csv``, ``table2_free_run.csv`` and ``table3.csv``."""
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    est = result["estimators"]
+    for mode in ("one_step", "free_run"):
+        names = [n for n in est if mode in est[n]]
+        path = out / f"table2_{mode}.csv"
+        with path.open("w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["subject"] + [f"{n}_{m}" for n in names for m in ("r2", "nrmse")])
+            n_sub = len(est[names[0]][mode]["per_subject"])
+            for i in range(n_sub):
+                w.writerow([f"V{i + 1}"] + [est[n][mode]["per_subject"][i][m]
+                                            for n in names for m in ("r2", "nrmse")])
+        written.append(path)
+    path = out / "table3.csv"
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["model", "training_time_ms_mean", "training_time_ms_sd",
+                    "training_time_ms_median", "loop_runtime_ms_median", "controllable",
+                    "observable", "stable"])
+        for n, t in result["timing"].items():
+            q = result.get("properties", {}).get(n)
+            loop = t["step_us_median"]
+            w.writerow([n, t["train_ms_mean"], t["train_ms_sd"], t["train_ms_median"],
+                        None if loop is None else loop / 1e3,
+                        *(["-"] * 3 if q is None else
+                          [q["controllable"], q["observable"], q["stable"]])])
+    written.append(path)
+    return written
+
+
+def evaluate_recording(
+    recording: object,
+    *,
+    channels: Sequence[int | str] = PAPER_CHANNELS,
+    estimators: Sequence[str] = ESTIMATOR_NAMES,
+    order: int = PAPER_ORDER,
+    seed: int = 0,
+    nn_params: dict | None = None,
+) -> dict:
+    """The paper's protocol on one recording (simulated or real, any sampling rate).
+
+    Parameters
+    ----------
+    recording : sim.Recording
+        Must carry the measured force ``force_n``.
+    channels : sequence of int (1-based) or str
+        sEMG channels whose MAV, RMS and WL are the inputs.
+    estimators, order, nn_params
+        As for :func:`run_reproduction`.
+    seed : int
+        Seeds the networks.
+
+    Returns
+    -------
+    dict
+        ``estimators``, ``timing``, ``model`` (if ``ss_kf`` ran), ``properties``
+        and ``recording`` (source, windows, split).
+
+    Raises
+    ------
+    EstimationInputError
+        The recording has no force.
+    """
+    from estimation.errors import EstimationInputError
+
+    if recording.force_n is None:
+        raise EstimationInputError(
+            f"{recording.source}: no force column; the protocol needs the measured force"
+        )
+    fs = extract_features(recording, channels=channels)
+    params = estimator_params(estimators, np.random.default_rng(seed), order, nn_params,
+                              dt_s=fs.dt_s)
+    with threadpool_limits(limits=1, user_api="blas"):
+        res = evaluate_subject(fs.X, fs.y, params, dt_s=fs.dt_s)
+    result = aggregate([res])
+    if "ss_kf" in res and "_pipeline" in res["ss_kf"]:
+        result["model"] = model_summary(res["ss_kf"]["_pipeline"].estimator)
+    result["properties"] = _properties([res])
+    result["recording"] = {"source": recording.source, "fs_hz": recording.fs_hz,
+                           "channels": [str(c) for c in channels], "n_windows": fs.n_windows,
+                           "n_identification": split_index(fs.n_windows), "dt_s": fs.dt_s}
+    return to_jsonable(result)
+
+
+def format_summary(result: dict) -> str:
+    """One line per estimator and mode: R^2, NRMSE, RMSE, training and step time."""
+    lines = [f"{'estimator':13s}{'mode':10s}{'R2':>8s}{'NRMSE':>8s}{'RMSE N':>8s}"
+             f"{'train ms':>10s}{'step us':>9s}"]
+    for name, modes in result["estimators"].items():
+        t = result["timing"][name]
+        for mode, e in modes.items():
+            step = t["step_us_median"]
+            line = (f"{name:13s}{mode:10s}{_fmt(e['r2_mean'])}{_fmt(e['nrmse_mean'])}"
+                    f"{_fmt(e['rmse_n_mean'], 8, 2)}{_fmt(t['train_ms_median'], 10, 2)}"
+                    f"{'n/a' if step is None else f'{step:.2f}':>9s}")
+            bad = [r["status"] for r in e["per_subject"] if r["status"] != "ok"]
+            if bad:
+                line += f"  ({', '.join(sorted(set(bad)))}: not run)"
+            lines.append(line)
+    return "\n".join(lines)

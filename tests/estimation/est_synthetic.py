@@ -1,0 +1,74 @@
+"""Synthetic data with known answers for the estimation tests (no virtual subjects needed)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from estimation.rls import difference_transform
+from sim.recording import Recording
+
+
+def simulate_arx(a: np.ndarray, b: np.ndarray, n_samples: int, *, noise_std: float,
+                 rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """``y(k) = sum_j a_j y(k-j) + b . u(k-1) + e(k)`` with uniform inputs.
+
+    Returns ``U`` (n_samples, len(b)) and ``y`` (n_samples,).
+    """
+    n = len(a)
+    U = rng.uniform(0.0, 1.0, size=(n_samples, len(b)))
+    e = noise_std * rng.standard_normal(n_samples)
+    y = np.zeros(n_samples)
+    for k in range(n, n_samples):
+        y[k] = np.dot(a, y[k - n:k][::-1]) + np.dot(b, U[k - 1]) + e[k]
+    return U, y
+
+
+def arx_state_space(a: np.ndarray, b: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Closed-form ``A, B`` of an ARX model in the paper's difference states (eq. 6).
+
+    With ``x(k) = T [y(k) .. y(k-n+1)]`` the lag form is the companion matrix
+    ``Ac`` (first row ``a``) and ``Bc = e1 b^T``; so ``A = T Ac T^-1``, ``B = T Bc``.
+    """
+    n = len(a)
+    Ac = np.zeros((n, n))
+    Ac[0] = a
+    Ac[1:, :-1] = np.eye(n - 1)
+    Bc = np.zeros((n, len(b)))
+    Bc[0] = b
+    T = difference_transform(n, dt_s)
+    return T @ Ac @ np.linalg.inv(T), T @ Bc
+
+
+def squeeze_intent(fs_hz: float, duration_s: float, levels=(0.3, 0.55, 0.9)) -> np.ndarray:
+    """Three smooth squeezes of increasing level, shape (n_samples,), 0..1."""
+    t = np.arange(int(duration_s * fs_hz)) / fs_hz
+    intent = np.zeros_like(t)
+    period = duration_s / len(levels)
+    for i, level in enumerate(levels):
+        start = i * period + 0.25 * period
+        stop = start + 0.45 * period
+        rise = np.clip((t - start) / 0.8, 0, 1) * np.clip((stop - t) / 0.8 + 1, 0, 1)
+        intent = np.maximum(intent, level * (0.5 - 0.5 * np.cos(np.pi * np.clip(rise, 0, 1))))
+    return intent
+
+
+def toy_recording(*, fs_hz: float = 200.0, duration_s: float = 30.0, seed: int = 0,
+                  with_force: bool = True) -> Recording:
+    """MYO-like int8 sEMG whose amplitude follows a squeeze profile, plus FSR-like force.
+
+    Channel ``c`` has amplitude ``1.5 + g_c * intent`` LSB; the force is
+    ``40 N * intent`` through a first-order lag (tau 80 ms) with 0.2 N noise.
+    """
+    rng = np.random.default_rng(seed)
+    intent = squeeze_intent(fs_hz, duration_s)
+    gains = np.array([3, 4, 5, 6, 8, 25, 20, 22], dtype=float)
+    amp = 1.5 + intent[:, None] * gains[None, :]
+    emg = np.clip(np.round(amp * rng.standard_normal((intent.size, 8))), -128, 127)
+    alpha = 1.0 - np.exp(-1.0 / (0.08 * fs_hz))
+    lagged = np.zeros_like(intent)
+    for k in range(1, intent.size):
+        lagged[k] = lagged[k - 1] + alpha * (intent[k] - lagged[k - 1])
+    force = 40.0 * lagged + 0.2 * rng.standard_normal(intent.size)
+    return Recording(emg=emg.astype(np.int8), fs_hz=fs_hz,
+                     force_n=force if with_force else None, intent=intent,
+                     metadata={"toy": True, "seed": seed}, source=f"toy{seed}")
