@@ -1,0 +1,128 @@
+"""Bode, Nyquist and pole-zero figures of a loop, with its margins marked.
+
+Figures are drawn on :class:`matplotlib.figure.Figure` objects directly (no
+pyplot state, works headless) and saved to PNG.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from controllers.analysis import LoopMargins, frequency_grid, minimal_tf
+from controllers.plant import frequency_response
+
+
+def bode_figure(margins: LoopMargins, title: str = "") -> Figure:
+    """Magnitude (dB) and phase (deg) of ``L`` with every crossover and margin marked."""
+    loop = margins.loop
+    omega = frequency_grid(loop)
+    resp = frequency_response(loop, omega)
+    fig = Figure(figsize=(7, 6), layout="constrained")
+    ax_mag, ax_ph = fig.subplots(2, 1, sharex=True)
+    ax_mag.semilogx(omega, 20 * np.log10(np.abs(resp)), color="C0")
+    ax_mag.axhline(0.0, color="0.5", lw=0.8, ls="--")
+    ax_ph.semilogx(omega, np.rad2deg(np.unwrap(np.angle(resp))), color="C0")
+    ax_ph.axhline(-180.0, color="0.5", lw=0.8, ls="--")
+    phase_at = np.rad2deg(np.unwrap(np.angle(resp)))
+    for w, pm in zip(margins.crossover_rad_s, margins.phase_margins_deg, strict=True):
+        ax_mag.axvline(w, color="C2", lw=0.8)
+        ph = np.interp(w, omega, phase_at)
+        ax_ph.vlines(w, ph - pm, ph, color="C2", lw=2)
+        ax_ph.annotate(f"PM {pm:.1f} deg\n@ {w:.3g} rad/s", (w, ph), fontsize=8)
+    for w, gm in zip(margins.phase_crossover_rad_s, margins.gain_margins_db, strict=True):
+        mag = -gm
+        ax_ph.axvline(w, color="C3", lw=0.8)
+        ax_mag.vlines(w, mag, 0.0, color="C3", lw=2)
+        ax_mag.annotate(f"GM {gm:.1f} dB\n@ {w:.3g} rad/s", (w, mag), fontsize=8)
+    if margins.dt is not None:
+        for ax in (ax_mag, ax_ph):
+            ax.axvline(np.pi / margins.dt, color="k", lw=0.8, ls=":")
+    ax_mag.set_ylabel("|L| (dB)")
+    ax_ph.set_ylabel("phase L (deg)")
+    ax_ph.set_xlabel("frequency (rad/s)")
+    ax_mag.set_title(title or "Open loop L = C P")
+    for ax in (ax_mag, ax_ph):
+        ax.grid(True, which="both", alpha=0.3)
+    return fig
+
+
+def nyquist_figure(margins: LoopMargins, title: str = "") -> Figure:
+    """Nyquist curve of ``L`` with -1, the unit circle, the Ms circle and the margins."""
+    loop = margins.loop
+    omega = frequency_grid(loop)
+    resp = frequency_response(loop, omega)
+    fig = Figure(figsize=(6, 6), layout="constrained")
+    ax = fig.subplots()
+    ax.plot(resp.real, resp.imag, color="C0", label="L(jw), w > 0")
+    ax.plot(resp.real, -resp.imag, color="C0", ls="--", alpha=0.5, label="w < 0")
+    theta = np.linspace(0, 2 * np.pi, 256)
+    ax.plot(np.cos(theta), np.sin(theta), color="0.6", lw=0.8, label="unit circle")
+    radius = 1.0 / margins.ms
+    ax.plot(-1 + radius * np.cos(theta), radius * np.sin(theta), color="C1", lw=0.8,
+            label=f"1/Ms, Ms = {margins.ms:.2f}")
+    ax.plot([-1], [0], "k+", ms=12)
+    for w, pm in zip(margins.crossover_rad_s, margins.phase_margins_deg, strict=True):
+        point = frequency_response(loop, np.array([w]))[0]
+        ax.plot([0, point.real], [0, point.imag], color="C2", lw=1)
+        ax.annotate(f"PM {pm:.1f} deg", (point.real, point.imag), fontsize=8)
+    for w, gm in zip(margins.phase_crossover_rad_s, margins.gain_margins_db, strict=True):
+        point = frequency_response(loop, np.array([w]))[0]
+        ax.plot(point.real, 0.0, "o", color="C3", ms=4)
+        ax.annotate(f"GM {gm:.1f} dB", (point.real, 0.0), fontsize=8)
+    span = float(np.clip(1.1 * np.max(np.abs(resp)), 2.0, 5.0))
+    ax.set_xlim(-span, span)
+    ax.set_ylim(-span, span)
+    ax.set_aspect("equal")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="lower right")
+    ax.set_xlabel("Re L")
+    ax.set_ylabel("Im L")
+    ax.set_title(title or "Nyquist")
+    return fig
+
+
+def pole_zero_figure(margins: LoopMargins, title: str = "") -> Figure:
+    """Open-loop poles/zeros and closed-loop poles, with the unit circle for discrete loops."""
+    loop = margins.loop
+    fig = Figure(figsize=(6, 6), layout="constrained")
+    ax = fig.subplots()
+    tf = minimal_tf(loop)
+    poles, zeros = tf.poles(), tf.zeros()
+    ax.plot(poles.real, poles.imag, "x", color="C0", label="open-loop poles")
+    ax.plot(zeros.real, zeros.imag, "o", mfc="none", color="C0", label="open-loop zeros")
+    cl = margins.closed_loop_poles
+    ax.plot(cl.real, cl.imag, "x", color="C3", ms=9, label="closed-loop poles")
+    if margins.dt is not None:
+        theta = np.linspace(0, 2 * np.pi, 256)
+        ax.plot(np.cos(theta), np.sin(theta), color="0.6", lw=0.8)
+        ax.set_aspect("equal")
+    else:
+        ax.axvline(0.0, color="0.6", lw=0.8)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_xlabel("Re")
+    ax.set_ylabel("Im")
+    ax.set_title(title or "Poles and zeros")
+    return fig
+
+
+def save_loop_figures(margins: LoopMargins, directory: str | Path, stem: str) -> list[Path]:
+    """Write ``<stem>_bode.png``, ``<stem>_nyquist.png`` and ``<stem>_pz.png``.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    written = []
+    for suffix, make in (("bode", bode_figure), ("nyquist", nyquist_figure),
+                         ("pz", pole_zero_figure)):
+        path = directory / f"{stem}_{suffix}.png"
+        make(margins, title=f"{stem}: {suffix}").savefig(path, dpi=110)
+        written.append(path)
+    return written

@@ -1,0 +1,365 @@
+"""Discrete PID with derivative filter, back-calculation anti-windup and bumpless switching,
+designed from a phase-margin and crossover specification.
+
+Control law at step k (``e = r - y``, ``T`` the control period)::
+
+    u_k   = sat(kp e_k + I_k + kd D_k)
+    D_k   = a D_{k-1} + (s_k - s_{k-1}) / (Tf + T),  a = Tf / (Tf + T)
+    I_k+1 = I_k + ki T e_k + (T / Tt) (u_k - v_k)            (back-calculation)
+
+with ``s = e`` or ``s = -y`` (derivative on measurement, no setpoint kick) and
+``v`` the unsaturated output. Its linear part from ``e`` to ``u`` is::
+
+    C(z) = kp + ki T / (z - 1) + kd (z - 1) / ((Tf + T) z - Tf)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, Literal
+
+import control
+import numpy as np
+import scipy.optimize
+
+from controllers.analysis import loop_margins
+from controllers.base import COMMAND_LIMITS, Observation, as_observation
+from controllers.errors import PlantError, SpecificationError
+from controllers.plant import check_plant, frequency_response, loop_plant
+from controllers.report import DesignReport
+
+
+class PID:
+    """Discrete PID controller acting on grip force.
+
+    Parameters
+    ----------
+    kp : float
+        Proportional gain, command units per N.
+    ki_per_s : float
+        Integral gain, command units per (N s).
+    kd_s : float
+        Derivative gain, command units s per N.
+    dt_s : float
+        Control period in seconds.
+    derivative_filter_s : float
+        Time constant ``Tf`` of the first-order derivative filter in seconds.
+    tracking_time_s : float, optional
+        Back-calculation time constant ``Tt`` (>= ``dt_s``); default
+        ``sqrt(Ti Td)`` with ``Ti = kp/ki``, ``Td = kd/kp`` (``Ti`` for a PI).
+    u_limits : (float, float)
+        Command saturation; default ``(-1, 1)``.
+    derivative_on : {"measurement", "error"}
+        Differentiate ``-y`` (no kick on reference steps) or ``e``.
+    computation_delay_samples : int
+        Samples between measuring and applying, used by :meth:`loop`.
+    """
+
+    name = "pid"
+
+    def __init__(
+        self,
+        *,
+        kp: float,
+        ki_per_s: float,
+        kd_s: float,
+        dt_s: float,
+        derivative_filter_s: float,
+        tracking_time_s: float | None = None,
+        u_limits: tuple[float, float] = COMMAND_LIMITS,
+        derivative_on: Literal["measurement", "error"] = "measurement",
+        computation_delay_samples: int = 1,
+    ) -> None:
+        if dt_s <= 0:
+            raise ValueError(f"PID: expected dt_s > 0, found {dt_s}")
+        if derivative_filter_s < 0:
+            raise ValueError(f"PID: expected derivative_filter_s >= 0, found {derivative_filter_s}")
+        if derivative_on not in ("measurement", "error"):
+            raise ValueError(
+                f"PID: expected derivative_on 'measurement' or 'error', found {derivative_on!r}"
+            )
+        if not u_limits[0] < u_limits[1]:
+            raise ValueError(
+                f"PID: expected u_limits (low, high) with low < high, found {u_limits}"
+            )
+        self.dt_s = float(dt_s)
+        self.derivative_filter_s = float(derivative_filter_s)
+        self.u_limits = (float(u_limits[0]), float(u_limits[1]))
+        self.derivative_on = derivative_on
+        self.computation_delay_samples = int(computation_delay_samples)
+        self._tracking_time_s = tracking_time_s
+        self.kp, self.ki_per_s, self.kd_s = float(kp), float(ki_per_s), float(kd_s)
+        self._update_tracking()
+        self.manual_u: float | None = None
+        self.report_: DesignReport | None = None
+        self.reset()
+
+    def _update_tracking(self) -> None:
+        if self._tracking_time_s is not None:
+            tt = float(self._tracking_time_s)
+        elif self.ki_per_s > 0 and self.kp > 0:
+            ti = self.kp / self.ki_per_s
+            tt = np.sqrt(ti * self.kd_s / self.kp) if self.kd_s > 0 else ti
+        else:
+            tt = np.inf
+        self.tracking_time_s = max(tt, self.dt_s)
+
+    def reset(self, u0: float = 0.0) -> None:
+        """Zero the state; the first output for zero error is ``u0`` (clipped).
+
+        The first step after a reset takes its own derivative signal as the past
+        value, so starting on a nonzero force gives no derivative kick.
+        """
+        self._integral = float(np.clip(u0, *self.u_limits))
+        self._deriv = 0.0
+        self._s_prev: float | None = None
+        self._e_last = 0.0
+        self.last_u = self._integral
+
+    def set_gains(self, *, kp: float, ki_per_s: float, kd_s: float) -> None:
+        """Change gains without a bump: the integrator absorbs the change in P and D terms."""
+        self._integral += (self.kp - kp) * self._e_last + (self.kd_s - kd_s) * self._deriv
+        self.kp, self.ki_per_s, self.kd_s = float(kp), float(ki_per_s), float(kd_s)
+        self._update_tracking()
+
+    def set_manual(self, u: float | None) -> None:
+        """Hold the output at ``u`` (manual mode), or return to automatic with ``None``.
+
+        In manual mode the integrator tracks the held output, so switching back
+        to automatic is bumpless.
+        """
+        self.manual_u = None if u is None else float(np.clip(u, *self.u_limits))
+
+    def step(self, reference_n: float, grip_force_n: float) -> float:
+        """One control step; returns the saturated command."""
+        e = reference_n - grip_force_n
+        s = e if self.derivative_on == "error" else -grip_force_n
+        tf, dt = self.derivative_filter_s, self.dt_s
+        if self._s_prev is None:
+            self._s_prev = s
+        self._deriv = (tf * self._deriv + (s - self._s_prev)) / (tf + dt)
+        self._s_prev = s
+        pd = self.kp * e + self.kd_s * self._deriv
+        if self.manual_u is not None:
+            u = self.manual_u
+            self._integral = u - pd
+        else:
+            v = pd + self._integral
+            u = min(max(v, self.u_limits[0]), self.u_limits[1])
+            self._integral += self.ki_per_s * dt * e + (dt / self.tracking_time_s) * (u - v)
+        self._e_last = e
+        self.last_u = u
+        return u
+
+    def act(self, observation: Observation | Mapping[str, Any]) -> float:
+        """Command in ``u_limits`` for an observation (uses reference and grip force)."""
+        obs = as_observation(observation)
+        return self.step(obs.reference_n, obs.grip_force_n)
+
+    def track(self, observation: Observation | Mapping[str, Any], applied_u: float) -> None:
+        """Follow a command applied by someone else (bumpless hand-over later)."""
+        obs = as_observation(observation)
+        held, self.manual_u = self.manual_u, float(np.clip(applied_u, *self.u_limits))
+        self.step(obs.reference_n, obs.grip_force_n)
+        self.manual_u = held
+
+    def transfer_function(self) -> control.TransferFunction:
+        """Linear part ``C(z)`` from error (N) to command, discrete with ``dt``."""
+        dt, tf = self.dt_s, self.derivative_filter_s
+        c = control.tf([self.kp], [1.0], dt)
+        if self.ki_per_s:
+            c = c + control.tf([self.ki_per_s * dt], [1.0, -1.0], dt)
+        if self.kd_s:
+            c = c + control.tf([self.kd_s, -self.kd_s], [tf + dt, -tf], dt)
+        return c
+
+    def loop(self, plant: control.LTI) -> control.TransferFunction:
+        """Open loop ``C(z) P(z) z**-d`` with sample-and-hold and computation delay."""
+        return self.transfer_function() * loop_plant(
+            plant, self.dt_s, computation_delay_samples=self.computation_delay_samples
+        )
+
+
+def _plant_dt(plant: control.LTI, dt_s: float | None) -> float:
+    if plant.isdtime(strict=True):
+        return float(plant.dt)
+    if dt_s is None:
+        raise PlantError("design: a continuous plant needs dt_s (the control period)")
+    return float(dt_s)
+
+
+def required_controller_phase(
+    plant: control.LTI,
+    phase_margin_deg: float,
+    crossover_rad_s: float,
+    dt_s: float,
+    computation_delay_samples: int,
+) -> tuple[float, float]:
+    """Phase (deg, wrapped to (-180, 180]) and gain a controller needs at the crossover.
+
+    ``arg C(wc) = -180 + PM - arg P(wc)`` and ``|C(wc)| = 1 / |P(wc)|`` for the
+    sampled, delayed plant.
+
+    Raises
+    ------
+    SpecificationError
+        If the crossover is at or above the Nyquist frequency or not positive.
+    """
+    nyquist = np.pi / dt_s
+    if not 0 < crossover_rad_s < nyquist:
+        raise SpecificationError(
+            f"crossover {crossover_rad_s} rad/s must lie in (0, {nyquist:.4g}) rad/s "
+            f"(Nyquist at dt = {dt_s} s)"
+        )
+    if not 0 < phase_margin_deg < 90:
+        raise SpecificationError(
+            f"phase margin must lie in (0, 90) deg, found {phase_margin_deg}"
+        )
+    lp = loop_plant(plant, dt_s, computation_delay_samples=computation_delay_samples)
+    pw = frequency_response(lp, np.array([crossover_rad_s]))[0]
+    theta = -180.0 + phase_margin_deg - np.angle(pw, deg=True)
+    theta = 180.0 - np.mod(180.0 - theta, 360.0)
+    return float(theta), float(1.0 / np.abs(pw))
+
+
+def design_pid(
+    plant: control.LTI,
+    *,
+    phase_margin_deg: float = 60.0,
+    crossover_rad_s: float,
+    dt_s: float | None = None,
+    structure: Literal["pi", "pid"] = "pi",
+    ti_over_td: float = 4.0,
+    derivative_filter_ratio: float = 10.0,
+    computation_delay_samples: int = 1,
+    u_limits: tuple[float, float] = COMMAND_LIMITS,
+) -> PID:
+    """Design a PI or PID so that the loop crosses over at ``crossover_rad_s`` with the given PM.
+
+    The gains solve ``C(e^{j wc T}) P(e^{j wc T}) z^-d = -e^{j PM}`` exactly on the
+    discrete loop. A PI has two gains for the two equations. A PID fixes
+    ``Ti = ti_over_td * Td`` and the derivative filter at ``derivative_filter_ratio * wc``,
+    and finds ``Td`` by root finding on the phase.
+
+    Parameters
+    ----------
+    plant : control.LTI
+        Design plant, command (-1..1) to grip force (N); continuous or discrete.
+    phase_margin_deg : float
+        Target phase margin in degrees.
+    crossover_rad_s : float
+        Target gain-crossover frequency in rad/s.
+    dt_s : float, optional
+        Control period in seconds (required for a continuous plant).
+    structure : {"pi", "pid"}
+    ti_over_td : float
+        ``Ti / Td`` for the PID (4 is the classical choice).
+    derivative_filter_ratio : float
+        Derivative filter corner as a multiple of the crossover.
+    computation_delay_samples : int
+        Whole samples of computation delay in the loop.
+    u_limits : (float, float)
+        Command saturation.
+
+    Returns
+    -------
+    PID
+        With ``report_`` (:class:`~controllers.report.DesignReport`).
+
+    Raises
+    ------
+    PlantError
+        Unstable or non-minimal plant (checked first).
+    SpecificationError
+        If the structure cannot give the phase the plant needs at that crossover.
+    """
+    if structure not in ("pi", "pid"):
+        raise SpecificationError(f"structure must be 'pi' or 'pid', found {structure!r}")
+    plant_report = check_plant(plant)
+    dt = _plant_dt(plant, dt_s)
+    wc = float(crossover_rad_s)
+    theta, gain = required_controller_phase(
+        plant, phase_margin_deg, wc, dt, computation_delay_samples
+    )
+    g = dt / (np.exp(1j * wc * dt) - 1.0)  # integrator T/(z-1) at wc
+    notes: list[str] = []
+    if structure == "pi":
+        lag_limit = np.angle(g, deg=True)
+        if theta > 0:
+            raise SpecificationError(
+                f"phase margin {phase_margin_deg} deg at {wc} rad/s needs {theta:.1f} deg of "
+                f"lead; a PI gives at most 0 deg (use structure='pid', lead_lag or a lower "
+                f"crossover)"
+            )
+        if theta < lag_limit:
+            raise SpecificationError(
+                f"phase margin {phase_margin_deg} deg at {wc} rad/s needs {-theta:.1f} deg of "
+                f"lag; a PI gives at most {-lag_limit:.1f} deg (raise the crossover)"
+            )
+        target = gain * np.exp(1j * np.deg2rad(theta))
+        ki = target.imag / g.imag
+        kp = target.real - ki * g.real
+        kd, tf = 0.0, 0.0
+    else:
+        tf = 1.0 / (derivative_filter_ratio * wc)
+        zc = np.exp(1j * wc * dt)
+        h = (zc - 1.0) / ((tf + dt) * zc - tf)
+
+        def shape(td: np.ndarray) -> np.ndarray:
+            return 1.0 + g / (ti_over_td * td) + td * h
+
+        grid = np.geomspace(1e-4 / wc, 1e3 / wc, 4000)
+        phase = np.angle(shape(grid), deg=True)
+        i_max = int(np.argmax(phase))
+        if theta > phase[i_max]:
+            raise SpecificationError(
+                f"phase margin {phase_margin_deg} deg at {wc} rad/s needs {theta:.1f} deg of "
+                f"lead; a PID with Ti = {ti_over_td} Td and derivative filter at "
+                f"{derivative_filter_ratio} wc gives at most {phase[i_max]:.1f} deg"
+            )
+        if theta < phase[0]:
+            raise SpecificationError(
+                f"phase margin {phase_margin_deg} deg at {wc} rad/s needs {-theta:.1f} deg of "
+                f"lag; a PID gives at most {-phase[0]:.1f} deg (raise the crossover)"
+            )
+        j = int(np.nonzero(phase[: i_max + 1] >= theta)[0][0])
+        if j == 0:
+            td = grid[0]
+        else:
+            td = scipy.optimize.brentq(
+                lambda t: np.angle(shape(np.array([t])), deg=True)[0] - theta,
+                grid[j - 1],
+                grid[j],
+                xtol=1e-14,
+            )
+        kp = gain / np.abs(shape(np.array([td]))[0])
+        ki, kd = kp / (ti_over_td * td), kp * td
+        notes.append(f"Ti = {ti_over_td} Td; derivative filter corner at "
+                     f"{derivative_filter_ratio} x crossover")
+    if kp < 0 or ki < 0 or kd < 0:
+        raise SpecificationError(
+            f"phase margin {phase_margin_deg} deg at {wc} rad/s needs negative gains "
+            f"(kp {kp:.3g}, ki {ki:.3g}, kd {kd:.3g}); choose another crossover"
+        )
+    controller = PID(
+        kp=float(kp),
+        ki_per_s=float(ki),
+        kd_s=float(kd),
+        dt_s=dt,
+        derivative_filter_s=float(tf),
+        u_limits=u_limits,
+        computation_delay_samples=computation_delay_samples,
+    )
+    margins = loop_margins(controller.loop(plant))
+    controller.report_ = DesignReport(
+        controller="pid",
+        spec={"phase_margin_deg": phase_margin_deg, "crossover_rad_s": wc,
+              "structure": structure, "computation_delay_samples": computation_delay_samples},
+        parameters={"kp": float(kp), "ki_per_s": float(ki), "kd_s": float(kd),
+                    "derivative_filter_s": float(tf),
+                    "tracking_time_s": controller.tracking_time_s, "dt_s": dt},
+        plant=plant_report,
+        margins=margins,
+        notes=notes,
+    )
+    return controller
