@@ -1,0 +1,248 @@
+"""Dispatch of a scenario to the runner of its kind.
+
+:func:`run_scenario` is the default task of a sweep. It looks the scenario's
+``kind`` (``reproduction``, ``calibration`` or ``episode``) up in a registry
+and calls the function registered for it, which returns a :data:`ResultRow`:
+a flat mapping of result names to scalars (``bool``, ``int``, ``float``,
+``str`` or ``None``) and, optionally, under the key ``"traces"``, a mapping of
+trace names to numeric arrays of shape ``(n_samples,)`` or
+``(n_samples, n_channels)``.
+
+Runners are registered with :func:`register_runner`, either as a callable or
+as a ``"package.module:function"`` reference imported on first use, so that
+registering a runner never imports its simulation stack.
+
+Registered here: ``reproduction`` (:func:`run_reproduction`). ``calibration``
+and ``episode`` need the closed-loop stack and are registered by it.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+
+from scenarios.schema import SCENARIO_KINDS, Scenario
+
+ResultRow = Mapping[str, Any]
+"""Flat mapping of result names to scalars, plus optional ``"traces"``."""
+
+Runner = Callable[[Scenario], ResultRow]
+
+_REGISTRY: dict[str, Runner | str] = {}
+
+
+class RunnerUnavailableError(LookupError):
+    """No runner is registered for a scenario kind, or its backend cannot be imported."""
+
+
+class UnsupportedScenarioError(ValueError):
+    """A runner cannot honour a field of the scenario (e.g. a mode its estimator lacks)."""
+
+
+class DivergedError(RuntimeError):
+    """A scenario ran but its result diverged (e.g. an unstable identified model)."""
+
+
+def register_runner(kind: str, runner: Runner | str, *, replace: bool = False) -> None:
+    """Register the runner of a scenario kind.
+
+    Parameters
+    ----------
+    kind : {"reproduction", "calibration", "episode"}
+        Scenario kind.
+    runner : callable or str
+        ``runner(scenario) -> ResultRow``, or its ``"package.module:function"``
+        reference, imported when first used.
+    replace : bool
+        Allow replacing an existing registration.
+
+    Raises
+    ------
+    ValueError
+        Unknown kind, malformed reference, or kind already registered.
+    """
+    if kind not in SCENARIO_KINDS:
+        raise ValueError(f"scenario kind must be one of {SCENARIO_KINDS} (found {kind!r})")
+    if isinstance(runner, str) and runner.count(":") != 1:
+        raise ValueError(f"runner reference must be 'package.module:function' (found {runner!r})")
+    if kind in _REGISTRY and not replace:
+        raise ValueError(f"a runner for kind {kind!r} is already registered ({_REGISTRY[kind]!r})")
+    _REGISTRY[kind] = runner
+
+
+def unregister_runner(kind: str) -> None:
+    """Remove the runner of ``kind`` (no effect if none is registered)."""
+    _REGISTRY.pop(kind, None)
+
+
+def registered_kinds() -> tuple[str, ...]:
+    """Scenario kinds that have a runner registered."""
+    return tuple(k for k in SCENARIO_KINDS if k in _REGISTRY)
+
+
+def get_runner(kind: str) -> Runner:
+    """The runner of ``kind``, importing it if it was registered by reference.
+
+    Raises
+    ------
+    RunnerUnavailableError
+        Nothing is registered for ``kind``, or its module cannot be imported.
+    """
+    entry = _REGISTRY.get(kind)
+    if entry is None:
+        have = ", ".join(registered_kinds()) or "none"
+        raise RunnerUnavailableError(
+            f"no runner registered for scenario kind {kind!r} (registered: {have}); "
+            "its simulation backend is not installed in this version of griploop"
+        )
+    if callable(entry):
+        return entry
+    module_name, func_name = entry.split(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise RunnerUnavailableError(
+            f"runner {entry!r} of scenario kind {kind!r} cannot be imported ({exc})"
+        ) from None
+    func = getattr(module, func_name, None)
+    if not callable(func):
+        raise RunnerUnavailableError(
+            f"runner {entry!r} of scenario kind {kind!r}: {module_name} has no function {func_name}"
+        )
+    return func
+
+
+def require_runners(kinds: set[str] | frozenset[str] | tuple[str, ...]) -> None:
+    """Check that every kind in ``kinds`` has an importable runner (before a sweep starts).
+
+    Raises
+    ------
+    RunnerUnavailableError
+        For the first kind, in sorted order, that has none.
+    """
+    for kind in sorted(kinds):
+        get_runner(kind)
+
+
+def run_scenario(scenario: Scenario) -> ResultRow:
+    """Run one scenario with the runner registered for its kind.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A validated scenario with its seed set.
+
+    Returns
+    -------
+    ResultRow
+        Flat mapping of scalars plus optional ``"traces"``; the scenario kind
+        and estimator mode are added as ``kind`` and ``mode`` when absent.
+
+    Raises
+    ------
+    RunnerUnavailableError
+        No runner for ``scenario.kind``.
+    """
+    row = dict(get_runner(scenario.kind)(scenario))
+    row.setdefault("kind", scenario.kind)
+    row.setdefault("mode", scenario.estimator.mode)
+    return row
+
+
+def run_reproduction(scenario: Scenario) -> ResultRow:
+    """One subject x estimator x mode of the paper's evaluation (kind ``reproduction``).
+
+    The virtual subject ``VirtualSubject.sample(population_seed, subject_id)``
+    (with the scenario's electrode shift, extra noise and fatigue) performs the
+    paper's squeeze session with the FSR; features are extracted on the paper's
+    channels; the estimator is fitted on the first ``identification_fraction``
+    of the windows and scored on the rest (``estimation.protocol``), as
+    ``griploop reproduce`` does for a whole population.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Kind ``reproduction``, seed set. ``seed`` drives the session (protocol
+        timing, levels, noise) and the networks' initialization.
+
+    Returns
+    -------
+    ResultRow
+        ``r2``, ``nrmse``, ``rmse_n``, ``volatility_n_per_s`` on the validation
+        part, ``train_ms``, ``step_us``, ``order``, ``n_windows``,
+        ``n_identification``, ``session_s``, and traces ``t_s``, ``force_n``
+        (measured) and ``force_hat_n`` (estimated), shape (n_validation,).
+
+    Raises
+    ------
+    UnsupportedScenarioError
+        ``protocol.calibration_s`` set (the paper session has its own length)
+        or a mode the estimator does not have.
+    DivergedError
+        The identified model is unstable in the requested mode.
+    """
+    from threadpoolctl import threadpool_limits
+
+    from estimation.features import PAPER_CHANNELS, extract_features
+    from estimation.paper import PAPER_ORDER
+    from estimation.protocol import evaluate_subject, split_index
+    from estimation.reproduce import estimator_params
+    from sim.subjects import VirtualSubject
+
+    if scenario.protocol.calibration_s is not None:
+        raise UnsupportedScenarioError(
+            "the paper session has its own length (about 25-36 s): leave "
+            f"protocol.calibration_s unset (found {scenario.protocol.calibration_s:g})"
+        )
+    subj, est = scenario.subject, scenario.estimator
+    session_seq, estimator_seq = np.random.SeedSequence(scenario.seed).spawn(2)
+    subject = VirtualSubject.sample(subj.population_seed, subj.subject_id).with_scenario(
+        electrode_shift=subj.electrode_shift,
+        extra_noise_lsb=subj.extra_noise_lsb,
+        fatigue_per_min=subj.fatigue_per_min,
+    )
+    recording = subject.paper_session(rng=np.random.default_rng(session_seq),
+                                      generator=subj.generator)
+    features = extract_features(recording, channels=PAPER_CHANNELS)
+    order = PAPER_ORDER if est.order is None else est.order
+    fraction = scenario.protocol.identification_fraction
+    params = estimator_params([est.name], np.random.default_rng(estimator_seq), order,
+                              dt_s=features.dt_s)
+    with threadpool_limits(limits=1, user_api="blas"):  # tiny matrices: threads only cost
+        result = evaluate_subject(features.X, features.y, params, dt_s=features.dt_s,
+                                  fraction=fraction)[est.name]
+    if est.mode not in result["modes"]:
+        raise UnsupportedScenarioError(
+            f"estimator {est.name} has modes {tuple(result['modes'])} (found mode {est.mode})"
+        )
+    scores = result["modes"][est.mode]
+    if scores["status"] != "ok":
+        raise DivergedError(f"{est.name} {est.mode}: {scores.get('message', scores['status'])}")
+    n_id = split_index(features.n_windows, fraction)
+    force_hat_n = result["_pipeline"].predict(features.X, features.y, mode=est.mode)[n_id:]
+    return {
+        "subject_id": subj.subject_id,
+        "estimator": est.name,
+        "mode": est.mode,
+        "order": order,
+        "r2": float(scores["r2"]),
+        "nrmse": float(scores["nrmse"]),
+        "rmse_n": float(scores["rmse_n"]),
+        "volatility_n_per_s": float(scores["volatility_n_per_s"]),
+        "train_ms": float(result["train_ms"]),
+        "step_us": None if result["step_us"] is None else float(result["step_us"]),
+        "n_windows": int(features.n_windows),
+        "n_identification": int(n_id),
+        "session_s": float(recording.duration_s),
+        "traces": {
+            "t_s": features.t_s[n_id:],
+            "force_n": features.y[n_id:],
+            "force_hat_n": np.asarray(force_hat_n, dtype=float),
+        },
+    }
+
+
+register_runner("reproduction", run_reproduction)

@@ -1,0 +1,450 @@
+"""SQLite results store: one row per scenario, keyed by a content hash.
+
+The store is written by the sweep driver only, one transaction per result, in
+WAL mode with ``synchronous=NORMAL``: a committed row survives the driver
+being killed (even by SIGKILL) and a half-written one never appears. The key
+is :func:`content_hash` of the scenario's canonical JSON, the package version
+and the task that ran it, so re-running a sweep finds its finished rows and a
+changed scenario, task or griploop version is a new row.
+
+Tables
+------
+``results``
+    ``hash`` (primary key), ``kind``, ``config`` (canonical JSON), ``task``,
+    ``version``, ``status`` (``ok`` or ``failed``), ``result`` (JSON object of
+    scalars), ``traces`` (``.npz`` bytes or NULL), ``error``, ``traceback``,
+    ``started_at`` / ``finished_at`` (Unix time, s), ``duration_s``, ``worker``,
+    ``recorded_at`` (Unix time, s), ``attempts``.
+``sweep_members``
+    ``(sweep, hash)`` primary key, ``idx`` and ``overrides`` (JSON): which
+    scenarios belong to which named sweep.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import sqlite3
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+SCHEMA_VERSION = "1"
+STATUSES = ("ok", "failed")
+EXPORT_FORMATS = ("parquet", "csv")
+_BUSY_TIMEOUT_MS = 30_000
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS results (
+    hash TEXT PRIMARY KEY,
+    kind TEXT NOT NULL,
+    config TEXT NOT NULL,
+    task TEXT NOT NULL,
+    version TEXT NOT NULL,
+    status TEXT NOT NULL CHECK (status IN ('ok', 'failed')),
+    result TEXT,
+    traces BLOB,
+    error TEXT,
+    traceback TEXT,
+    started_at REAL,
+    finished_at REAL,
+    duration_s REAL,
+    worker TEXT,
+    recorded_at REAL NOT NULL,
+    attempts INTEGER NOT NULL DEFAULT 1
+);
+CREATE TABLE IF NOT EXISTS sweep_members (
+    sweep TEXT NOT NULL,
+    hash TEXT NOT NULL,
+    idx INTEGER NOT NULL,
+    overrides TEXT NOT NULL,
+    PRIMARY KEY (sweep, hash)
+);
+"""
+
+# Insert a result; a row already 'ok' is never replaced, a 'failed' one is (retries).
+_UPSERT = """
+INSERT INTO results (hash, kind, config, task, version, status, result, traces, error,
+                     traceback, started_at, finished_at, duration_s, worker, recorded_at)
+VALUES (:hash, :kind, :config, :task, :version, :status, :result, :traces, :error,
+        :traceback, :started_at, :finished_at, :duration_s, :worker, :recorded_at)
+ON CONFLICT (hash) DO UPDATE SET
+    status = excluded.status, result = excluded.result, traces = excluded.traces,
+    error = excluded.error, traceback = excluded.traceback,
+    started_at = excluded.started_at, finished_at = excluded.finished_at,
+    duration_s = excluded.duration_s, worker = excluded.worker,
+    recorded_at = excluded.recorded_at, attempts = results.attempts + 1
+WHERE results.status = 'failed'
+"""
+
+_META_COLUMNS = (
+    "hash", "kind", "task", "version", "status", "error",
+    "started_at", "finished_at", "duration_s", "worker", "attempts",
+)  # fmt: skip
+
+
+class StoreError(ValueError):
+    """A results store file is not a griploop store, or a request does not fit it."""
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What running one scenario produced, as the driver records it.
+
+    Attributes
+    ----------
+    hash : str
+        Content hash of the scenario (:func:`content_hash`).
+    status : {"ok", "failed"}
+        Whether the task returned a valid result.
+    result : dict
+        Flat mapping of result names to scalars (``ok`` rows; empty otherwise).
+    traces : bytes or None
+        Optional traces as an ``.npz`` archive (see :func:`encode_traces`).
+    error : str or None
+        ``"ExceptionType: message"`` of a failed scenario.
+    traceback : str or None
+        Formatted traceback of a failed scenario.
+    started_at, finished_at : float
+        Unix time at start and end of the task, s.
+    duration_s : float
+        Wall time of the task measured with a monotonic clock, s.
+    worker : str
+        ``host:pid`` of the process that ran it.
+    """
+
+    hash: str
+    status: str
+    result: dict[str, Any]
+    traces: bytes | None
+    error: str | None
+    traceback: str | None
+    started_at: float
+    finished_at: float
+    duration_s: float
+    worker: str
+
+
+def package_version() -> str:
+    """Installed version of the ``griploop`` distribution (part of every content hash).
+
+    Raises
+    ------
+    LookupError
+        griploop is not installed (``pip install -e .`` first).
+    """
+    try:
+        return metadata.version("griploop")
+    except metadata.PackageNotFoundError:
+        raise LookupError(
+            "the griploop distribution is not installed (expected `pip install -e .`)"
+        ) from None
+
+
+def content_hash(config_json: str, version: str, task: str) -> str:
+    """SHA-256 hex digest of a scenario's canonical JSON, the package version and task name."""
+    payload = json.dumps({"config": config_json, "task": task, "version": version})
+    return hashlib.sha256(payload.encode()).hexdigest()
+
+
+def encode_traces(traces: Mapping[str, Any]) -> bytes:
+    """Pack named numeric arrays into compressed ``.npz`` bytes."""
+    buffer = io.BytesIO()
+    arrays = {str(k): np.asarray(v) for k, v in traces.items()}
+    for name, arr in arrays.items():
+        if arr.dtype.kind not in "biuf":
+            raise TypeError(f"trace {name!r} must be numeric (found dtype {arr.dtype})")
+    np.savez_compressed(buffer, **arrays)
+    return buffer.getvalue()
+
+
+def decode_traces(blob: bytes) -> dict[str, np.ndarray]:
+    """Inverse of :func:`encode_traces`."""
+    with np.load(io.BytesIO(blob), allow_pickle=False) as archive:
+        return {name: archive[name] for name in archive.files}
+
+
+class ResultStore:
+    """The SQLite results store of one or more sweeps.
+
+    Parameters
+    ----------
+    path : str or Path
+        Database file; created (with its parent directory) if missing.
+
+    Raises
+    ------
+    StoreError
+        The file exists but is not a griploop results store.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._conn = sqlite3.connect(self.path, timeout=_BUSY_TIMEOUT_MS / 1000)
+        try:
+            self._conn.execute("PRAGMA journal_mode=WAL")
+            self._conn.execute("PRAGMA synchronous=NORMAL")
+            with self._conn:
+                self._conn.executescript(_SCHEMA)
+                self._conn.execute(
+                    "INSERT OR IGNORE INTO meta VALUES ('schema_version', ?)", (SCHEMA_VERSION,)
+                )
+            (found,) = self._conn.execute(
+                "SELECT value FROM meta WHERE key = 'schema_version'"
+            ).fetchone()
+        except sqlite3.DatabaseError as exc:
+            self._conn.close()
+            raise StoreError(
+                f"{self.path}: not a griploop results store (expected SQLite; found: {exc})"
+            ) from None
+        if found != SCHEMA_VERSION:
+            self._conn.close()
+            raise StoreError(
+                f"{self.path}: results store schema {found} (expected {SCHEMA_VERSION})"
+            )
+
+    def __enter__(self) -> ResultStore:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Close the connection."""
+        self._conn.close()
+
+    # -------------------------------------------------------------- writing
+
+    def add_members(
+        self, sweep: str, members: Iterable[tuple[str, int, Mapping[str, Any]]]
+    ) -> None:
+        """Register ``(hash, index, overrides)`` of a sweep's scenarios, once each."""
+        rows = [(sweep, h, int(i), json.dumps(dict(o), sort_keys=True)) for h, i, o in members]
+        with self._conn:
+            self._conn.executemany("INSERT OR IGNORE INTO sweep_members VALUES (?, ?, ?, ?)", rows)
+
+    def record(self, outcome: Outcome, *, kind: str, config_json: str, task: str,
+               version: str) -> bool:
+        """Store one outcome and commit.
+
+        A hash already stored as ``ok`` is left unchanged; a ``failed`` one is
+        replaced (a retry) and its ``attempts`` counter incremented.
+
+        Returns
+        -------
+        bool
+            Whether the row was inserted or replaced.
+        """
+        if outcome.status not in STATUSES:
+            raise StoreError(f"status must be one of {STATUSES} (found {outcome.status!r})")
+        params = {
+            "hash": outcome.hash,
+            "kind": kind,
+            "config": config_json,
+            "task": task,
+            "version": version,
+            "status": outcome.status,
+            "result": json.dumps(outcome.result, sort_keys=True),
+            "traces": outcome.traces,
+            "error": outcome.error,
+            "traceback": outcome.traceback,
+            "started_at": outcome.started_at,
+            "finished_at": outcome.finished_at,
+            "duration_s": outcome.duration_s,
+            "worker": outcome.worker,
+            "recorded_at": time.time(),
+        }
+        with self._conn:
+            cursor = self._conn.execute(_UPSERT, params)
+        return cursor.rowcount == 1
+
+    # -------------------------------------------------------------- reading
+
+    def statuses(self, hashes: Iterable[str] | None = None) -> dict[str, str]:
+        """``{hash: status}`` of stored rows, restricted to ``hashes`` if given."""
+        rows = self._conn.execute("SELECT hash, status FROM results").fetchall()
+        found = dict(rows)
+        if hashes is None:
+            return found
+        return {h: found[h] for h in hashes if h in found}
+
+    def counts(self, sweep: str | None = None) -> dict[str, int]:
+        """Number of rows per status (``{"ok": n, "failed": m}``), optionally of one sweep."""
+        sql, args = "SELECT status, COUNT(*) FROM results", ()
+        if sweep is not None:
+            sql += " WHERE hash IN (SELECT hash FROM sweep_members WHERE sweep = ?)"
+            args = (sweep,)
+        found = dict(self._conn.execute(sql + " GROUP BY status", args).fetchall())
+        return {s: int(found.get(s, 0)) for s in STATUSES}
+
+    def sweeps(self) -> list[str]:
+        """Names of the sweeps registered in the store."""
+        rows = self._conn.execute("SELECT DISTINCT sweep FROM sweep_members ORDER BY sweep")
+        return [r[0] for r in rows]
+
+    def rows(self, *, sweep: str | None = None, status: str | None = None) -> list[dict[str, Any]]:
+        """Stored rows with ``config`` and ``result`` parsed, ordered by sweep index then hash.
+
+        Parameters
+        ----------
+        sweep : str, optional
+            Only rows of this sweep (adds ``sweep``, ``idx`` and ``overrides``).
+        status : {"ok", "failed"}, optional
+            Only rows with this status.
+
+        Raises
+        ------
+        StoreError
+            Unknown sweep name or status.
+        """
+        if status is not None and status not in STATUSES:
+            raise StoreError(f"status must be one of {STATUSES} (found {status!r})")
+        if sweep is not None and sweep not in self.sweeps():
+            found = ", ".join(self.sweeps()) or "none"
+            raise StoreError(f"{self.path}: no sweep named {sweep!r} (found: {found})")
+        cols = ", ".join(f"r.{c}" for c in (*_META_COLUMNS, "config", "result", "traceback"))
+        if sweep is None:
+            sql = f"SELECT {cols}, NULL, NULL, NULL FROM results r WHERE 1"
+            args: list[Any] = []
+        else:
+            sql = (
+                f"SELECT {cols}, m.sweep, m.idx, m.overrides FROM results r "
+                "JOIN sweep_members m ON m.hash = r.hash WHERE m.sweep = ?"
+            )
+            args = [sweep]
+        if status is not None:
+            sql += " AND r.status = ?"
+            args.append(status)
+        sql += " ORDER BY " + ("m.idx, r.hash" if sweep is not None else "r.recorded_at, r.hash")
+        names = (*_META_COLUMNS, "config", "result", "traceback", "sweep", "idx", "overrides")
+        out = []
+        for values in self._conn.execute(sql, args):
+            row = dict(zip(names, values, strict=True))
+            row["config"] = json.loads(row["config"])
+            row["result"] = json.loads(row["result"]) if row["result"] else {}
+            row["overrides"] = json.loads(row["overrides"]) if row["overrides"] else None
+            out.append(row)
+        return out
+
+    def traces(self, hash_: str) -> dict[str, np.ndarray]:
+        """Traces stored with one scenario (empty if it stored none).
+
+        Raises
+        ------
+        StoreError
+            No row with this hash.
+        """
+        row = self._conn.execute("SELECT traces FROM results WHERE hash = ?", (hash_,)).fetchone()
+        if row is None:
+            raise StoreError(f"{self.path}: no result with hash {hash_!r}")
+        return decode_traces(row[0]) if row[0] is not None else {}
+
+    # -------------------------------------------------------------- export
+
+    def export(
+        self,
+        stem: str | Path,
+        formats: Sequence[str] = EXPORT_FORMATS,
+        *,
+        sweep: str | None = None,
+        status: str | None = None,
+    ) -> list[Path]:
+        """Write the rows as a flat table to ``STEM.parquet`` and/or ``STEM.csv``.
+
+        Columns: the metadata columns (``hash``, ``status``, ``error``,
+        timings...), ``config.<dotted.path>`` for every scenario field and
+        ``result.<name>`` for every result scalar. List-valued fields and
+        columns whose values mix types (e.g. numbers and text) are written as
+        JSON text, so both formats hold the same table. Traces and tracebacks
+        stay in the store.
+
+        Returns
+        -------
+        list of Path
+            The files written.
+
+        Raises
+        ------
+        StoreError
+            Unknown format, sweep or status.
+        """
+        import pyarrow as pa
+        import pyarrow.csv as pa_csv
+        import pyarrow.parquet as pq
+
+        bad = [f for f in formats if f not in EXPORT_FORMATS]
+        if bad or not formats:
+            raise StoreError(
+                f"export formats must be among {EXPORT_FORMATS} (found {list(formats)})"
+            )
+        table = pa.table(flat_columns(self.rows(sweep=sweep, status=status)))
+        stem = Path(stem)
+        stem.parent.mkdir(parents=True, exist_ok=True)
+        written = []
+        for fmt in formats:
+            out = stem.with_name(f"{stem.name}.{fmt}")
+            if fmt == "parquet":
+                pq.write_table(table, out)
+            else:
+                pa_csv.write_csv(table, out)
+            written.append(out)
+        return written
+
+
+def flat_columns(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """Export table columns (name -> ``pyarrow.Array``) from :meth:`ResultStore.rows`."""
+    import pyarrow as pa
+
+    flat = []
+    for row in rows:
+        record = {k: row[k] for k in _META_COLUMNS}
+        if row.get("sweep") is not None:
+            record.update(sweep=row["sweep"], idx=row["idx"])
+        record.update(_flatten(row["config"], "config."))
+        record.update({f"result.{k}": v for k, v in row["result"].items()})
+        flat.append(record)
+    names: dict[str, None] = dict.fromkeys(_META_COLUMNS)
+    for record in flat:
+        names.update(dict.fromkeys(record))
+    return {name: _column([r.get(name) for r in flat], pa) for name in names}
+
+
+def _flatten(data: Mapping[str, Any], prefix: str) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        if isinstance(value, Mapping):
+            out.update(_flatten(value, f"{prefix}{key}."))
+        else:
+            out[prefix + key] = value
+    return out
+
+
+def _column(values: list[Any], pa: Any) -> Any:
+    kinds = {_kind(v) for v in values if v is not None}
+    if kinds == {"int", "float"}:
+        kinds = {"float"}
+    if len(kinds) > 1 or kinds == {"json"}:
+        values = [None if v is None else json.dumps(v) for v in values]
+        return pa.array(values, type=pa.string())
+    types = {"bool": pa.bool_(), "int": pa.int64(), "float": pa.float64(), "str": pa.string()}
+    return pa.array(values, type=types[kinds.pop()] if kinds else pa.null())
+
+
+def _kind(value: Any) -> str:
+    if isinstance(value, bool):
+        return "bool"
+    if isinstance(value, int):
+        return "int"
+    if isinstance(value, float):
+        return "float"
+    if isinstance(value, str):
+        return "str"
+    return "json"

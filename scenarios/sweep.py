@@ -1,0 +1,462 @@
+"""Resumable sweep execution: in-process or on dask.distributed, recorded as results arrive.
+
+A sweep is planned (:func:`plan`: each expanded scenario gets its content
+hash), the hashes already finished in the store are skipped, and the rest are
+run by :func:`execute` -- in the driver for one worker, on a dask
+``LocalCluster`` (processes, one thread each) or an existing scheduler
+otherwise. Results are recorded by the driver in completion order, one commit
+each. :func:`execute` turns any exception of the task into a ``failed``
+outcome with its traceback, so one bad scenario never stops a sweep; a lost
+worker is recorded the same way.
+
+Tasks are importable callables ``task(scenario) -> ResultRow`` given as a
+callable or as ``"package.module:function"``; the default is
+:func:`scenarios.runner.run_scenario`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import math
+import os
+import socket
+import sys
+import time
+import traceback
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any, TextIO
+
+import numpy as np
+
+from scenarios.runner import require_runners
+from scenarios.schema import ExpandedScenario, Scenario
+from scenarios.store import Outcome, ResultStore, content_hash, encode_traces, package_version
+
+DEFAULT_TASK = "scenarios.runner:run_scenario"
+Task = str | Callable[[Scenario], Mapping[str, Any]]
+_SCALARS = (bool, int, float, str, type(None))
+
+
+class SweepError(ValueError):
+    """A sweep cannot run as asked (bad task reference, worker count, options)."""
+
+
+@dataclass(frozen=True)
+class PlannedScenario:
+    """An expanded scenario with its store key.
+
+    Attributes
+    ----------
+    hash : str
+        :func:`scenarios.store.content_hash` of config, version and task.
+    index : int
+        Position in the sweep.
+    scenario : Scenario
+        The scenario (seed set).
+    config_json : str
+        Its canonical JSON.
+    overrides : dict
+        Design values of this point.
+    """
+
+    hash: str
+    index: int
+    scenario: Scenario
+    config_json: str
+    overrides: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class SweepSummary:
+    """Counts and timing of one :func:`run_sweep` call.
+
+    Attributes
+    ----------
+    total : int
+        Scenarios in the sweep.
+    skipped : int
+        Already finished in the store, not run again.
+    ok, failed : int
+        Outcomes of the scenarios run by this call.
+    elapsed_s : float
+        Wall time of the execution phase, s (cluster start included).
+    """
+
+    total: int
+    skipped: int
+    ok: int
+    failed: int
+    elapsed_s: float
+
+    @property
+    def rate_per_min(self) -> float:
+        """Scenarios run per minute of wall time."""
+        ran = self.ok + self.failed
+        return 60.0 * ran / self.elapsed_s if self.elapsed_s > 0 else math.nan
+
+
+def task_name(task: Task) -> str:
+    """``"package.module:function"`` of a task (part of every content hash).
+
+    Raises
+    ------
+    SweepError
+        A callable that cannot be imported by name (lambda, nested function).
+    """
+    if isinstance(task, str):
+        if task.count(":") != 1 or not all(task.split(":")):
+            raise SweepError(f"task must be 'package.module:function' (found {task!r})")
+        return task
+    module, qualname = getattr(task, "__module__", None), getattr(task, "__qualname__", "")
+    if not module or "<" in qualname:
+        raise SweepError(f"task must be an importable module-level function (found {task!r})")
+    return f"{module}:{qualname}"
+
+
+def resolve_task(task: Task) -> Callable[[Scenario], Mapping[str, Any]]:
+    """The callable behind a task reference.
+
+    Raises
+    ------
+    SweepError
+        The module cannot be imported or has no such callable.
+    """
+    if not isinstance(task, str):
+        return task
+    module_name, func_name = task_name(task).split(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise SweepError(f"task {task!r}: cannot import {module_name} ({exc})") from None
+    func = getattr(module, func_name, None)
+    if not callable(func):
+        raise SweepError(f"task {task!r}: {module_name} has no callable {func_name!r}")
+    return func
+
+
+def plan(
+    expanded: Sequence[ExpandedScenario], task: Task = DEFAULT_TASK, version: str | None = None
+) -> list[PlannedScenario]:
+    """Attach content hashes to expanded scenarios.
+
+    Raises
+    ------
+    SweepError
+        Two scenarios have the same hash (the expansion produced duplicates).
+    """
+    name = task_name(task)
+    version = package_version() if version is None else version
+    out, seen = [], {}
+    for item in expanded:
+        config = item.scenario.canonical_json()
+        key = content_hash(config, version, name)
+        if key in seen:
+            raise SweepError(
+                f"scenarios {seen[key]} and {item.index} are identical "
+                "(expected distinct scenarios)"
+            )
+        seen[key] = item.index
+        out.append(PlannedScenario(key, item.index, item.scenario, config, dict(item.overrides)))
+    return out
+
+
+def split_result(raw: Any) -> tuple[dict[str, Any], bytes | None]:
+    """Validate a task's return value and split it into scalars and encoded traces.
+
+    Numpy scalars become Python scalars. Raises ``TypeError`` for anything
+    that is not a flat mapping of scalars with optional ``"traces"``.
+    """
+    if not isinstance(raw, Mapping):
+        raise TypeError(f"a task must return a mapping (found {type(raw).__name__})")
+    scalars: dict[str, Any] = {}
+    traces = None
+    for key, value in raw.items():
+        if not isinstance(key, str):
+            raise TypeError(f"result keys must be str (found {key!r})")
+        if key == "traces":
+            traces = encode_traces(value) if value else None
+            continue
+        if isinstance(value, np.generic):
+            value = value.item()
+        if not isinstance(value, _SCALARS):
+            raise TypeError(
+                f"result {key!r} must be a scalar (found {type(value).__name__}); "
+                "put arrays under 'traces'"
+            )
+        scalars[key] = value
+    return scalars, traces
+
+
+def execute(task: Task, scenario: Scenario, hash_: str) -> Outcome:
+    """Run one scenario and return its outcome; never raises for a failing task.
+
+    Runs in a worker process (or the driver for one worker). Exceptions of the
+    task, and invalid return values, give a ``failed`` outcome with
+    ``"Type: message"`` and the formatted traceback.
+    """
+    started = time.time()
+    t0 = time.perf_counter()
+    try:
+        result, traces = split_result(resolve_task(task)(scenario))
+        status, error, trace_text = "ok", None, None
+    except Exception as exc:  # every task error becomes a failed row
+        result, traces, status = {}, None, "failed"
+        error = _one_line(exc)
+        trace_text = traceback.format_exc()
+    duration = time.perf_counter() - t0
+    return Outcome(
+        hash=hash_,
+        status=status,
+        result=result,
+        traces=traces,
+        error=error,
+        traceback=trace_text,
+        started_at=started,
+        finished_at=started + duration,
+        duration_s=duration,
+        worker=f"{socket.gethostname()}:{os.getpid()}",
+    )
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _lost(p: PlannedScenario, exc: BaseException) -> Outcome:
+    now = time.time()
+    return Outcome(
+        hash=p.hash,
+        status="failed",
+        result={},
+        traces=None,
+        error=f"worker lost: {_one_line(exc)}",
+        traceback="".join(traceback.format_exception(exc)),
+        started_at=now,
+        finished_at=now,
+        duration_s=0.0,
+        worker="",
+    )
+
+
+class Progress:
+    """Plain-text progress bar on a stream: done, failed, rate and ETA.
+
+    On a terminal the line is redrawn in place at most every
+    ``min_interval_s``; otherwise a line is printed every tenth of the sweep
+    or every ``log_interval_s``, whichever comes first.
+
+    Parameters
+    ----------
+    total : int
+        Scenarios to run (skipped ones excluded).
+    label : str
+        Prefix of the line (the sweep name).
+    stream : text stream, optional
+        Where to write; default ``sys.stderr``.
+    """
+
+    def __init__(
+        self,
+        total: int,
+        label: str = "sweep",
+        stream: TextIO | None = None,
+        *,
+        min_interval_s: float = 0.1,
+        log_interval_s: float = 10.0,
+        width: int = 24,
+    ) -> None:
+        self.total, self.label, self.width = total, label, width
+        self.stream = stream if stream is not None else sys.stderr
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.min_interval_s, self.log_interval_s = min_interval_s, log_interval_s
+        self.done = self.failed = 0
+        self._t0 = time.perf_counter()
+        self._last = -math.inf
+        self._last_done = 0
+
+    def update(self, status: str) -> None:
+        """Count one finished scenario and redraw if due."""
+        self.done += 1
+        self.failed += status == "failed"
+        now = time.perf_counter()
+        if self.tty:
+            due = now - self._last >= self.min_interval_s
+        else:
+            step = max(1, self.total // 10)
+            due = self.done - self._last_done >= step or now - self._last >= self.log_interval_s
+        if due or self.done == self.total:
+            self._draw(now)
+
+    def line(self, now: float | None = None) -> str:
+        """The current progress line."""
+        elapsed = (time.perf_counter() if now is None else now) - self._t0
+        frac = self.done / self.total if self.total else 1.0
+        filled = int(round(frac * self.width))
+        bar = "#" * filled + "-" * (self.width - filled)
+        rate = self.done / elapsed if elapsed > 0 and self.done else 0.0
+        left = self.total - self.done
+        eta = _clock(left / rate) if rate > 0 else "?" if left else "0:00:00"
+        return (
+            f"{self.label} [{bar}] {self.done}/{self.total} done, {self.failed} failed, "
+            f"{rate * 60:.1f}/min, ETA {eta}"
+        )
+
+    def _draw(self, now: float) -> None:
+        self._last, self._last_done = now, self.done
+        if self.tty:
+            self.stream.write("\r" + self.line(now) + "\x1b[K")
+        else:
+            self.stream.write(self.line(now) + "\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        """Finish the line."""
+        if self.tty and self._last > -math.inf:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def _clock(seconds: float) -> str:
+    seconds = int(round(seconds))
+    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
+
+
+def pending(
+    planned: Sequence[PlannedScenario], store: ResultStore, *, retry_failed: bool = False
+) -> list[PlannedScenario]:
+    """The planned scenarios not finished in ``store`` (failed ones too if ``retry_failed``)."""
+    stored = store.statuses(p.hash for p in planned)
+    keep = ("failed",) if retry_failed else ()
+    return [p for p in planned if p.hash not in stored or stored[p.hash] in keep]
+
+
+def run_sweep(
+    planned: Sequence[PlannedScenario],
+    store: ResultStore,
+    *,
+    task: Task = DEFAULT_TASK,
+    workers: int = 1,
+    scheduler: str | None = None,
+    sweep_name: str = "sweep",
+    retry_failed: bool = False,
+    progress: Progress | bool = True,
+    version: str | None = None,
+) -> SweepSummary:
+    """Run the unfinished scenarios of a planned sweep and record each outcome.
+
+    Parameters
+    ----------
+    planned : sequence of PlannedScenario
+        From :func:`plan` with the same ``task``.
+    store : ResultStore
+        Where outcomes are recorded (by this process only).
+    task : str or callable
+        ``task(scenario) -> ResultRow``; default :func:`scenarios.runner.run_scenario`.
+    workers : int
+        1 runs in this process; more start a dask ``LocalCluster`` with that
+        many single-threaded worker processes.
+    scheduler : str, optional
+        Address of an existing dask scheduler (``workers`` is then ignored).
+    sweep_name : str
+        Name under which the scenarios are registered in the store.
+    retry_failed : bool
+        Run scenarios stored as failed again.
+    progress : Progress or bool
+        Progress bar (``True``: on stderr; ``False``: none).
+    version : str, optional
+        Package version recorded with each row; default the installed one.
+
+    Returns
+    -------
+    SweepSummary
+
+    Raises
+    ------
+    SweepError
+        ``workers < 1`` or a task that cannot be named.
+    scenarios.runner.RunnerUnavailableError
+        The default task has no runner for a kind in the sweep.
+    """
+    if workers < 1:
+        raise SweepError(f"workers must be >= 1 (found {workers})")
+    name = task_name(task)
+    version = package_version() if version is None else version
+    store.add_members(sweep_name, ((p.hash, p.index, p.overrides) for p in planned))
+    todo = pending(planned, store, retry_failed=retry_failed)
+    if name == DEFAULT_TASK:
+        require_runners({p.scenario.kind for p in todo})
+    bar = progress if isinstance(progress, Progress) else None
+    if progress is True:
+        bar = Progress(len(todo), sweep_name)
+    counts = {"ok": 0, "failed": 0}
+    t0 = time.perf_counter()
+    try:
+        for p, outcome in _outcomes(todo, task, workers, scheduler):
+            store.record(
+                outcome, kind=p.scenario.kind, config_json=p.config_json, task=name, version=version
+            )
+            counts[outcome.status] += 1
+            if bar is not None:
+                bar.update(outcome.status)
+    finally:
+        if bar is not None:
+            bar.close()
+    elapsed = time.perf_counter() - t0
+    skipped = len(planned) - len(todo)
+    return SweepSummary(len(planned), skipped, counts["ok"], counts["failed"], elapsed)
+
+
+def _outcomes(
+    todo: Sequence[PlannedScenario], task: Task, workers: int, scheduler: str | None
+) -> Iterator[tuple[PlannedScenario, Outcome]]:
+    if not todo:
+        return
+    if workers == 1 and scheduler is None:
+        func = resolve_task(task)
+        for p in todo:
+            yield p, execute(func, p.scenario, p.hash)
+        return
+    from distributed import as_completed
+
+    if isinstance(task, str):
+        resolve_task(task)  # fail in the driver, once, rather than in every worker
+    with _client(workers, scheduler) as client:
+        futures = {
+            client.submit(execute, task, p.scenario, p.hash, pure=False): p for p in todo
+        }
+        for future in as_completed(futures):
+            p = futures.pop(future)
+            try:
+                outcome = future.result()
+            except Exception as exc:  # the worker died or the task could not be shipped
+                outcome = _lost(p, exc)
+            future.release()
+            yield p, outcome
+
+
+@contextmanager
+def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
+    """A dask client on an existing scheduler or on a fresh LocalCluster."""
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        try:
+            client = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise SweepError(f"cannot connect to dask scheduler {scheduler} ({exc})") from None
+        with client:
+            yield client
+        return
+    cluster = LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",  # any free port: several sweeps may share a machine
+        silence_logs=logging.ERROR,
+    )
+    with cluster, Client(cluster) as client:
+        yield client

@@ -1,0 +1,48 @@
+"""Small real tasks for testing the sweep engine (imported by workers as ``tasks``).
+
+Each takes a :class:`scenarios.schema.Scenario` and returns a flat result row
+that depends only on the scenario (its seed and fields), as a real runner does.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from scenarios.schema import Scenario
+
+SLEEP_S = 0.15
+
+
+def seeded(scenario: Scenario) -> dict:
+    """Seeded draws plus a trace: the result is a pure function of the scenario."""
+    rng = np.random.default_rng(scenario.seed)
+    draws = rng.standard_normal(3)
+    return {
+        "draw": float(draws[0]),
+        "draw_sum": float(draws.sum()),
+        "mass_kg": scenario.object.mass_kg,
+        "controller": scenario.controller.kind,
+        "n_draws": np.int64(3),
+        "traces": {"force_n": rng.standard_normal((50, 2))},
+    }
+
+
+def sleepy(scenario: Scenario) -> dict:
+    """:func:`seeded` after sleeping :data:`SLEEP_S` seconds (for kill/resume tests)."""
+    time.sleep(SLEEP_S)
+    return seeded(scenario)
+
+
+def heavy_fails(scenario: Scenario) -> dict:
+    """:func:`seeded`, but raises for objects heavier than 1 kg."""
+    mass_kg = scenario.object.mass_kg
+    if mass_kg is not None and mass_kg > 1.0:
+        raise ValueError(f"object of {mass_kg} kg slipped out of the hand")
+    return seeded(scenario)
+
+
+def returns_array(scenario: Scenario) -> dict:
+    """Returns an array outside ``traces``: an invalid result row."""
+    return {"force_n": np.zeros(3)}
