@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from controllers.errors import SpecificationError
 
-STANDARD_GRAVITY_M_S2 = 9.80665
+GRAVITY_M_S2 = 9.81  # MuJoCo's default gravity: the simulated world's g
 
 
 def slip_threshold_n(mass_kg: float, friction: float, *, n_contacts: int = 2) -> float:
@@ -24,7 +24,7 @@ def slip_threshold_n(mass_kg: float, friction: float, *, n_contacts: int = 2) ->
         raise SpecificationError(f"slip threshold: expected mass_kg >= 0, found {mass_kg}")
     if friction <= 0:
         raise SpecificationError(f"slip threshold: expected friction > 0, found {friction}")
-    return mass_kg * STANDARD_GRAVITY_M_S2 / (n_contacts * friction)
+    return mass_kg * GRAVITY_M_S2 / (n_contacts * friction)
 
 
 @dataclass(frozen=True)

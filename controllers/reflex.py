@@ -51,6 +51,10 @@ class SlipReflex:
         Ceiling on the boosted reference, N.
     slip_speed_threshold_m_s : float
         Slip speed counted as slipping even without the detector flag, m/s.
+    onset_fraction : float
+        Extra boost at each slip onset (a rising edge of the delayed slip
+        signal), as a fraction of the current reference: one slip event raises
+        the grip by ``onset_fraction`` of what the user asks for.
     """
 
     def __init__(
@@ -65,15 +69,17 @@ class SlipReflex:
         release_below_n: float = 0.5,
         max_reference_n: float = float("inf"),
         slip_speed_threshold_m_s: float = float("inf"),
+        onset_fraction: float = 0.0,
     ) -> None:
         if dt_s <= 0:
             raise ValueError(f"SlipReflex: expected dt_s > 0, found {dt_s}")
         if latency_s < 0:
             raise ValueError(f"SlipReflex: expected latency_s >= 0, found {latency_s}")
-        if step_n < 0 or speed_gain_n_s_per_m < 0 or max_boost_n < 0:
+        if min(step_n, speed_gain_n_s_per_m, max_boost_n, onset_fraction) < 0:
             raise ValueError(
-                "SlipReflex: expected non-negative step_n, speed_gain_n_s_per_m and max_boost_n, "
-                f"found {step_n}, {speed_gain_n_s_per_m}, {max_boost_n}"
+                "SlipReflex: expected non-negative step_n, speed_gain_n_s_per_m, max_boost_n and "
+                f"onset_fraction, found {step_n}, {speed_gain_n_s_per_m}, {max_boost_n}, "
+                f"{onset_fraction}"
             )
         self.controller = controller
         self.dt_s = float(dt_s)
@@ -85,6 +91,7 @@ class SlipReflex:
         self.release_below_n = float(release_below_n)
         self.max_reference_n = float(max_reference_n)
         self.slip_speed_threshold_m_s = float(slip_speed_threshold_m_s)
+        self.onset_fraction = float(onset_fraction)
         self.name = f"{getattr(controller, 'name', 'controller')}+reflex"
         self.reset()
 
@@ -92,6 +99,8 @@ class SlipReflex:
         """Clear the boost and the latency line, and reset the wrapped controller."""
         self.boost_n = 0.0
         self.n_triggers = 0
+        self.n_onsets = 0
+        self._was_slipping = False
         self._line: deque[tuple[bool, float]] = deque(
             [(False, 0.0)] * self.latency_samples, maxlen=self.latency_samples + 1
         )
@@ -107,7 +116,11 @@ class SlipReflex:
         elif delayed:
             self.n_triggers += 1
             increment = self.step_n + self.speed_gain_n_s_per_m * abs(speed)
+            if not self._was_slipping:
+                self.n_onsets += 1
+                increment += self.onset_fraction * obs.reference_n
             self.boost_n = min(self.boost_n + increment, self.max_boost_n)
+        self._was_slipping = delayed
         return float(np.minimum(obs.reference_n + self.boost_n, self.max_reference_n))
 
     def act(self, observation: Observation | Mapping[str, Any]) -> float:

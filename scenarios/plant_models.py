@@ -103,7 +103,7 @@ def _nrmse_fit(y: np.ndarray, y_hat: np.ndarray) -> float:
 
 
 def design_plant(
-    name: str,
+    name: str | ObjectSpec,
     *,
     mass_kg: float | None = None,
     friction: float | None = None,
@@ -118,8 +118,8 @@ def design_plant(
 
     Parameters
     ----------
-    name : str
-        Object name in :data:`sim.objects.LIBRARY`.
+    name : str or ObjectSpec
+        Object name in :data:`sim.objects.LIBRARY`, or a full object spec.
     mass_kg, friction : float, optional
         Overrides of the object's mass (kg) and friction coefficient.
     method : {"linearized", "identified"}
@@ -152,7 +152,12 @@ def design_plant(
     """
     if method not in PLANT_METHODS:
         raise LookupError(f"plant method: expected one of {list(PLANT_METHODS)}, found {method!r}")
-    obj = object_for(name, mass_kg=mass_kg, friction=friction)
+    if isinstance(name, ObjectSpec):
+        overrides = {k: v for k, v in (("mass_kg", mass_kg), ("friction", friction))
+                     if v is not None}
+        obj = name.replace(**overrides) if overrides else name
+    else:
+        obj = object_for(name, mass_kg=mass_kg, friction=friction)
     force = default_operating_force_n(obj) if grip_force_n is None else float(grip_force_n)
     try:
         lin = linearize_grasp(obj, force, control_dt_s=control_dt_s)

@@ -12,8 +12,9 @@ Runners are registered with :func:`register_runner`, either as a callable or
 as a ``"package.module:function"`` reference imported on first use, so that
 registering a runner never imports its simulation stack.
 
-Registered here: ``reproduction`` (:func:`run_reproduction`). ``calibration``
-and ``episode`` need the closed-loop stack and are registered by it.
+Registered here: ``reproduction`` (:func:`run_reproduction`), and by reference
+``episode`` and ``calibration`` (:mod:`scenarios.episode`), so that importing
+this module does not import MuJoCo.
 """
 
 from __future__ import annotations
@@ -246,3 +247,5 @@ def run_reproduction(scenario: Scenario) -> ResultRow:
 
 
 register_runner("reproduction", run_reproduction)
+register_runner("episode", "scenarios.episode:run_episode_scenario")
+register_runner("calibration", "scenarios.episode:run_calibration_scenario")

@@ -245,7 +245,8 @@ class ControllerSpec(_Model):
     safety_factor : float
         Grip force over the slip threshold the reference aims at.
     control_hz : float
-        Control-loop rate, Hz.
+        Control-loop rate, Hz: 100 to 500, so that the control period is a
+        whole number of the hand's 2 ms physics steps.
     slip_reflex : SlipReflexSpec
         Slip reflex settings.
     """
@@ -256,7 +257,7 @@ class ControllerSpec(_Model):
     bandwidth_rad_s: float | None = Field(None, gt=0.0, le=5000.0)
     horizon: int | None = Field(None, ge=2, le=500)
     safety_factor: float = Field(1.5, ge=1.0, le=5.0)
-    control_hz: float = Field(500.0, ge=100.0, le=1000.0)
+    control_hz: float = Field(100.0, ge=100.0, le=500.0)
     slip_reflex: SlipReflexSpec = Field(default_factory=SlipReflexSpec)
 
     @model_validator(mode="after")
@@ -660,6 +661,17 @@ def load_sweep(path: str | Path) -> SweepSpec:
         spec = spec.model_copy(update={"name": path.stem})
     _check_design(spec, source, lines)
     return spec
+
+
+def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scenario:
+    """Validate one scenario given as a mapping (e.g. built from command-line options).
+
+    Raises
+    ------
+    ScenarioError
+        One line: ``SOURCE: field.path: reason (found VALUE)``.
+    """
+    return _validate(Scenario, data, source, {})
 
 
 def parse_sweep(data: Mapping[str, Any], source: str = "<sweep>") -> SweepSpec:

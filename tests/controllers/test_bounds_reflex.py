@@ -7,13 +7,13 @@ from controllers.base import Observation
 
 def test_slip_threshold_matches_calibration():
     # CALIBRATION.md: 0.2 kg box, mu = 1, two-sided pinch -> 0.98 N
-    assert slip_threshold_n(0.2, 1.0) == pytest.approx(0.2 * 9.80665 / 2.0)
+    assert slip_threshold_n(0.2, 1.0) == pytest.approx(0.2 * 9.81 / 2.0)
     assert slip_threshold_n(0.2, 1.0) == pytest.approx(0.98, abs=0.01)
 
 
 def test_force_bounds_and_infeasible_object():
     b = force_bounds(0.4, 0.5, fragility_limit_n=30.0, safety_factor=1.5)
-    assert b.min_n == pytest.approx(1.5 * 0.4 * 9.80665 / 1.0)
+    assert b.min_n == pytest.approx(1.5 * 0.4 * 9.81 / 1.0)
     assert b.max_n == 30.0
     with pytest.raises(SpecificationError, match=r"needs at least 5.88 N .* breaks at 4 N"):
         force_bounds(0.4, 0.5, fragility_limit_n=4.0)
@@ -62,3 +62,20 @@ def test_reflex_respects_fragility_and_delegates_loop():
     assert reflex.loop(plant) is plant
     reflex.reset()
     assert reflex.boost_n == 0.0 and inner.resets == 2
+
+
+def test_reflex_onset_fraction_boosts_once_per_slip_event():
+    class Echo:
+        def reset(self):
+            pass
+
+        def act(self, obs):
+            return obs.reference_n
+
+    reflex = SlipReflex(Echo(), dt_s=0.01, latency_s=0.02, step_n=0.0, onset_fraction=0.5)
+    slipping = [False, True, True, True, False, False, True, False, False, False]
+    refs = [reflex.act(Observation(0.01 * k, 4.0, 4.0, slip_detected=s))
+            for k, s in enumerate(slipping)]
+    # two onsets, each seen two samples (20 ms) late, each adds half of the 4 N reference
+    assert refs == [4.0, 4.0, 4.0, 6.0, 6.0, 6.0, 6.0, 6.0, 8.0, 8.0]
+    assert reflex.n_onsets == 2

@@ -34,7 +34,7 @@ def test_margins_command_writes_contract(tmp_path, capsys, controller):
     assert again.phase_margin_deg == pytest.approx(m["phase_margin_deg"], abs=1e-3)
     assert again.crossover_rad_s == pytest.approx(m["crossover_rad_s"], rel=1e-5)
     assert again.ms == pytest.approx(m["ms"], rel=1e-5)
-    assert result["force_bounds_n"]["min"] == pytest.approx(1.5 * 0.4 * 9.80665 / (2 * 0.5))
+    assert result["force_bounds_n"]["min"] == pytest.approx(1.5 * 0.4 * 9.81 / (2 * 0.5))
     for suffix in ("bode", "nyquist", "pz"):
         png = plots / f"{controller}_can_{suffix}.png"
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

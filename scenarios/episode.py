@@ -1,0 +1,577 @@
+"""Closed-loop episodes: a virtual subject's intent, through sEMG and an estimator, to a grasp.
+
+One episode joins every layer of griploop::
+
+    VirtualSubject --paper session + FSR--> fitted estimator          (calibration)
+    VirtualSubject --grasp-lift-hold intent--> sEMG --features every 125 ms-->
+        estimator.step --> reference (held between updates) --> controller at the
+        control rate --> GraspEnv (MuJoCo) --> grip force, slip, drop, crush
+
+Conventions (documented choices):
+
+- **Force mapping.** The estimator outputs the user's grip force in newtons
+  (FSR scale). The prosthesis maps it to a hand reference proportionally:
+  ``reference_n = estimate_n / mvc_cal_n * hand_force_at_mvc_n``, where
+  ``mvc_cal_n`` is the largest FSR force of the calibration session (the
+  user's strongest squeeze) and ``hand_force_at_mvc_n`` (default 30 N) is the
+  hand force commanded at that effort. References are clipped to
+  ``0..1.2 * hand_force_at_mvc_n``.
+- **What the user intends.** The user grips the object with
+  ``safety_factor`` times its slip threshold ``m g / (2 mu)``, at least
+  ``min_grip_n`` (2 N), and at most 70 % of a fragile object's break force.
+  Their intent (fraction of MVC) is that hand force mapped back through the
+  calibration.
+- **Oracle.** ``estimator = "oracle"`` is a perfect force estimator: the user's
+  true grip force (before the FSR) at each window, through the same mapping and
+  hold. Its estimation error is zero by construction; it isolates the controller.
+- **Modes.** ``free_run`` (default) uses sEMG only. ``one_step`` feeds the
+  user's measured FSR force of the previous window, which assumes the user
+  wears a force sensor (the paper's evaluation setting).
+- **Timing.** Features every 125 ms; the reference is held between updates
+  (zero before the first 400 ms window ends). The controller's command is
+  applied one control period after the observation it was computed from,
+  which is the computation delay its margins include.
+- **Episode.** Rest, a 0.5 s ramp to the hold level, hold. The wrist lifts at
+  ``episode_s - hold_s - lift_duration_s`` once the grip is established and
+  the object is held in the air for ``hold_s``; the episode ends while holding.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from controllers.base import Observation
+from estimation.features import PAPER_CHANNELS, FeatureSet, extract_features
+from estimation.metrics import r2_score, total_variation_rate
+from estimation.paper import PAPER_ORDER
+from estimation.protocol import split_index
+from estimation.registry import make_estimator
+from estimation.reproduce import estimator_params
+from scenarios.design import ControllerDesign, design_for_object
+from scenarios.runner import DivergedError, UnsupportedScenarioError
+from scenarios.schema import Scenario
+from sim.grasp_env import G_M_S2, GraspEnv, WristSchedule
+from sim.objects import ObjectSpec, make_object
+from sim.protocol import IntentProfile, grasp_lift_hold, paper_protocol
+from sim.recording import Recording
+from sim.subjects import VirtualSubject
+
+ORACLE = "oracle"
+HAND_FORCE_AT_MVC_N = 30.0
+MIN_GRIP_N = 2.0
+FRAGILE_MARGIN = 0.7
+REST_S = 1.0
+RAMP_S = 0.5
+LIFT_DURATION_S = 0.6
+SETTLE_BAND = 0.05  # settling band: 5 % of the hold reference (at least SETTLE_FLOOR_N)
+SETTLE_FLOOR_N = 0.2
+CONTACT_N = 0.5  # grip force that counts as contact (as controllers.ContactGate)
+
+
+# --------------------------------------------------------------------- calibration
+@dataclass
+class Calibration:
+    """An estimator fitted on a subject's calibration session.
+
+    Attributes
+    ----------
+    name : str
+        Estimator name (or ``"oracle"``).
+    mode : {"one_step", "free_run"}
+    pipeline : object or None
+        Fitted :class:`estimation.pipeline.ForcePipeline` (``None`` for the oracle).
+    mvc_cal_n : float
+        Largest FSR force of the calibration session, N.
+    r2 : float or None
+        Validation R^2 in ``mode`` on the session's last part (None for the oracle).
+    fit_s : float
+        Time to fit, s.
+    """
+
+    name: str
+    mode: str
+    pipeline: Any
+    mvc_cal_n: float
+    r2: float | None
+    fit_s: float
+
+
+def calibration_profile(rng: np.random.Generator, *, fs_hz: float,
+                        min_duration_s: float | None) -> IntentProfile:
+    """The paper's squeeze session, repeated until it lasts at least ``min_duration_s``."""
+    parts = [paper_protocol(rng, fs_hz=fs_hz)]
+    while min_duration_s is not None and sum(p.duration_s for p in parts) < min_duration_s:
+        parts.append(paper_protocol(rng, fs_hz=fs_hz))
+    if len(parts) == 1:
+        return parts[0]
+    cues, offset = [], 0.0
+    for p in parts:
+        cues += [(kind, t + offset) for kind, t in p.cues]
+        offset += p.duration_s
+    return IntentProfile(intent=np.concatenate([p.intent for p in parts]), fs_hz=fs_hz,
+                         cues=tuple(cues), levels=tuple(v for p in parts for v in p.levels),
+                         name=f"paper_protocol x{len(parts)}")
+
+
+def calibrate(
+    subject: VirtualSubject,
+    estimator: str,
+    mode: str,
+    *,
+    rng: np.random.Generator,
+    generator: str = "noise",
+    order: int = PAPER_ORDER,
+    identification_fraction: float = 0.5,
+    calibration_s: float | None = None,
+) -> Calibration:
+    """Record a calibration session and fit ``estimator`` on its first part.
+
+    Raises
+    ------
+    UnsupportedScenarioError
+        ``mode`` is not one of the estimator's modes.
+    DivergedError
+        The identified model is unstable and ``mode`` would run it open loop.
+    """
+    session_rng, estimator_rng = rng.spawn(2)
+    profile = calibration_profile(session_rng, fs_hz=200.0, min_duration_s=calibration_s)
+    recording = subject.record(profile, generator=generator, rng=session_rng)
+    features = extract_features(recording, channels=PAPER_CHANNELS)
+    mvc_cal_n = float(np.max(recording.force_n))
+    if estimator == ORACLE:
+        return Calibration(ORACLE, mode, None, mvc_cal_n, None, 0.0)
+    split = split_index(features.n_windows, identification_fraction)
+    params = estimator_params([estimator], estimator_rng, order, dt_s=features.dt_s)[estimator]
+    start = time.perf_counter()
+    pipeline = make_estimator(estimator, **params).fit(features.X[:split], features.y[:split])
+    fit_s = time.perf_counter() - start
+    if mode not in pipeline.modes:
+        raise UnsupportedScenarioError(
+            f"estimator {estimator} has modes {pipeline.modes} (found mode {mode})"
+        )
+    if mode == "free_run" and getattr(pipeline.estimator, "stable_", True) is False:
+        raise DivergedError(
+            f"estimator {estimator}: identified model is unstable (poles "
+            f"{np.round(np.abs(pipeline.estimator.poles_), 3).tolist()}); free run would diverge"
+        )
+    y_val = features.y[split:]
+    y_hat = pipeline.predict(features.X[split:], y_val if mode == "one_step" else None, mode=mode)
+    return Calibration(estimator, mode, pipeline, mvc_cal_n, r2_score(y_val, y_hat), fit_s)
+
+
+# ------------------------------------------------------------------------ reference
+def intended_grip_n(obj: ObjectSpec, safety_factor: float) -> float:
+    """Hand grip force the user aims at for ``obj``, N (see module notes)."""
+    slip_n = obj.mass_kg * G_M_S2 / (2.0 * obj.friction)
+    target = max(safety_factor * slip_n, MIN_GRIP_N)
+    if obj.break_force_n is not None:
+        target = min(target, FRAGILE_MARGIN * obj.break_force_n)
+    return float(target)
+
+
+def reference_from_windows(values_n: np.ndarray, window_t_s: np.ndarray,
+                           control_t_s: np.ndarray) -> np.ndarray:
+    """Hold each window's value from its end time until the next one (0 before the first)."""
+    idx = np.searchsorted(window_t_s, control_t_s + 1e-9, side="right") - 1
+    held = np.where(idx >= 0, values_n[np.clip(idx, 0, None)], 0.0)
+    return held
+
+
+def stream_estimates(calibration: Calibration, features: FeatureSet) -> np.ndarray:
+    """Run the fitted estimator's stream over the episode's windows, N per window.
+
+    ``one_step`` feeds the previous window's measured FSR force; ``free_run`` feeds nothing.
+    """
+    stream = calibration.pipeline.streaming(calibration.mode)
+    stream.reset()
+    out = np.empty(features.n_windows)
+    y = features.y
+    one_step = calibration.mode == "one_step"
+    for k in range(features.n_windows):
+        y_prev = (float(y[k - 1]) if k > 0 else 0.0) if one_step else None
+        out[k] = stream.step(features.X[k], y_prev)
+    return out
+
+
+# ------------------------------------------------------------------------ metrics
+def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray,
+                    oracle_n: np.ndarray, *, start_s: float, lift_s: float, hold_from_s: float,
+                    window_values_n: np.ndarray, window_dt_s: float) -> dict[str, Any]:
+    """Tracking, estimation and transient figures of one episode.
+
+    Parameters
+    ----------
+    t_s, reference_n, grip_n, oracle_n : ndarray, shape (n_steps,)
+        Control-rate time, reference, measured grip force and the oracle reference.
+    start_s : float
+        Start of the grasp (the user's ramp onset), s.
+    lift_s : float
+        Earliest lift, s: the grasp phase is ``start_s..lift_s``.
+    hold_from_s : float
+        Start of the in-air hold, s; the hold reference is the mean reference after it.
+    window_values_n : ndarray, shape (n_windows,)
+        The reference at the estimator's update rate (for volatility).
+    window_dt_s : float
+        Estimator update period, s.
+
+    Returns
+    -------
+    dict
+        ``contact_time_s`` (first grip force >= 0.5 N; None if never),
+        ``tracking_rmse_n`` (from contact + 0.5 s, past the closing impact, to
+        the end; None without contact),
+        ``estimation_rmse_n`` (reference vs oracle, whole episode),
+        ``hold_reference_n`` (mean reference in the air), and over the grasp
+        phase (on the table, before the lift), relative to the reference just
+        before the lift: ``overshoot_pct`` (peak grip over it), ``settling_time_s``
+        (from the start until the grip stays within 5 % or 0.2 N of it; None if
+        it never does), plus ``peak_force_n`` (whole episode) and
+        ``reference_volatility_n_per_s``.
+    """
+    touching = np.flatnonzero(grip_n >= CONTACT_N)
+    contact_s = float(t_s[touching[0]]) if touching.size else None
+    track = (t_s >= contact_s + 0.5) if contact_s is not None else np.zeros(t_s.size, bool)
+    hold = t_s >= hold_from_s
+    hold_ref = float(np.mean(reference_n[hold])) if hold.any() else float("nan")
+    grasp = (t_s >= start_s) & (t_s < lift_s)
+    grasp_ref = float(reference_n[grasp][-1]) if grasp.any() else float("nan")
+    peak_grasp = float(np.max(grip_n[grasp])) if grasp.any() else 0.0
+    band = max(SETTLE_BAND * grasp_ref, SETTLE_FLOOR_N)
+    idx = np.flatnonzero(grasp)
+    outside = idx[np.abs(grip_n[idx] - grasp_ref) > band]
+    if outside.size == 0:
+        settling = 0.0
+    elif outside[-1] == idx[-1]:
+        settling = None
+    else:
+        settling = float(t_s[outside[-1] + 1] - start_s)
+    return {
+        "contact_time_s": contact_s,
+        "tracking_rmse_n": float(np.sqrt(np.mean((reference_n[track] - grip_n[track]) ** 2)))
+        if track.any() else None,
+        "estimation_rmse_n": float(np.sqrt(np.mean((reference_n - oracle_n) ** 2))),
+        "hold_reference_n": hold_ref,
+        "overshoot_pct": float(max(0.0, 100.0 * (peak_grasp - grasp_ref) / grasp_ref))
+        if grasp_ref > 0 else None,
+        "settling_time_s": settling,
+        "peak_force_n": float(np.max(grip_n)),
+        "reference_volatility_n_per_s": total_variation_rate(window_values_n, window_dt_s)
+        if window_values_n.size >= 2 else 0.0,
+    }
+
+
+# ------------------------------------------------------------------------ episode
+@dataclass
+class EpisodeResult:
+    """Outcome of :func:`run_episode`: a flat ``row`` of scalars and ``traces``."""
+
+    row: dict[str, Any]
+    traces: dict[str, np.ndarray] = field(default_factory=dict)
+    design: ControllerDesign | None = None
+
+    def as_result_row(self) -> dict[str, Any]:
+        """The sweep store's format: scalars plus ``"traces"``."""
+        return {**self.row, "traces": self.traces}
+
+
+def scenario_object(scenario: Scenario) -> ObjectSpec:
+    """The scenario's object: a library object with its overrides applied.
+
+    ``stiffness_n_per_m`` becomes MuJoCo's contact time constant
+    ``sqrt(mass_kg / stiffness)`` (a mass-spring with the object's mass), with
+    the library's damping ratio.
+    """
+    o = scenario.object
+    overrides: dict[str, Any] = {}
+    for key in ("shape", "mass_kg", "friction", "break_force_n"):
+        value = getattr(o, key)
+        if value is not None:
+            overrides[key] = value
+    if o.size_m is not None:
+        overrides["size_m"] = tuple(o.size_m)
+    obj = make_object(o.name, **overrides)
+    if o.stiffness_n_per_m is not None:
+        timeconst = float(np.sqrt(obj.mass_kg / o.stiffness_n_per_m))
+        obj = obj.replace(solref=(timeconst, obj.solref[1]))
+    return obj
+
+
+def run_episode(
+    subject: VirtualSubject,
+    obj: ObjectSpec,
+    *,
+    estimator: str = "ss_kf",
+    mode: str = "free_run",
+    controller: str = "pid",
+    controller_spec: Mapping[str, Any] | None = None,
+    seed: int = 0,
+    generator: str = "noise",
+    order: int = PAPER_ORDER,
+    identification_fraction: float = 0.5,
+    calibration_s: float | None = None,
+    episode_s: float = 6.0,
+    hold_s: float = 2.0,
+    control_dt_s: float = 0.01,
+    hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N,
+    record_frames: bool = False,
+) -> EpisodeResult:
+    """Calibrate, then run one closed-loop grasp-lift-hold episode.
+
+    Parameters
+    ----------
+    subject : VirtualSubject
+        The user (with any electrode shift, noise or fatigue already applied).
+    obj : ObjectSpec
+        The object.
+    estimator : str
+        Estimator name (:data:`estimation.registry.ESTIMATOR_NAMES`) or ``"oracle"``.
+    mode : {"free_run", "one_step"}
+        Estimator mode (see module notes).
+    controller : {"pid", "lead_lag", "mpc"}
+        Controller family.
+    controller_spec : mapping, optional
+        Keyword arguments of :func:`scenarios.design.design_for_object`
+        (``phase_margin_deg``, ``crossover_rad_s``, ``horizon``, ...).
+    seed : int
+        Seeds the calibration session, the episode session, the networks'
+        initialization and the environment.
+    episode_s, hold_s : float
+        Episode length and in-air hold, s.
+    control_dt_s : float
+        Control period, s (a whole multiple of the 2 ms physics step).
+    record_frames : bool
+        Also return rendered RGB frames every 40 ms under ``traces["frames"]``.
+
+    Returns
+    -------
+    EpisodeResult
+
+    Raises
+    ------
+    UnsupportedScenarioError
+        Episode timing that leaves no time to grasp before the lift, or an
+        estimator mode that does not exist.
+    DivergedError
+        Unstable identified model in free run, or physics divergence.
+    """
+    lift_after_s = episode_s - hold_s - LIFT_DURATION_S
+    if lift_after_s < REST_S * 1.1 + RAMP_S + 0.3:
+        raise UnsupportedScenarioError(
+            f"episode_s - hold_s - {LIFT_DURATION_S} s lift = {lift_after_s:.2f} s leaves no time "
+            f"to grasp before lifting: needs at least {REST_S * 1.1 + RAMP_S + 0.3:.2f} s"
+        )
+    root = np.random.SeedSequence(seed)
+    cal_seq, episode_seq, env_seq = root.spawn(3)
+    timings = dict.fromkeys(("t_semg_s", "t_features_s", "t_estimator_s",
+                             "t_controller_s", "t_physics_s"), 0.0)
+    with threadpool_limits(limits=1, user_api="blas"):  # tiny matrices: threads only cost
+        cal = calibrate(subject, estimator, mode, rng=np.random.default_rng(cal_seq),
+                        generator=generator, order=order,
+                        identification_fraction=identification_fraction,
+                        calibration_s=calibration_s)
+        design = design_for_object(obj, controller, control_dt_s=control_dt_s,
+                                   **dict(controller_spec or {}))
+
+        # The user's intent and their sEMG during the episode.
+        target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
+        hold_level = float(np.clip(target_n / hand_force_at_mvc_n * cal.mvc_cal_n
+                                   / subject.mvc_n, 0.0, 1.0))
+        g = np.random.default_rng(episode_seq)
+        profile = grasp_lift_hold(g, fs_hz=200.0, hold_level=hold_level, rest_s=REST_S,
+                                  ramp_s=RAMP_S, hold_s=episode_s, jitter=0.1)
+        start_s = next(t for kind, t in profile.cues if kind == "start")
+        t0 = time.perf_counter()
+        recording = subject.record(profile, generator=generator, rng=g)
+        timings["t_semg_s"] = time.perf_counter() - t0
+        n_keep = int(round((episode_s + 0.5) * recording.fs_hz))
+        recording = recording.slice(0, min(n_keep, recording.n_samples))
+        t0 = time.perf_counter()
+        features = extract_features(recording, channels=PAPER_CHANNELS)
+        timings["t_features_s"] = time.perf_counter() - t0
+
+        # Estimates at the window rate, then the held reference at the control rate.
+        to_hand = hand_force_at_mvc_n / cal.mvc_cal_n
+        oracle_windows = _true_force_windows(recording, features) * to_hand
+        t0 = time.perf_counter()
+        if cal.pipeline is None:
+            estimate_windows = oracle_windows
+        else:
+            estimate_windows = stream_estimates(cal, features) * to_hand
+        timings["t_estimator_s"] = time.perf_counter() - t0
+        ceiling = 1.2 * hand_force_at_mvc_n
+        estimate_windows = np.clip(estimate_windows, 0.0, ceiling)
+        n_steps = int(round(episode_s / control_dt_s))
+        t_ctrl = np.arange(n_steps) * control_dt_s
+        reference = reference_from_windows(estimate_windows, features.t_s, t_ctrl)
+        oracle = reference_from_windows(np.clip(oracle_windows, 0, ceiling), features.t_s, t_ctrl)
+
+        traces, failure, info = _closed_loop(obj, design, reference, t_ctrl, control_dt_s,
+                                             episode_s, lift_after_s, env_seq, timings,
+                                             record_frames)
+    if failure is not None:
+        raise DivergedError(f"physics diverged at t = {info['time_s']:.3f} s: {failure}")
+    metrics = episode_metrics(t_ctrl[: traces["grip_force_n"].size],
+                              reference[: traces["grip_force_n"].size], traces["grip_force_n"],
+                              oracle[: traces["grip_force_n"].size], start_s=start_s,
+                              lift_s=lift_after_s, hold_from_s=episode_s - hold_s,
+                              window_values_n=estimate_windows[features.t_s <= episode_s],
+                              window_dt_s=features.dt_s)
+    simulated = traces["t_s"][-1] + control_dt_s
+    loop_time = sum(timings[k] for k in ("t_estimator_s", "t_controller_s", "t_physics_s",
+                                         "t_semg_s", "t_features_s"))
+    m = design.margins
+    row = {
+        "subject_id": subject.subject_id, "seed": int(seed),
+        "object_name": obj.name, "object_mass_kg": obj.mass_kg,
+        "object_friction": obj.friction, "object_break_force_n": obj.break_force_n,
+        "controller": controller, "estimator": estimator, "mode": mode,
+        **metrics,
+        "intended_grip_n": target_n,
+        "slip_events": int(info["slip_events"]), "slip_distance_m": float(info["slip_distance_m"]),
+        "dropped": bool(info["dropped"]), "crushed": bool(info["crushed"]),
+        "lifted": bool(info["lifted"]),
+        "gain_margin_db": _finite(m.gain_margin_db),
+        "phase_margin_deg": _finite(m.phase_margin_deg),
+        "delay_margin_s": _finite(m.delay_margin_s), "ms": _finite(m.ms),
+        "crossover_rad_s": float(m.crossover_rad_s[0]) if len(m.crossover_rad_s) else None,
+        "n_crossovers": len(m.crossover_rad_s), "stable": bool(m.stable),
+        "bandwidth_rad_s": _finite(m.bandwidth_rad_s), "loop_dt_s": float(control_dt_s),
+        "mpc_failures": int(design.core.stats_.n_failures) if controller == "mpc" else 0,
+        "cal_r2": cal.r2, "cal_mvc_n": cal.mvc_cal_n, "fit_s": cal.fit_s,
+        **timings,
+        "simulated_s": float(simulated),
+        "realtime_factor": float(simulated / loop_time) if loop_time > 0 else None,
+    }
+    A, B, C, D = (np.atleast_2d(np.asarray(M, dtype=float)) for M in
+                  (design.loop.A, design.loop.B, design.loop.C, design.loop.D))
+    traces.update(intent_n=oracle[: traces["grip_force_n"].size],
+                  loop_A=A, loop_B=B, loop_C=C, loop_D=D)
+    return EpisodeResult(row=row, traces=traces, design=design)
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+def _true_force_windows(recording: Recording, features: FeatureSet) -> np.ndarray:
+    """The user's true grip force (before the FSR) at each window's end, N."""
+    ends = np.round(features.t_s * recording.fs_hz).astype(int)
+    return recording.intent_force_n[ends]
+
+
+def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarray,
+                 t_ctrl: np.ndarray, control_dt_s: float, episode_s: float,
+                 lift_after_s: float, env_seq: np.random.SeedSequence,
+                 timings: dict[str, float], record_frames: bool
+                 ) -> tuple[dict[str, np.ndarray], str | None, dict[str, Any]]:
+    """Drive GraspEnv with the designed controller; returns traces, failure, last info."""
+    schedule = WristSchedule(lift_after_s=lift_after_s, lift_duration_s=LIFT_DURATION_S)
+    env = GraspEnv(obj, 0.0, control_dt_s=control_dt_s, episode_s=episode_s,
+                   schedule=schedule, render_mode="rgb_array" if record_frames else None)
+    n = reference.size
+    grip = np.zeros(n)
+    command = np.zeros(n)
+    height = np.zeros(n)
+    slip = np.zeros(n)
+    frames: list[np.ndarray] = []
+    frame_every = max(1, int(round(0.04 / control_dt_s)))
+    ctl = design.controller
+    ctl.reset()
+    t_ctl = t_phys = 0.0
+    try:
+        obs, info = env.reset(seed=int(env_seq.generate_state(1)[0]))
+        pending = 0.0  # one control period of computation delay
+        action = np.zeros(1, dtype=np.float32)
+        failure = None
+        k = 0
+        for k in range(n):
+            ref = float(reference[k])
+            env.set_reference(ref)
+            slip_speed = float(info["slip_speed_m_s"])
+            t0 = time.perf_counter()
+            u = ctl.act(Observation(time_s=float(t_ctrl[k]), reference_n=ref,
+                                    grip_force_n=float(info["grip_force_n"]),
+                                    finger_velocity=float(obs[3]),
+                                    slip_detected=slip_speed > 0.005,
+                                    slip_speed_m_s=slip_speed))
+            t1 = time.perf_counter()
+            action[0] = pending
+            obs, _, terminated, truncated, info = env.step(action)
+            t_phys += time.perf_counter() - t1
+            t_ctl += t1 - t0
+            pending = u
+            grip[k], command[k] = info["grip_force_n"], action[0]
+            height[k], slip[k] = info["object_height_m"], info["slip_speed_m_s"]
+            if record_frames and k % frame_every == 0:
+                frames.append(env.render())
+            failure = info.get("failure")
+            if terminated or truncated:
+                break
+        k_end = k + 1
+    finally:
+        env.close()
+    timings["t_controller_s"] += t_ctl
+    timings["t_physics_s"] += t_phys
+    traces = {"t_s": t_ctrl[:k_end], "reference_n": reference[:k_end],
+              "grip_force_n": grip[:k_end], "command": command[:k_end],
+              "object_height_m": height[:k_end], "slip_speed_m_s": slip[:k_end]}
+    if record_frames:
+        traces["frames"] = np.stack(frames)
+    return traces, failure, info
+
+
+# ------------------------------------------------------------------------ runners
+def _subject_for(scenario: Scenario) -> VirtualSubject:
+    s = scenario.subject
+    return VirtualSubject.sample(s.population_seed, s.subject_id).with_scenario(
+        electrode_shift=s.electrode_shift, extra_noise_lsb=s.extra_noise_lsb,
+        fatigue_per_min=s.fatigue_per_min)
+
+
+def controller_spec(scenario: Scenario) -> dict[str, Any]:
+    """Keyword arguments of :func:`scenarios.design.design_for_object` from a scenario."""
+    c = scenario.controller
+    spec: dict[str, Any] = {"phase_margin_deg": c.phase_margin_deg,
+                            "crossover_rad_s": c.crossover_rad_s,
+                            "bandwidth_rad_s": c.bandwidth_rad_s,
+                            "safety_factor": c.safety_factor}
+    if c.kind == "mpc":
+        spec["horizon"] = c.horizon
+    if c.slip_reflex.enabled:
+        spec["slip_reflex"] = {"latency_s": c.slip_reflex.latency_s, "gain": c.slip_reflex.gain}
+    return spec
+
+
+def run_episode_scenario(scenario: Scenario) -> dict[str, Any]:
+    """Runner of scenario kind ``episode`` (see :mod:`scenarios.runner`)."""
+    p, e = scenario.protocol, scenario.estimator
+    dt = 1.0 / scenario.controller.control_hz
+    result = run_episode(
+        _subject_for(scenario), scenario_object(scenario), estimator=e.name, mode=e.mode,
+        controller=scenario.controller.kind, controller_spec=controller_spec(scenario),
+        seed=int(scenario.seed or 0), generator=scenario.subject.generator,
+        order=PAPER_ORDER if e.order is None else e.order,
+        identification_fraction=p.identification_fraction, calibration_s=p.calibration_s,
+        episode_s=p.episode_s, hold_s=p.hold_s, control_dt_s=dt)
+    return result.as_result_row()
+
+
+def run_calibration_scenario(scenario: Scenario) -> dict[str, Any]:
+    """Runner of scenario kind ``calibration``: fit on a session, score the rest, no grasp."""
+    e, p = scenario.estimator, scenario.protocol
+    subject = _subject_for(scenario)
+    with threadpool_limits(limits=1, user_api="blas"):
+        cal = calibrate(subject, e.name, e.mode,
+                        rng=np.random.default_rng(np.random.SeedSequence(scenario.seed or 0)),
+                        generator=scenario.subject.generator,
+                        order=PAPER_ORDER if e.order is None else e.order,
+                        identification_fraction=p.identification_fraction,
+                        calibration_s=p.calibration_s)
+    return {"subject_id": subject.subject_id, "estimator": e.name, "mode": e.mode,
+            "r2": cal.r2, "mvc_cal_n": cal.mvc_cal_n, "fit_s": cal.fit_s}

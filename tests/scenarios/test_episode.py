@@ -1,0 +1,158 @@
+"""Closed-loop episodes: metric closed forms, reference timing, and real grasps."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from scenarios.cli import main
+from scenarios.compare import compare_references, format_comparison
+from scenarios.episode import (
+    FRAGILE_MARGIN,
+    MIN_GRIP_N,
+    episode_metrics,
+    intended_grip_n,
+    reference_from_windows,
+    run_episode,
+)
+from scenarios.runner import UnsupportedScenarioError, run_scenario
+from scenarios.schema import parse_scenario
+from sim.objects import make_object
+from sim.subjects import VirtualSubject
+
+CAN = make_object("can", mass_kg=0.4, friction=0.5)
+TIMING_KEYS = {"t_semg_s", "t_features_s", "t_estimator_s", "t_controller_s", "t_physics_s",
+               "realtime_factor", "fit_s"}
+
+
+def test_metrics_match_closed_forms() -> None:
+    dt = 0.01
+    t = np.arange(0, 6, dt)
+    start, tau = 1.0, 0.1
+    reference = np.where(t >= start, 5.0, 0.0)
+    grip = np.where(t >= 1.2, 5.0 * (1 - np.exp(-(t - 1.2) / tau)), 0.0)
+    oracle = reference + 0.5
+    windows = np.array([0.0, 2.0, 5.0, 5.0, 4.0])
+    m = episode_metrics(t, reference, grip, oracle, start_s=start, lift_s=3.4, hold_from_s=4.0,
+                        window_values_n=windows, window_dt_s=0.125)
+    # first grip >= 0.5 N: 5 (1 - exp(-x / tau)) = 0.5  ->  x = tau ln(10 / 9)
+    contact = 1.2 + tau * np.log(10 / 9)
+    assert m["contact_time_s"] == pytest.approx(np.ceil(contact / dt) * dt, abs=1e-9)
+    # within 5 % (0.25 N) once exp(-x / tau) <= 0.05  ->  x = tau ln 20
+    settle = 1.2 + tau * np.log(20)
+    assert m["settling_time_s"] == pytest.approx(np.ceil(settle / dt) * dt - start, abs=1e-9)
+    assert m["overshoot_pct"] == 0.0
+    assert m["hold_reference_n"] == 5.0
+    assert m["estimation_rmse_n"] == pytest.approx(0.5)
+    assert m["reference_volatility_n_per_s"] == pytest.approx((2 + 3 + 0 + 1) / (4 * 0.125))
+    track = t >= m["contact_time_s"] + 0.5
+    assert m["tracking_rmse_n"] == pytest.approx(np.sqrt(np.mean((5.0 - grip[track]) ** 2)))
+    bumped = grip + np.where((t > 2.0) & (t < 2.1), 1.0, 0.0)
+    m2 = episode_metrics(t, reference, bumped, oracle, start_s=start, lift_s=3.4,
+                         hold_from_s=4.0, window_values_n=windows, window_dt_s=0.125)
+    assert m2["overshoot_pct"] == pytest.approx(100 * (max(bumped[t < 3.4]) - 5.0) / 5.0)
+    assert m2["settling_time_s"] == pytest.approx(2.1 - start, abs=dt + 1e-9)
+    never = episode_metrics(t, reference, grip * 0.5, oracle, start_s=start, lift_s=3.4,
+                            hold_from_s=4.0, window_values_n=windows, window_dt_s=0.125)
+    assert never["settling_time_s"] is None
+
+
+def test_reference_is_held_between_window_updates() -> None:
+    window_t = np.array([0.395, 0.52, 0.645])
+    values = np.array([1.0, 2.0, 3.0])
+    control_t = np.array([0.0, 0.39, 0.395, 0.4, 0.519, 0.52, 0.9])
+    held = reference_from_windows(values, window_t, control_t)
+    np.testing.assert_array_equal(held, [0.0, 0.0, 1.0, 1.0, 1.0, 2.0, 3.0])
+
+
+def test_intended_grip_is_safety_times_coulomb_threshold() -> None:
+    assert intended_grip_n(CAN, 1.5) == pytest.approx(1.5 * 0.4 * 9.81 / (2 * 0.5))
+    light = make_object("block", mass_kg=0.05, friction=1.2)
+    assert intended_grip_n(light, 1.5) == MIN_GRIP_N
+    egg = make_object("egg", break_force_n=2.0)
+    assert intended_grip_n(egg, 3.0) == pytest.approx(FRAGILE_MARGIN * 2.0)
+
+
+@pytest.fixture(scope="module")
+def oracle_episode():
+    subject = VirtualSubject.sample(0, 1)
+    return [run_episode(subject, CAN, estimator="oracle", controller="pid", seed=3)
+            for _ in range(2)]
+
+
+def test_oracle_pid_lifts_and_holds_the_can(oracle_episode) -> None:
+    row = oracle_episode[0].row
+    assert row["lifted"] and not row["dropped"] and not row["crushed"]
+    assert row["estimation_rmse_n"] == 0.0
+    assert row["hold_reference_n"] == pytest.approx(row["intended_grip_n"], rel=0.25)
+    assert row["tracking_rmse_n"] < 0.25 * row["hold_reference_n"]
+    assert row["stable"] and row["phase_margin_deg"] == pytest.approx(60.0, abs=1.0)
+    traces = oracle_episode[0].traces
+    assert traces["object_height_m"][-1] > traces["object_height_m"][0] + 0.05
+    assert traces["loop_A"].ndim == 2 and traces["loop_A"].shape[0] == traces["loop_B"].shape[0]
+
+
+def test_same_seed_same_episode(oracle_episode) -> None:
+    a, b = oracle_episode
+    assert {k: v for k, v in a.row.items() if k not in TIMING_KEYS} == \
+        {k: v for k, v in b.row.items() if k not in TIMING_KEYS}
+    np.testing.assert_array_equal(a.traces["grip_force_n"], b.traces["grip_force_n"])
+
+
+def test_bad_timing_and_missing_modes_are_named() -> None:
+    subject = VirtualSubject.sample(0, 1)
+    with pytest.raises(UnsupportedScenarioError, match="no time to grasp"):
+        run_episode(subject, CAN, estimator="oracle", episode_s=3.0, hold_s=2.0)
+    with pytest.raises(UnsupportedScenarioError, match="persistence has modes"):
+        run_episode(subject, CAN, estimator="persistence", mode="free_run")
+
+
+def test_episode_scenario_row_has_the_contract() -> None:
+    scenario = parse_scenario({
+        "kind": "episode", "seed": 5, "object": {"name": "block", "mass_kg": 0.2},
+        "estimator": {"name": "features_rms", "mode": "free_run"},
+        "controller": {"kind": "lead_lag", "slip_reflex": {"enabled": True}},
+    })
+    row = run_scenario(scenario)
+    for key in ("tracking_rmse_n", "slip_events", "slip_distance_m", "dropped", "crushed",
+                "peak_force_n", "gain_margin_db", "phase_margin_deg", "delay_margin_s", "ms",
+                "reference_volatility_n_per_s", "estimation_rmse_n", "cal_r2"):
+        assert key in row, key
+    assert row["kind"] == "episode" and row["controller"] == "lead_lag"
+    assert 0.0 < row["cal_r2"] <= 1.0
+    assert set(row["traces"]) >= {"t_s", "reference_n", "grip_force_n", "intent_n", "loop_A"}
+
+
+def test_episode_command_writes_margins_and_metrics(tmp_path, capsys) -> None:
+    out = tmp_path / "ep.json"
+    code = main(["episode", "--controller", "pid", "--estimator", "oracle", "--object", "can",
+                 "--mass-kg", "0.4", "--friction", "0.5", "--json", str(out)])
+    assert code == 0
+    data = json.loads(out.read_text())
+    assert {"gain_margin_db", "phase_margin_deg", "delay_margin_s", "crossover_rad_s", "ms",
+            "closed_loop_poles", "stable", "loop"} <= set(data["margins"])
+    assert {"tracking_rmse_n", "slip_events", "slip_distance_m", "dropped", "crushed",
+            "peak_force_n"} <= set(data["metrics"])
+    assert "phase margin" in capsys.readouterr().out
+
+
+def test_episode_command_rejects_unknown_names(capsys) -> None:
+    code = main(["episode", "--controller", "pid", "--estimator", "kalmanish", "--object", "can",
+                 "--json", "unused.json"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert "oracle" in err[0] and "ss_kf" in err[0]
+    code = main(["episode", "--controller", "bangbang", "--estimator", "oracle", "--object",
+                 "can", "--json", "unused.json"])
+    assert code == 2 and "lead_lag" in capsys.readouterr().err
+
+
+def test_compare_references_reports_each_reference() -> None:
+    result = compare_references(CAN, estimators=("features_wl", "oracle"), subject_ids=(2,))
+    summary = result["summary"]
+    assert summary["oracle"]["estimation_rmse_n"] == 0.0
+    assert summary["features_wl"]["estimation_rmse_n"] > 0.0
+    assert all(s["n_ok"] + s["n_failed"] == 1 for s in summary.values())
+    assert "features_wl" in format_comparison(result)
