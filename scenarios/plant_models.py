@@ -116,6 +116,11 @@ def design_plant(
 ) -> DesignPlant:
     """Build the design plant of an object grasped by the simulated hand.
 
+    The operating point is the object lifted and held at ``grip_force_n``: the
+    regime the force loop must hold. (On the table, the first pad to touch
+    pushes the object to its table-friction limit, where the dynamics are not
+    smooth and finite differences give spurious unstable poles.)
+
     Parameters
     ----------
     name : str or ObjectSpec
@@ -160,7 +165,7 @@ def design_plant(
         obj = object_for(name, mass_kg=mass_kg, friction=friction)
     force = default_operating_force_n(obj) if grip_force_n is None else float(grip_force_n)
     try:
-        lin = linearize_grasp(obj, force, control_dt_s=control_dt_s)
+        lin = linearize_grasp(obj, force, lifted=True, control_dt_s=control_dt_s)
     except RuntimeError as exc:
         raise PlantError(
             f"design plant: expected a steady grasp of {obj.name} at {force:.3g} N, found: {exc}"

@@ -21,6 +21,9 @@ slip speed (m/s)
     Largest relative tangential velocity between object and digit at the
     hand-object contact points: the friction rows of ``efc_vel = J qvel``,
     computed by MuJoCo in the contact frame.
+
+:func:`first_contact_peak` measures the impact when the hand closes on an
+object at a constant command, substep by substep, from the same readings.
 """
 
 from __future__ import annotations
@@ -244,3 +247,123 @@ class OutcomeTracker:
             reading.grip_force_n, reading.finger_force_n
         ) > self.break_force_n:
             self.crushed = True
+
+
+@dataclass(frozen=True)
+class FirstContact:
+    """Contact forces when the hand closes on an object at a constant command.
+
+    Forces are the larger of the thumb-side and finger-side normal sums (the
+    crush criterion), read at every physics substep.
+
+    Attributes
+    ----------
+    closing_command : float
+        Normalized motor command applied throughout.
+    touch_time_s : float
+        Time of the first hand-object contact, s.
+    grasp_time_s : float
+        Time at which both sides first touch the object, s.
+    peak_force_n : float
+        Largest force from the first touch until ``window_s`` after the grasp
+        forms, N: the impact a contact-triggered controller reacting within
+        ``window_s`` cannot prevent.
+    hold_peak_force_n : float
+        Largest force over the whole run (command held ``hold_s`` after the
+        grasp forms), N.
+    settled_force_n : float
+        Force at the end of the run, N: the quasi-static squeeze at this command.
+    window_s, hold_s : float
+        The windows used, s.
+    """
+
+    closing_command: float
+    touch_time_s: float
+    grasp_time_s: float
+    peak_force_n: float
+    hold_peak_force_n: float
+    settled_force_n: float
+    window_s: float
+    hold_s: float
+
+    @property
+    def overshoot(self) -> float:
+        """``hold_peak_force_n / settled_force_n``: 1 when there is no impact transient."""
+        return self.hold_peak_force_n / self.settled_force_n
+
+
+def first_contact_peak(model: mujoco.MjModel, data: mujoco.MjData, ids: HandIds,
+                       closing_command: float, *, window_s: float = 0.02,
+                       hold_s: float = 1.0, max_close_s: float = 3.0) -> FirstContact:
+    """Close the hand at a constant command and measure the first-contact forces.
+
+    The command is applied from the current state (the open hand around the
+    object, e.g. just after ``GraspEnv.reset``) and held: before contact as
+    the closing command of a contact gate, after it as the command the gate
+    holds until its controller reacts. ``data`` is advanced in place.
+
+    Parameters
+    ----------
+    model, data : MuJoCo model and data of :func:`sim.hand.build_model`.
+    ids : HandIds
+        Resolved ids of the model.
+    closing_command : float
+        Normalized motor command in (0, 1].
+    window_s : float
+        Reaction window after the grasp forms, s (default two 10 ms control
+        periods: contact seen at the end of one, new command in the next).
+    hold_s : float
+        How long the command is held after the grasp forms, s (>= ``window_s``;
+        the default lets the squeeze settle, its time constant on the pads
+        being about 0.2 s).
+    max_close_s : float
+        Time allowed for the grasp to form, s.
+
+    Returns
+    -------
+    FirstContact
+
+    Raises
+    ------
+    ValueError
+        If a parameter is out of range.
+    RuntimeError
+        If both sides do not touch the object within ``max_close_s``.
+    """
+    if not 0 < closing_command <= 1:
+        raise ValueError(f"closing_command: expected 0 < c <= 1, found {closing_command!r}")
+    if not 0 < window_s <= hold_s:
+        raise ValueError(
+            f"window_s, hold_s: expected 0 < window_s <= hold_s, found {window_s!r}, {hold_s!r}"
+        )
+    if not max_close_s > 0:
+        raise ValueError(f"max_close_s: expected a positive duration, found {max_close_s!r}")
+    dt = model.opt.timestep
+    data.ctrl[ids.motor] = closing_command
+    reading = ContactReading()
+    t_start = data.time
+    touch = grasp = None
+    peak = hold_peak = force = 0.0
+    while True:
+        mujoco.mj_step(model, data)
+        read_contacts(model, data, ids, reading)
+        t = data.time
+        force = max(reading.grip_force_n, reading.finger_force_n)
+        if touch is None and reading.n_contacts:
+            touch = t
+        if grasp is None and reading.thumb_contact and reading.finger_contact:
+            grasp = t
+        hold_peak = max(hold_peak, force)
+        if touch is not None and (grasp is None or t <= grasp + window_s + 0.5 * dt):
+            peak = max(peak, force)
+        if grasp is not None and t >= grasp + hold_s - 0.5 * dt:
+            break
+        if grasp is None and t - t_start > max_close_s:
+            raise RuntimeError(
+                f"first_contact_peak: expected a grasp within {max_close_s} s at command "
+                f"{closing_command}, found no two-sided contact"
+            )
+    return FirstContact(closing_command=float(closing_command), touch_time_s=float(touch),
+                        grasp_time_s=float(grasp), peak_force_n=peak,
+                        hold_peak_force_n=hold_peak, settled_force_n=force,
+                        window_s=float(window_s), hold_s=float(hold_s))

@@ -29,7 +29,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sim.contact import ContactReading, OutcomeTracker, read_contacts
-from sim.hand import HandIds, MotorSpec, build_model
+from sim.hand import HandIds, MotorSpec, PadSpec, build_model
 from sim.objects import ObjectSpec, as_object_spec
 from sim.references import Reference, StreamReference, as_reference
 
@@ -134,6 +134,8 @@ class GraspEnv(gym.Env):
         Wrist trajectory.
     motor : MotorSpec
         Drive parameters.
+    pads : PadSpec
+        Compliant fingertip pads (default ``PadSpec()``).
     reward_weights : RewardWeights
         Reward composition.
     slip_threshold_m_s, drop_distance_m : float
@@ -157,7 +159,7 @@ class GraspEnv(gym.Env):
                  motor: MotorSpec | None = None, reward_weights: RewardWeights | None = None,
                  slip_threshold_m_s: float = 0.005, drop_distance_m: float = 0.03,
                  position_jitter_m: float = 0.0, render_mode: str | None = None,
-                 render_size: tuple[int, int] = (480, 640)) -> None:
+                 render_size: tuple[int, int] = (480, 640), pads: PadSpec | None = None) -> None:
         if not 0.001 <= physics_dt_s <= 0.002 + 1e-12:
             raise ValueError(f"physics_dt_s: expected 0.001..0.002 s, found {physics_dt_s!r}")
         n_sub = round(control_dt_s / physics_dt_s)
@@ -181,6 +183,7 @@ class GraspEnv(gym.Env):
         self.max_steps = int(round(episode_s / control_dt_s))
         self.schedule = schedule or WristSchedule()
         self.motor = motor or MotorSpec()
+        self.pads = pads or PadSpec()
         self.weights = reward_weights or RewardWeights()
         self.position_jitter_m = float(position_jitter_m)
         self.render_mode = render_mode
@@ -202,7 +205,7 @@ class GraspEnv(gym.Env):
     # ------------------------------------------------------------------ setup
     def _load_object(self, obj: ObjectSpec) -> None:
         self.object_spec = obj
-        self.model = build_model(obj, self.motor, self.physics_dt_s)
+        self.model = build_model(obj, self.motor, self.physics_dt_s, self.pads)
         self.data = mujoco.MjData(self.model)
         self.ids = HandIds.from_model(self.model)
         self.tracker.break_force_n = obj.break_force_n

@@ -18,6 +18,16 @@ this is a ``general`` actuator with gain ``tau_stall_out`` and velocity bias
 ``-tau_stall_out / v_0``; the current is read back from the actuator force.
 Defaults (see :class:`MotorSpec`) give a free full close in about 0.6 s and a
 stall grip force near 100 N (CALIBRATION.md, "Prosthetic hands").
+
+Fingertip pads (see :class:`PadSpec`): each pad geom sits on a slide joint
+along the pad normal with a spring and a damper over a few millimetres of
+travel, then a stiff stop (the phalanx). This is the silicone of a real
+fingertip. It matters at first contact: the drive's rotor inertia reflected
+through the gearbox (``J G^2``) is about 4 kg at an 80 mm lever, and a rigid
+fingertip stops it within one or two physics steps: an impact of tens of
+newtons even at a gentle closing command. The pad spreads the stop over tens
+of milliseconds, so the force rises at about ``k v`` (pad stiffness times
+closing speed) instead, until the pad bottoms out (docs/HAND.md).
 """
 
 from __future__ import annotations
@@ -25,6 +35,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from importlib import resources
+from typing import ClassVar
 
 import mujoco
 import numpy as np
@@ -33,6 +44,8 @@ from sim.objects import ObjectSpec
 
 HAND_XML = "hand.xml"
 DIGIT_JOINTS = ("thumb", "index", "middle")
+#: Fingertip pad slide joints (+ towards the object), one per digit, as in hand.xml.
+PAD_JOINTS = ("thumb_pad", "index_pad", "middle_pad")
 WRIST_ACTUATORS = ("wrist_x", "wrist_y", "wrist_z")
 #: Tendon coefficients of the drive (index, middle, thumb), as in hand.xml.
 DRIVE_COEF = {"index": 0.5, "middle": 0.5, "thumb": 1.0}
@@ -59,7 +72,7 @@ class MotorSpec:
     torque_constant_nm_a : float
         Motor torque constant k_t in N m / A (equal to the back-EMF constant in SI).
     rotor_inertia_kg_m2 : float
-        Rotor inertia; reflected to the digits as joint armature ``J G^2``.
+        Rotor inertia in kg m^2; reflected to the digits as joint armature ``J G^2``.
 
     Notes
     -----
@@ -67,6 +80,10 @@ class MotorSpec:
     i.e. an 8 A stall current from a 2-cell Li-ion pack), 250:1 gearbox at 85 %:
     8.5 N m stall at the tendon, i.e. about 106 N on an 80 mm thumb lever, and a
     free tendon speed of 5.9 rad/s: the digits sweep 1.65 rad in about 0.6 s.
+    The rotor inertia, 1e-7 kg m^2 (1 g cm^2), is the order of a 16 mm,
+    15 W DC motor; reflected through 250:1 it is 6.25e-3 kg m^2 on the tendon,
+    0.025 kg m^2 on the coupled digit angle (the tendon moves 2 rad per rad),
+    i.e. about 4 kg at an 80 mm lever.
     """
 
     stall_torque_nm: float = 0.04
@@ -74,7 +91,7 @@ class MotorSpec:
     gear_ratio: float = 250.0
     efficiency: float = 0.85
     torque_constant_nm_a: float = 0.005
-    rotor_inertia_kg_m2: float = 4e-7
+    rotor_inertia_kg_m2: float = 1e-7
 
     def __post_init__(self) -> None:
         for name in ("stall_torque_nm", "no_load_speed_rad_s", "gear_ratio",
@@ -117,6 +134,81 @@ class MotorSpec:
         return actuator_force_nm / (self.efficiency * self.gear_ratio * self.torque_constant_nm_a)
 
 
+@dataclass(frozen=True)
+class PadSpec:
+    """Compliant silicone fingertip pads.
+
+    Each pad is a body on a slide joint along its normal: a linear spring and
+    damper over ``travel_m``, then a stop at the rigid phalanx (a joint limit
+    with stiff constraint parameters). The pad is soft at first touch and
+    stiffens when it bottoms out, like a silicone fingertip. The thumb pad
+    opposes both fingers, so it gets their combined stiffness and damping
+    (``thumb_scale`` times a finger pad's): both sides of the grasp are then
+    equally compliant and bottom out at the same grip force.
+
+    Parameters
+    ----------
+    stiffness_n_m : float
+        Spring stiffness of a finger pad, N/m.
+    damping_n_s_m : float
+        Damping of a finger pad, N s/m (silicone is lossy: the defaults give
+        damping ratios of 0.4 (15 g finger pads) and 0.5 (20 g thumb pad)).
+    travel_m : float
+        Compression at which a pad bottoms out, m (the same on all digits).
+
+    Notes
+    -----
+    Defaults: 1 N/mm over 4 mm per finger pad, 2 N/mm on the thumb, so each
+    side of the grasp bottoms out at 8 N; human finger pulp and silicone
+    fingertips are of the order of 1-10 N/mm and stiffen with load. First
+    contacts and fragile grasps (egg, cup: below 5 N) stay on the springs; a
+    grasp at 10 N or more sits on the stops, as stiff as a rigid fingertip.
+    The spring is integrated explicitly: :func:`build_spec` checks
+    ``omega dt <= 1`` with ``omega = sqrt(k / m_pad)`` for every pad.
+    """
+
+    stiffness_n_m: float = 1000.0
+    damping_n_s_m: float = 3.0
+    travel_m: float = 0.004
+
+    #: Thumb pad stiffness and damping relative to a finger pad's.
+    thumb_scale: ClassVar[float] = DRIVE_COEF["thumb"] / DRIVE_COEF["index"]
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.stiffness_n_m) and self.stiffness_n_m > 0):
+            raise ValueError(
+                f"PadSpec.stiffness_n_m: expected a positive stiffness in N/m, found "
+                f"{self.stiffness_n_m!r}"
+            )
+        if not (math.isfinite(self.damping_n_s_m) and self.damping_n_s_m >= 0):
+            raise ValueError(
+                f"PadSpec.damping_n_s_m: expected a damping >= 0 in N s/m, found "
+                f"{self.damping_n_s_m!r}"
+            )
+        if not (math.isfinite(self.travel_m) and 0 < self.travel_m <= 0.01):
+            raise ValueError(
+                f"PadSpec.travel_m: expected 0 < travel <= 0.01 m, found {self.travel_m!r}"
+            )
+
+    def joint_stiffness_n_m(self, joint: str) -> float:
+        """Spring stiffness of pad joint ``joint`` (one of ``PAD_JOINTS``), N/m."""
+        return self.stiffness_n_m * self._scale(joint)
+
+    def joint_damping_n_s_m(self, joint: str) -> float:
+        """Damping of pad joint ``joint`` (one of ``PAD_JOINTS``), N s/m."""
+        return self.damping_n_s_m * self._scale(joint)
+
+    def _scale(self, joint: str) -> float:
+        if joint not in PAD_JOINTS:
+            raise LookupError(f"pad joint: expected one of {PAD_JOINTS}, found {joint!r}")
+        return self.thumb_scale if joint == "thumb_pad" else 1.0
+
+    @property
+    def bottom_out_force_n(self) -> float:
+        """Grip force (one side of the grasp) at which the pads bottom out, N."""
+        return self.thumb_scale * self.stiffness_n_m * self.travel_m
+
+
 def approach_height_m(obj: ObjectSpec) -> float:
     """Wrist (palm centre) height so that the pads meet the object near its middle.
 
@@ -129,7 +221,7 @@ def approach_height_m(obj: ObjectSpec) -> float:
 
 
 def build_spec(obj: ObjectSpec, motor: MotorSpec | None = None,
-               timestep_s: float = 0.002) -> mujoco.MjSpec:
+               timestep_s: float = 0.002, pads: PadSpec | None = None) -> mujoco.MjSpec:
     """Assemble the hand, the table and one object as an ``MjSpec``.
 
     Parameters
@@ -140,13 +232,23 @@ def build_spec(obj: ObjectSpec, motor: MotorSpec | None = None,
         Drive parameters; default ``MotorSpec()``.
     timestep_s : float
         Physics timestep in seconds (1-2 ms recommended).
+    pads : PadSpec, optional
+        Fingertip pads; default ``PadSpec()``.
+
+    Raises
+    ------
+    ValueError
+        If the timestep is outside 0.1-5 ms, or too coarse for the pad spring
+        (``sqrt(k / m_pad) * timestep_s > 1``).
     """
     motor = motor or MotorSpec()
+    pads = pads or PadSpec()
     if not 1e-4 <= timestep_s <= 0.005:
         raise ValueError(f"timestep_s: expected 0.0001..0.005 s, found {timestep_s!r}")
     xml = resources.files("sim").joinpath("assets", HAND_XML).read_text()
     spec = mujoco.MjSpec.from_string(xml)
     spec.option.timestep = timestep_s
+    _set_pads(spec, pads, timestep_s)
 
     tau = motor.output_stall_torque_nm
     act = spec.actuator("motor")
@@ -170,6 +272,27 @@ def build_spec(obj: ObjectSpec, motor: MotorSpec | None = None,
     spec.add_sensor(name="object_in_palm", type=mujoco.mjtSensor.mjSENS_FRAMEPOS, objtype=site,
                     objname="object_center", reftype=mujoco.mjtObj.mjOBJ_BODY, refname="palm")
     return spec
+
+
+def _set_pads(spec: mujoco.MjSpec, pads: PadSpec, timestep_s: float) -> None:
+    """Write ``pads`` into the pad joints and check each explicit spring is resolved."""
+    for name in PAD_JOINTS:
+        stiffness = pads.joint_stiffness_n_m(name)
+        # Each pad joint carries the pad geom of the same name.
+        mass_kg = spec.geom(name).mass
+        omega_dt = math.sqrt(stiffness / mass_kg) * timestep_s
+        if omega_dt > 1.0:
+            raise ValueError(
+                f"PadSpec.stiffness_n_m: expected sqrt(k / m_pad) * dt <= 1 for a stable pad "
+                f"spring, found {omega_dt:.2f} on {name} (k = {stiffness} N/m, m_pad = "
+                f"{mass_kg} kg, dt = {timestep_s} s)"
+            )
+        joint = spec.joint(name)
+        # Linear terms only (MuJoCo also takes higher-order polynomial coefficients).
+        joint.stiffness = [stiffness, 0.0, 0.0]
+        joint.damping = [pads.joint_damping_n_s_m(name), 0.0, 0.0]
+        # The upper bound only limits the rebound of an unloaded pad.
+        joint.range = [-pads.travel_m, pads.travel_m]
 
 
 def _add_object(spec: mujoco.MjSpec, obj: ObjectSpec, pos: tuple[float, float, float]) -> None:
@@ -226,9 +349,9 @@ def build_pinch_model(obj: ObjectSpec, grip_force_n: float,
 
 
 def build_model(obj: ObjectSpec, motor: MotorSpec | None = None,
-                timestep_s: float = 0.002) -> mujoco.MjModel:
+                timestep_s: float = 0.002, pads: PadSpec | None = None) -> mujoco.MjModel:
     """Compile the hand with ``obj``; see :func:`build_spec`."""
-    return build_spec(obj, motor, timestep_s).compile()
+    return build_spec(obj, motor, timestep_s, pads).compile()
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ def test_force_bounds_and_infeasible_object():
     b = force_bounds(0.4, 0.5, fragility_limit_n=30.0, safety_factor=1.5)
     assert b.min_n == pytest.approx(1.5 * 0.4 * 9.81 / 1.0)
     assert b.max_n == 30.0
-    with pytest.raises(SpecificationError, match=r"needs at least 5.88 N .* breaks at 4 N"):
+    with pytest.raises(SpecificationError, match=r"needs at least 5.89 N .* breaks at 4 N"):
         force_bounds(0.4, 0.5, fragility_limit_n=4.0)
 
 

@@ -20,9 +20,10 @@ def test_linearized_plant_is_a_strictly_proper_design_model(linearized):
     assert np.all(np.asarray(p.D) == 0)
     check_plant(p)
     # the truncated creep modes are slow (> 10 s) and the reduced model still fits the step
-    assert min(linearized.fit["removed_time_constants_s"]) > 10.0
+    assert min(linearized.fit["removed_time_constants_s"], default=np.inf) > 10.0
     assert linearized.fit["step_fit_percent"] > 95.0
-    assert linearized.fit["full_step_fit_percent"] >= linearized.fit["step_fit_percent"]
+    # truncation removes modes: the full model fits no worse (up to rounding of the fits)
+    assert linearized.fit["full_step_fit_percent"] >= linearized.fit["step_fit_percent"] - 0.05
 
 
 def test_identified_and_linearized_agree_in_the_control_band(linearized):

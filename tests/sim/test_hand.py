@@ -8,10 +8,11 @@ import os
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import mujoco
+import numpy as np
 import pytest
 
 from sim.contact import read_contacts
-from sim.hand import HandIds, MotorSpec, build_model
+from sim.hand import PAD_JOINTS, HandIds, MotorSpec, PadSpec, build_model
 from sim.objects import make_object
 
 
@@ -117,3 +118,70 @@ def test_grip_force_is_proportional_to_command_at_stall(command: float) -> None:
 def test_timestep_is_validated() -> None:
     with pytest.raises(ValueError, match="timestep_s"):
         build_model(make_object("can"), timestep_s=0.02)
+
+
+def test_pad_spec_is_written_into_the_pad_joints() -> None:
+    pads = PadSpec(stiffness_n_m=800.0, damping_n_s_m=2.5, travel_m=0.0025)
+    # The thumb pad opposes both fingers: twice a finger pad's stiffness, so a side
+    # of the grasp bottoms out at 2 k travel.
+    assert PadSpec.thumb_scale == 2.0
+    assert pads.bottom_out_force_n == pytest.approx(2 * 800.0 * 0.0025)
+    model = build_model(make_object("egg"), pads=pads)
+    for name in PAD_JOINTS:
+        joint = model.joint(name)
+        scale = 2.0 if name == "thumb_pad" else 1.0
+        assert joint.stiffness[0] == scale * 800.0
+        assert model.dof_damping[joint.dofadr[0]] == scale * 2.5
+        assert tuple(joint.range) == (-0.0025, 0.0025)
+        assert model.dof_armature[joint.dofadr[0]] == 0.0
+    with pytest.raises(LookupError, match="pad joint"):
+        pads.joint_stiffness_n_m("index")
+
+
+def test_pad_spring_at_rest_and_under_a_light_squeeze() -> None:
+    # Open hand: the pads rest at zero compression. A light squeeze of the block
+    # (thumb force below the bottom-out force) compresses the thumb pad by
+    # F_axial / k_thumb, where F_axial is the contact force along the pad's slide axis.
+    model = build_model(make_object("block"))
+    data = mujoco.MjData(model)
+    ids = HandIds.from_model(model)
+    mujoco.mj_forward(model, data)
+    adr = model.joint("thumb_pad").qposadr[0]
+    assert data.qpos[adr] == 0.0
+    data.ctrl[ids.motor] = 0.2  # close, then relax to a light squeeze
+    mujoco.mj_step(model, data, 300)
+    data.ctrl[ids.motor] = 0.02
+    mujoco.mj_step(model, data, 500)
+    reading = read_contacts(model, data, ids)
+    pads = PadSpec()
+    assert 0.5 < reading.grip_force_n < pads.bottom_out_force_n
+    axis = data.xaxis[model.joint("thumb_pad").id]
+    body = model.joint("thumb_pad").bodyid[0]
+    force_on_pad = np.zeros(6)
+    axial = 0.0
+    for i in range(data.ncon):
+        g1, g2 = data.contact.geom[i]
+        if {g1, g2} == {model.geom("thumb_pad").id, ids.object_geom}:
+            mujoco.mj_contactForce(model, data, i, force_on_pad)
+            # Contact force acts on geom2 (the object): the pad receives minus it.
+            world = data.contact.frame[i].reshape(3, 3).T @ force_on_pad[:3]
+            sign = -1.0 if g2 == ids.object_geom else 1.0
+            axial += sign * world @ axis
+    assert model.geom_bodyid[model.geom("thumb_pad").id] == body
+    compression_m = -data.qpos[adr]
+    assert compression_m == pytest.approx(-axial / pads.joint_stiffness_n_m("thumb_pad"),
+                                          rel=0.02)
+
+
+@pytest.mark.parametrize("field, value", [("stiffness_n_m", 0.0), ("damping_n_s_m", -1.0),
+                                          ("travel_m", 0.02)])
+def test_pad_spec_is_validated(field: str, value: float) -> None:
+    with pytest.raises(ValueError, match=field):
+        PadSpec(**{field: value})
+
+
+def test_too_stiff_pad_for_the_timestep_is_refused() -> None:
+    # thumb pad: omega dt = sqrt(2 * 20000 N/m / 0.02 kg) * 0.002 s = 2.83 > 1
+    with pytest.raises(ValueError, match=r"found 2\.83 on thumb_pad"):
+        build_model(make_object("egg"), pads=PadSpec(stiffness_n_m=20000.0))
+    build_model(make_object("egg"), pads=PadSpec(stiffness_n_m=20000.0), timestep_s=0.0005)
