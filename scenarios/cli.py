@@ -4,18 +4,27 @@ Subcommands live in :mod:`scenarios.commands`, one module each. Errors a user
 can cause (bad files, bad options, infeasible designs) are subclasses of
 ``ValueError``, ``OSError`` or ``LookupError``; they are printed as one line on
 stderr with exit status 2. Set ``GRIPLOOP_TRACEBACK=1`` to see the traceback.
+
+MuJoCo chooses its OpenGL backend when first imported, so headless EGL is
+selected here, before any command module is loaded (an explicit ``MUJOCO_GL``
+in the environment wins).
 """
 
 from __future__ import annotations
 
-import argparse
-import importlib
 import os
-import pkgutil
-import sys
-from collections.abc import Sequence
 
-import scenarios.commands as _commands
+os.environ.setdefault("MUJOCO_GL", "egl")
+os.environ.setdefault("PYOPENGL_PLATFORM", os.environ["MUJOCO_GL"])
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+import argparse  # noqa: E402
+import importlib  # noqa: E402
+import pkgutil  # noqa: E402
+import sys  # noqa: E402
+from collections.abc import Sequence  # noqa: E402
+
+import scenarios.commands as _commands  # noqa: E402
 
 USER_ERRORS = (ValueError, OSError, LookupError)
 

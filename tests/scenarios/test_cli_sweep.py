@@ -81,7 +81,10 @@ def test_missing_file_gives_one_line_and_exit_2(tmp_path, capsys, monkeypatch):
 
 
 def test_missing_runner_and_conflicting_options_exit_2(tmp_path, capsys, monkeypatch):
+    from scenarios import runner
+
     monkeypatch.delenv("GRIPLOOP_TRACEBACK", raising=False)
+    monkeypatch.delitem(runner._REGISTRY, "episode")  # as in a build without the hand
     path = write(tmp_path)
     db = str(tmp_path / "r.sqlite")
     code, _, err = run_main(capsys, "sweep", str(path), "--db", db)

@@ -46,9 +46,9 @@ def error_of(path: Path) -> str:
 # ------------------------------------------------------------------ library
 
 
-def test_library_has_the_four_files():
+def test_library_has_the_four_files_and_the_demo():
     names = {p.stem for p in LIBRARY_FILES}
-    assert names == {"paper", "grasp_mass_friction", "fragile", "robustness"}
+    assert names == {"paper", "grasp_mass_friction", "fragile", "robustness", "demo"}
 
 
 @pytest.mark.parametrize("path", LIBRARY_FILES, ids=lambda p: p.stem)

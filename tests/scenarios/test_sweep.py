@@ -155,7 +155,14 @@ def test_rerun_skips_finished_rows_and_retry_reruns_failed(tmp_path):
     assert sorted(attempts.values()) == [1, 1, 1, 1, 2, 2]
 
 
-def test_default_task_without_runner_fails_before_running(tmp_path):
+@pytest.fixture
+def bare_registry(monkeypatch):
+    """Only the reproduction runner, as in a build without the closed-loop stack."""
+    monkeypatch.setattr(runner, "_REGISTRY",
+                        {k: v for k, v in runner._REGISTRY.items() if k == "reproduction"})
+
+
+def test_default_task_without_runner_fails_before_running(tmp_path, bare_registry):
     items = planned(DEFAULT_TASK)
     with ResultStore(tmp_path / "r.sqlite") as store:
         with pytest.raises(runner.RunnerUnavailableError, match="kind 'episode'"):
@@ -163,7 +170,7 @@ def test_default_task_without_runner_fails_before_running(tmp_path):
         assert store.counts() == {"ok": 0, "failed": 0}
 
 
-def test_registered_runner_is_dispatched_by_kind(tmp_path):
+def test_registered_runner_is_dispatched_by_kind(tmp_path, bare_registry):
     items = planned(DEFAULT_TASK, masses=(0.2,), kinds=("pid",))
     runner.register_runner("episode", "tasks:seeded")
     try:
@@ -182,7 +189,7 @@ def test_registered_runner_is_dispatched_by_kind(tmp_path):
     assert runner.registered_kinds() == ("reproduction",)
 
 
-def test_runner_registration_is_checked():
+def test_runner_registration_is_checked(bare_registry):
     with pytest.raises(ValueError, match="scenario kind must be one of"):
         runner.register_runner("report", tasks.seeded)
     with pytest.raises(ValueError, match="'package.module:function'"):

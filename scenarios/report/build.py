@@ -1,0 +1,428 @@
+"""Assembling the report: one section per kind of data, in the order of the brief.
+
+:func:`build_report` reads a results store (and optionally the JSON of
+``griploop reproduce --json``), builds each section from the data present --
+a section without data becomes a one-line note -- and writes
+``OUT/index.html``.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import platform
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from estimation.paper import TABLE2, TABLE3
+from scenarios.report import data as D
+from scenarios.report import figures as F
+from scenarios.report.html import Section, esc, fmt, img, note, page, pm, side_by_side, table
+from scenarios.store import ResultStore, package_version
+
+_PAPER_TABLE2 = ("ss_kf", "mlp", "narx", "lda_qpf")
+#: Grip force of the rendered frame, N (``sim.render_snapshot``'s default; below about
+#: 4 N the hand's steady grasp of the block loses thumb contact).
+FRAME_GRIP_N = 10.0
+
+
+@dataclass(frozen=True)
+class ReportResult:
+    """What :func:`build_report` wrote.
+
+    Attributes
+    ----------
+    path : Path
+        The HTML file.
+    sections : list of Section
+        Every section, in page order (``omitted`` ones hold only a note).
+    n_images : int
+        Embedded PNG images.
+    elapsed_s : float
+        Wall time of the build, s.
+    """
+
+    path: Path
+    sections: list[Section]
+    n_images: int
+    elapsed_s: float
+
+
+def build_report(
+    results: str | Path,
+    out_dir: str | Path,
+    *,
+    sweep: str | None = None,
+    reproduction: str | Path | None = None,
+    render_frame: bool = True,
+    max_designs: int = 6,
+    max_traces: int = 12,
+    created: _dt.datetime | None = None,
+) -> ReportResult:
+    """Write ``out_dir/index.html`` from a results store and an optional reproduction JSON.
+
+    Parameters
+    ----------
+    results : str or Path
+        SQLite results store written by ``griploop sweep``.
+    out_dir : str or Path
+        Output directory (created if missing).
+    sweep : str, optional
+        Only the rows of this sweep.
+    reproduction : str or Path, optional
+        JSON written by ``griploop reproduce --json``.
+    render_frame : bool
+        Render a MuJoCo frame of the grasp (a child process, about 3 s with EGL).
+    max_designs : int
+        Loop designs drawn as Bode / Nyquist / pole maps (all are tabulated).
+    max_traces : int
+        Representative episodes drawn as force traces.
+    created : datetime, optional
+        Creation time printed in the provenance (default: now, UTC).
+
+    Returns
+    -------
+    ReportResult
+
+    Raises
+    ------
+    FileNotFoundError
+        ``results`` or ``reproduction`` does not exist.
+    scenarios.store.StoreError
+        Not a results store, or unknown sweep.
+    ReportInputError
+        A row or the JSON lacks what the report needs.
+    """
+    t0 = time.perf_counter()
+    results = Path(results)
+    if not results.is_file():
+        raise FileNotFoundError(
+            f"{results}: no such results store (expected a file written by griploop sweep)"
+        )
+    json_scores = D.load_reproduction_json(reproduction) if reproduction is not None else None
+    json_config = _json_config(reproduction) if reproduction is not None else {}
+    with ResultStore(results) as store:
+        rows = store.rows(sweep=sweep)
+        split = D.split_rows(rows)
+        traces = {r["hash"]: store.traces(r["hash"]) for r in split.episodes}
+        sweeps = [sweep] if sweep is not None else store.sweeps()
+        members = {s: store.rows(sweep=s) for s in sweeps}
+    created = created or _dt.datetime.now(_dt.timezone.utc)
+
+    sources: list[tuple[str, D.ScoreTable]] = []
+    if split.reproduction:
+        sources.append((f"results store ({len(split.reproduction)} reproduction rows)",
+                        D.scores_from_rows(split.reproduction)))
+    if json_scores:
+        sources.append((f"{Path(reproduction).name} (griploop reproduce --json)", json_scores))
+    designs = D.loop_designs(split.episodes, traces) if split.episodes else []
+
+    sections = [
+        _paper_section(sources),
+        _traces_section(split.episodes, traces, max_traces),
+        _loop_section(designs, max_designs),
+        _outcome_section(split.episodes),
+        _margin_section(designs),
+        _frame_section(split.episodes, render_frame),
+        _failed_section(split.failed),
+        _provenance_section(results, sweep, rows, members, reproduction, json_config, created),
+    ]
+    n_ok = len(rows) - len(split.failed)
+    subtitle = (f"{results.name}{f', sweep {sweep}' if sweep else ''}: {len(rows)} rows "
+                f"({n_ok} ok, {len(split.failed)} failed; {len(split.reproduction)} "
+                f"reproduction, {len(split.episodes)} episode, {len(split.other)} other)"
+                f"{f'; reproduction JSON {Path(reproduction).name}' if reproduction else ''}.")
+    text = page("griploop report", subtitle, sections)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "index.html"
+    path.write_text(text, encoding="utf-8")
+    return ReportResult(path, sections, text.count("<img "), time.perf_counter() - t0)
+
+
+# ---------------------------------------------------------------- 1. paper tables
+
+
+def _paper_section(sources: Sequence[tuple[str, D.ScoreTable]]) -> Section:
+    title = "1. Paper tables: ours next to the paper's"
+    if not sources:
+        return Section("paper", title, note("No reproduction rows in the store and no "
+                                            "--reproduction JSON: section omitted."), True)
+    parts = [note("The paper evaluates one step ahead (measured force up to k-1 enters the "
+                  "prediction); its numbers appear only next to our one_step figures. "
+                  "free_run (sEMG only) has no counterpart in the paper. Virtual subject Vi is "
+                  "not the paper's subject Vi: per-subject rows are side by side, not paired.")]
+    for label, scores in sources:
+        parts.append(f"<h3>From {esc(label)}</h3>")
+        for mode in scores:
+            parts.append(_summary_table(scores[mode], mode))
+            parts.append(_per_subject_table(scores[mode], mode))
+        parts.append(_timing_table(scores))
+        parts.append(img(F.png_bytes(F.score_bars_figure(scores, f"Scores ({label})")),
+                         f"R2 and NRMSE bars per estimator and mode, {label}"))
+    return Section("paper", title, "\n".join(parts))
+
+
+def _summary_table(scores: Mapping[str, D.EstimatorScores], mode: str) -> str:
+    with_paper = mode == "one_step"
+    headers = ["estimator", "n", "R² mean ± SD", "NRMSE mean ± SD"]
+    if with_paper:
+        headers += ["paper R² mean ± SD", "paper NRMSE mean ± SD"]
+    rows = []
+    for name, s in scores.items():
+        row = [name, s.n, pm(s.r2_mean, s.r2_sd), pm(s.nrmse_mean, s.nrmse_sd)]
+        if with_paper:
+            ref = F.paper_reference(name)
+            row += [pm(ref[0], ref[1]), pm(ref[2], ref[3])] if ref else ["-", "-"]
+        rows.append(row)
+    return table(headers, rows, f"Summary, mode {mode}")
+
+
+def _per_subject_table(scores: Mapping[str, D.EstimatorScores], mode: str) -> str:
+    subjects = sorted({s for e in scores.values() for s in e.per_subject})
+    names = list(scores)
+    headers = ["subject"]
+    for name in names:
+        headers += [f"{name} R²", f"{name} NRMSE"]
+        if mode == "one_step" and name in _PAPER_TABLE2:
+            headers += [f"paper {name} R²", f"paper {name} NRMSE"]
+    rows = []
+    for sid in subjects:
+        row: list[Any] = [f"V{sid}"]
+        for name in names:
+            row += list(scores[name].per_subject.get(sid, (None, None)))
+            if mode == "one_step" and name in _PAPER_TABLE2:
+                row += list(TABLE2.get(f"V{sid}", {}).get(name, (None, None)))
+        rows.append(row)
+    return table(headers, rows, f"Per subject (Table 2 layout), mode {mode}")
+
+
+def _timing_table(scores: D.ScoreTable) -> str:
+    names = list(dict.fromkeys(n for m in scores.values() for n in m))
+    rows = []
+    for name in names:
+        entries = [m[name] for m in scores.values() if name in m]
+        train = next((e.train_ms for e in entries if e.train_ms is not None), None)
+        step = next((e.step_us_median for e in entries if e.step_us_median is not None), None)
+        paper = TABLE3.get(name)
+        rows.append([
+            name, pm(*train, digits=3) if train else "n/a",
+            fmt(None if step is None else step / 1e3, 3),
+            pm(*paper["train_ms"], digits=3) if paper else "-",
+            pm(*paper["loop_ms"], digits=3) if paper else "-",
+        ])
+    return table(["estimator", "train ms (ours)", "loop ms median (ours)", "train ms (paper)",
+                  "loop ms (paper)"], rows, "Timing (Table 3 layout)")
+
+
+# ---------------------------------------------------------------- 2. traces
+
+
+def _traces_section(episodes: Sequence[dict], traces: Mapping[str, Mapping[str, np.ndarray]],
+                    limit: int) -> Section:
+    title = "2. Force traces of representative episodes"
+    if not episodes:
+        return Section("traces", title, note("No episode rows: section omitted."), True)
+    chosen = D.representative_episodes(episodes, limit)
+    panels = []
+    for row in chosen:
+        D.check_traces(row, traces[row["hash"]], D.EPISODE_TRACES)
+        res = row["result"]
+        seed = res.get("seed", row["config"].get("seed"))
+        label = f"{D.group_label(D.group_key(res))}, {D.condition_label(res)}, seed {seed}"
+        panels.append((label, traces[row["hash"]]))
+    body = [note(f"First episode (store order) of each controller / estimator / mode: "
+                 f"{len(chosen)} of {len(episodes)} episodes."),
+            img(F.png_bytes(F.force_traces_figure(panels)), "force traces")]
+    return Section("traces", title, "\n".join(body))
+
+
+# ---------------------------------------------------------------- 3 + 5. loops
+
+
+def _loop_section(designs: Sequence[D.LoopDesign], limit: int) -> Section:
+    title = "3. Loop analysis: Bode, Nyquist and pole maps"
+    if not designs:
+        return Section("loops", title, note("No episode rows with an analysed loop: "
+                                            "section omitted."), True)
+    from controllers.figures import bode_figure, nyquist_figure, pole_zero_figure
+
+    parts = []
+    if len(designs) > limit:
+        parts.append(note(f"{len(designs)} distinct loops; the first {limit} are drawn, all are "
+                          "in the margin table."))
+    for d in designs[:limit]:
+        name = f"{d.label}: {d.conditions[0]}"
+        parts.append(f"<h3>{esc(name)} ({len(d.hashes)} episode(s))</h3>")
+        figures = (("Bode", bode_figure), ("Nyquist", nyquist_figure),
+                   ("poles", pole_zero_figure))
+        parts.append(side_by_side([
+            img(F.png_bytes(make(d.margins, title=f"{d.label}: {kind}")), f"{kind} of {name}")
+            for kind, make in figures]))
+    return Section("loops", title, "\n".join(parts))
+
+
+def _margin_section(designs: Sequence[D.LoopDesign]) -> Section:
+    title = "5. Margins per controller design"
+    if not designs:
+        return Section("margins", title, note("No episode rows with an analysed loop: "
+                                              "section omitted."), True)
+    rows = []
+    for d in designs:
+        m = d.margins
+        rows.append([
+            d.label, "; ".join(d.conditions[:3]) + (" ..." if len(d.conditions) > 3 else ""),
+            len(d.hashes), m.gain_margin_db, m.phase_margin_deg, m.delay_margin_s,
+            ", ".join(fmt(w) for w in m.crossover_rad_s) or "none",
+            ", ".join(fmt(w) for w in m.phase_crossover_rad_s) or "none",
+            m.ms, m.stable, d.row_agrees,
+        ])
+    body = table(["design", "conditions", "episodes", "GM (dB)", "PM (deg)", "delay margin (s)",
+                  "gain crossovers (rad/s)", "phase crossovers (rad/s)", "Ms", "stable",
+                  "row agrees"], rows, "Recomputed from each loop's state space", text_columns=2)
+    bad = [d.label for d in designs if not d.row_agrees]
+    if bad:
+        body += (f'<p class="bad">Stored margins differ from the recomputed ones for '
+                 f"{esc(', '.join(bad))}.</p>")
+    return Section("margins", title, body)
+
+
+# ---------------------------------------------------------------- 4. outcome maps
+
+
+def _outcome_section(episodes: Sequence[dict]) -> Section:
+    title = "4. Slip, drop and crush over mass x friction"
+    if not episodes:
+        return Section("outcomes", title, note("No episode rows: section omitted."), True)
+    grids = D.outcome_grids(episodes)
+    parts = [note("One panel per controller / estimator / mode; each cell averages over its "
+                  "episodes (seeds), n below the value.")]
+    for metric, (_, label, _) in F.OUTCOME_METRICS.items():
+        parts.append(f"<h3>{esc(label)}</h3>")
+        parts.append(img(F.png_bytes(F.outcome_figure(grids, metric)), f"{label} map"))
+    return Section("outcomes", title, "\n".join(parts))
+
+
+# ---------------------------------------------------------------- 6. frame
+
+
+def render_frame_png(name: str, grip_force_n: float, timeout_s: float = 120.0) -> bytes:
+    """PNG of the hand holding ``name`` at ``grip_force_n`` N (``sim.render_snapshot``).
+
+    Rendered in a child process: MuJoCo picks its OpenGL backend when first
+    imported, so a process that imported it without ``MUJOCO_GL=egl`` cannot
+    render headless; the child also keeps a GL crash out of the report.
+
+    Raises
+    ------
+    RuntimeError
+        The renderer exited with an error or timed out (message: its last line).
+    """
+    env = dict(os.environ)
+    env.setdefault("MUJOCO_GL", "egl")
+    env.setdefault("PYOPENGL_PLATFORM", env["MUJOCO_GL"])
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "grasp.png"
+        cmd = [sys.executable, "-m", "sim.render_snapshot", str(out), "--object", name,
+               "--grip", f"{grip_force_n:.6g}"]
+        try:
+            proc = subprocess.run(cmd, env=env, capture_output=True, text=True,
+                                  timeout=timeout_s, check=False)
+        except subprocess.TimeoutExpired:
+            raise RuntimeError(f"renderer timed out after {timeout_s:g} s") from None
+        if proc.returncode != 0 or not out.is_file():
+            lines = (proc.stderr or proc.stdout).strip().splitlines()
+            errors = [ln for ln in lines if re.match(r"[\w.]+(Error|Exception)\b", ln)]
+            last = errors[-1] if errors else lines[-1] if lines else ""
+            raise RuntimeError(last or f"renderer exit status {proc.returncode}")
+        return out.read_bytes()
+
+
+def _frame_section(episodes: Sequence[dict], render: bool) -> Section:
+    title = "6. Rendered grasp"
+    if not render:
+        return Section("frame", title, note("Rendering switched off (--no-render)."), True)
+    name = D.most_common_object(episodes)
+    try:
+        png = render_frame_png(name, FRAME_GRIP_N)
+    except RuntimeError as exc:
+        return Section("frame", title, note(f"Rendering {name} failed: {exc}"), True)
+    source = "most common object of the episodes" if episodes else "no episodes: default object"
+    body = (note(f"{name} ({source}), lifted and held at {FRAME_GRIP_N:g} N, front camera; "
+                 "the frame shows the object and hand, not a particular episode.")
+            + img(png, f"rendered grasp of {name}"))
+    return Section("frame", title, body)
+
+
+# ---------------------------------------------------------------- 7. failures
+
+
+def _failed_section(failed: Sequence[dict]) -> Section:
+    title = "7. Failed scenarios"
+    if not failed:
+        return Section("failed", title, note("No failed scenarios."))
+    rows = [[r["hash"][:12], D.scenario_summary(r),
+             (r.get("error") or "").splitlines()[0] if r.get("error") else "(no message)"]
+            for r in failed]
+    return Section("failed", title, table(["hash", "scenario", "error"], rows,
+                                          f"{len(failed)} failed row(s)", text_columns=3))
+
+
+# ---------------------------------------------------------------- 8. provenance
+
+
+def library_versions() -> dict[str, str]:
+    """Versions of griploop, Python and the numerical libraries the results depend on."""
+    out = {"griploop": package_version(), "python": platform.python_version()}
+    for dist in ("numpy", "scipy", "mujoco", "control", "casadi", "scikit-learn", "matplotlib"):
+        try:
+            out[dist] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            out[dist] = "not installed"
+    return out
+
+
+def _json_config(path: str | Path) -> dict[str, Any]:
+    import json
+
+    config = json.loads(Path(path).read_text()).get("config", {})
+    return config if isinstance(config, dict) else {}
+
+
+def _provenance_section(results: Path, sweep: str | None, rows: Sequence[dict],
+                        members: Mapping[str, Sequence[dict]], reproduction: Any,
+                        json_config: Mapping[str, Any], created: _dt.datetime) -> Section:
+    versions = library_versions()
+    parts = [table(["item", "value"], [
+        ["created", created.isoformat(timespec="seconds")],
+        ["results store", str(results)],
+        ["sweep filter", sweep or "all rows"],
+        ["reproduction JSON", str(reproduction) if reproduction else "none"],
+        *[[k, v] for k, v in versions.items()],
+        ["row versions", ", ".join(sorted({r["version"] for r in rows})) or "none"],
+    ], "Inputs and versions", text_columns=2)]
+    sweep_rows = []
+    for name, member_rows in members.items():
+        seeds = sorted({r["config"].get("seed") for r in member_rows} - {None})
+        shown = ", ".join(str(s) for s in seeds[:12]) + (" ..." if len(seeds) > 12 else "")
+        sweep_rows.append([name, len(member_rows), len(seeds), shown])
+    parts.append(table(["sweep", "scenarios", "distinct seeds", "seeds"], sweep_rows,
+                       "Sweeps", text_columns=1))
+    if json_config:
+        parts.append(table(["reproduce config", "value"],
+                           [[k, v] for k, v in json_config.items()], text_columns=2))
+    items = "".join(f"<li><code>{esc(r['hash'])}</code> {esc(r['status'])}: "
+                    f"{esc(D.scenario_summary(r))}</li>" for r in rows)
+    parts.append(f"<details><summary>Config hashes of {len(rows)} rows</summary>"
+                 f"<ul>{items}</ul></details>")
+    return Section("provenance", "8. Provenance", "\n".join(parts))

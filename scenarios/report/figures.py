@@ -1,0 +1,146 @@
+"""The report's figures, drawn on :class:`matplotlib.figure.Figure` (no pyplot) and rendered
+to PNG bytes in memory.
+
+Loop figures (Bode, Nyquist, pole-zero) come from :mod:`controllers.figures`.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from matplotlib.colors import Normalize
+from matplotlib.figure import Figure
+
+from estimation.paper import SECTION_4_2, TABLE2_SUMMARY
+from scenarios.report.data import MODES, OutcomeGrid, ScoreTable, group_label
+
+DPI = 80
+_MODE_COLORS = {"one_step": "C0", "free_run": "C1"}
+#: Outcome maps: metric -> (OutcomeGrid attribute, colour-bar label, fixed colour range or None).
+OUTCOME_METRICS: dict[str, tuple[str, str, tuple[float, float] | None]] = {
+    "dropped": ("dropped_frac", "fraction dropped", (0.0, 1.0)),
+    "crushed": ("crushed_frac", "fraction crushed", (0.0, 1.0)),
+    "slip": ("slip_events_mean", "mean slip events", None),
+}
+
+
+def png_bytes(fig: Figure, dpi: int = DPI) -> bytes:
+    """The figure as PNG bytes."""
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi)
+    return buffer.getvalue()
+
+
+def paper_reference(estimator: str) -> tuple[float, float, float, float] | None:
+    """The paper's (R^2 mean, SD, NRMSE mean, SD) of an estimator (one-step), if it reports one.
+
+    Table 2's summary rows first, then section 4.2 (SS without KF; single
+    features pooled over MAV, RMS and WL).
+    """
+    if estimator in TABLE2_SUMMARY:
+        return TABLE2_SUMMARY[estimator]
+    if estimator.startswith("features_"):
+        return SECTION_4_2["features"]
+    return SECTION_4_2.get(estimator)
+
+
+def score_bars_figure(table: ScoreTable, title: str = "") -> Figure:
+    """R^2 and NRMSE per estimator, one bar per mode with SD error bars, paper values marked.
+
+    The paper's values (one-step evaluation) are drawn as black diamonds over
+    the one-step bars only.
+    """
+    modes = [m for m in MODES if m in table] + [m for m in table if m not in MODES]
+    names = list(dict.fromkeys(n for m in modes for n in table[m]))
+    x = np.arange(len(names))
+    width = 0.8 / max(len(modes), 1)
+    fig = Figure(figsize=(max(6.0, 0.9 * len(names) + 2), 5.5), layout="constrained")
+    axes = fig.subplots(2, 1, sharex=True)
+    for ax, (metric, label) in zip(axes, (("r2", "R$^2$"), ("nrmse", "NRMSE fit")), strict=True):
+        for j, mode in enumerate(modes):
+            offset = (j - (len(modes) - 1) / 2) * width
+            mean = np.array([getattr(table[mode][n], f"{metric}_mean") if n in table[mode]
+                             else np.nan for n in names])
+            sd = np.array([getattr(table[mode][n], f"{metric}_sd") if n in table[mode]
+                           else np.nan for n in names])
+            ax.bar(x + offset, mean, width, yerr=sd, capsize=3, label=mode,
+                   color=_MODE_COLORS.get(mode, f"C{j + 2}"))
+            if mode == "one_step":
+                refs = [paper_reference(n) for n in names]
+                idx = 0 if metric == "r2" else 2
+                px = [x[i] + offset for i, r in enumerate(refs) if r is not None]
+                py = [r[idx] for r in refs if r is not None]
+                ax.errorbar(px, py, yerr=[r[idx + 1] for r in refs if r is not None],
+                            fmt="D", color="k", ms=5, capsize=2, label="paper (one_step)")
+        ax.set_ylabel(label)
+        ax.set_ylim(min(0.0, float(np.nanmin(ax.get_ylim()))), 1.05)
+        ax.grid(True, axis="y", alpha=0.3)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=8, loc="outside upper right", ncols=3)
+    axes[1].set_xticks(x, names, rotation=30, ha="right")
+    axes[0].set_title(title or "Validation scores, mean and SD over subjects")
+    return fig
+
+
+def force_traces_figure(episodes: Sequence[tuple[str, Mapping[str, np.ndarray]]]) -> Figure:
+    """Intent, reference and grip force vs time, one panel per ``(label, traces)``."""
+    n = len(episodes)
+    cols = 2 if n > 1 else 1
+    rows = int(np.ceil(n / cols))
+    fig = Figure(figsize=(5.2 * cols, 2.4 * rows + 0.4), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows, cols, sharex=False, squeeze=False)).ravel()
+    for ax, (label, tr) in zip(axes, episodes, strict=False):
+        ax.plot(tr["t_s"], tr["intent_n"], color="0.5", lw=1, label="intent")
+        ax.plot(tr["t_s"], tr["reference_n"], color="C1", lw=1, label="reference")
+        ax.plot(tr["t_s"], tr["grip_force_n"], color="C0", lw=1.2, label="grip force")
+        ax.set_title(label, fontsize=9)
+        ax.set_ylabel("force (N)")
+        ax.grid(True, alpha=0.3)
+    for ax in axes[n:]:
+        ax.set_visible(False)
+    for ax in axes[max(0, n - cols):n]:
+        ax.set_xlabel("time (s)")
+    axes[0].legend(fontsize=7, loc="upper right")
+    return fig
+
+
+def outcome_figure(grids: Sequence[OutcomeGrid], metric: str) -> Figure:
+    """Heatmaps of one outcome over mass x friction, one panel per controller / estimator / mode.
+
+    Each cell shows its value and, below, the number of episodes behind it;
+    empty cells stay blank.
+    """
+    attr, label, limits = OUTCOME_METRICS[metric]
+    values = [getattr(g, attr) for g in grids]
+    finite = np.concatenate([v[np.isfinite(v)] for v in values])
+    vmin, vmax = limits if limits else (0.0, max(1.0, float(finite.max(initial=0.0))))
+    norm = Normalize(vmin, vmax)
+    n = len(grids)
+    cols = min(n, 3)
+    rows = int(np.ceil(n / cols))
+    g0 = grids[0]
+    cell_w = 0.55 * max(g0.friction.size, 2)
+    cell_h = 0.45 * max(g0.mass_kg.size, 2)
+    fig = Figure(figsize=(cols * (cell_w + 1.3) + 1.0, rows * (cell_h + 1.0) + 0.3),
+                 layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False)).ravel()
+    image = None
+    for ax, grid, value in zip(axes, grids, values, strict=False):
+        image = ax.imshow(value, origin="lower", cmap="viridis" if metric == "slip" else "Reds",
+                          norm=norm, aspect="auto")
+        for (i, j), v in np.ndenumerate(value):
+            if grid.n_episodes[i, j]:
+                shade = "white" if norm(v) > 0.6 else "black"
+                ax.text(j, i, f"{v:.2g}\nn={grid.n_episodes[i, j]}", ha="center", va="center",
+                        fontsize=6, color=shade)
+        ax.set_xticks(range(grid.friction.size), [f"{f:g}" for f in grid.friction], fontsize=7)
+        ax.set_yticks(range(grid.mass_kg.size), [f"{m:g}" for m in grid.mass_kg], fontsize=7)
+        ax.set_xlabel("friction coefficient", fontsize=8)
+        ax.set_ylabel("mass (kg)", fontsize=8)
+        ax.set_title(group_label(grid.key), fontsize=8)
+    for ax in axes[n:]:
+        ax.set_visible(False)
+    fig.colorbar(image, ax=axes[:n].tolist(), label=label, shrink=0.9)
+    return fig
