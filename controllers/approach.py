@@ -35,6 +35,13 @@ class ContactGate:
         ``opening_command`` is applied once the force has gone.
     opening_command : float
         Normalized command while open or opening (negative opens).
+    force_per_command_n : float, optional
+        Static grip force per unit command at the operating point (N), e.g.
+        ``y0_n / u0`` of the design plant. When given, the hand-over at contact
+        starts the force controller from the feedforward command
+        ``reference_n / force_per_command_n`` instead of the closing command:
+        the closing command holds far more force than a light grasp needs, and
+        a controller that starts from it overshoots while it unwinds.
     """
 
     def __init__(
@@ -45,6 +52,7 @@ class ContactGate:
         contact_force_n: float = 0.5,
         release_below_n: float = 0.1,
         opening_command: float = -0.3,
+        force_per_command_n: float | None = None,
     ) -> None:
         if contact_force_n <= 0:
             raise ValueError(f"ContactGate: expected contact_force_n > 0, found {contact_force_n}")
@@ -53,6 +61,11 @@ class ContactGate:
         self.contact_force_n = float(contact_force_n)
         self.release_below_n = float(release_below_n)
         self.opening_command = float(opening_command)
+        if force_per_command_n is not None and not force_per_command_n > 0:
+            raise ValueError(
+                f"ContactGate: expected force_per_command_n > 0, found {force_per_command_n}"
+            )
+        self.force_per_command_n = force_per_command_n
         self.name = getattr(controller, "name", "controller")
         self.reset()
 
@@ -71,7 +84,15 @@ class ContactGate:
                 return self.opening_command
             return self.controller.act(obs)
         if not self.in_contact and obs.grip_force_n >= self.contact_force_n:
+            # Hand over: the wrapped controller's state (integrator, filter, the
+            # MPC's observer) was fed a free-closing hand whose dynamics are not
+            # the grasp's, so it restarts from the hand-over command.
             self.in_contact = True
+            handover = self.closing_command
+            if self.force_per_command_n is not None:
+                handover = min(handover, obs.reference_n / self.force_per_command_n)
+            self.controller.reset()
+            self.controller.track(obs, handover)
         if self.in_contact:
             return self.controller.act(obs)
         self.controller.track(obs, self.closing_command)

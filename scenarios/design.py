@@ -57,10 +57,11 @@ class ControllerDesign:
     spec: dict[str, Any]
 
 
-@functools.lru_cache(maxsize=32)
-def cached_design_plant(obj: ObjectSpec, control_dt_s: float) -> DesignPlant:
-    """:func:`scenarios.plant_models.design_plant` memoized per object and control period."""
-    return design_plant(obj, control_dt_s=control_dt_s)
+@functools.lru_cache(maxsize=64)
+def cached_design_plant(obj: ObjectSpec, control_dt_s: float,
+                        grip_force_n: float | None = None) -> DesignPlant:
+    """:func:`scenarios.plant_models.design_plant` memoized per object, period and force."""
+    return design_plant(obj, control_dt_s=control_dt_s, grip_force_n=grip_force_n)
 
 
 def _crossover_for_bandwidth(kind: str, plant: control.LTI, phase_margin_deg: float,
@@ -114,6 +115,7 @@ def design_for_object(
     safety_factor: float = 1.5,
     slip_reflex: dict[str, float] | None = None,
     closing_command: float = 0.2,
+    operating_force_n: float | None = None,
 ) -> ControllerDesign:
     """Design a force controller for ``obj`` from a specification.
 
@@ -142,6 +144,11 @@ def design_for_object(
     closing_command : float
         Normalized motor command while closing onto the object (real hands
         close fully in 0.4-1 s; 0.2 closes in about 1 s here).
+    operating_force_n : float, optional
+        Grip force the design plant is linearized at, N (the force the loop
+        will hold: the hand's compliant pads make the plant much slower below
+        about 8 N than above). Default
+        :func:`scenarios.plant_models.default_operating_force_n`.
 
     Raises
     ------
@@ -152,7 +159,8 @@ def design_for_object(
     """
     if kind not in CONTROLLER_NAMES:
         raise LookupError(f"unknown controller {kind!r}; expected one of {list(CONTROLLER_NAMES)}")
-    plant = cached_design_plant(obj, float(control_dt_s))
+    plant = cached_design_plant(obj, float(control_dt_s),
+                                None if operating_force_n is None else float(operating_force_n))
     bounds = object_force_bounds(obj, safety_factor=safety_factor)
     if kind == "mpc":
         spec: dict[str, Any] = {"horizon": int(horizon), "force_bounds": bounds}
@@ -167,7 +175,8 @@ def design_for_object(
     core = design_controller(kind, plant.model, **spec)
     loop = control.ss(core.loop(plant.model))
     margins = loop_margins(loop)
-    controller: Any = ContactGate(core, closing_command=closing_command)
+    controller: Any = ContactGate(core, closing_command=closing_command,
+                                  force_per_command_n=plant.y0_n / plant.u0)
     if slip_reflex:
         limit = bounds.max_n if np.isfinite(bounds.max_n) else 1e3
         controller = SlipReflex(

@@ -228,10 +228,10 @@ def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray
         the end; None without contact),
         ``estimation_rmse_n`` (reference vs oracle, whole episode),
         ``hold_reference_n`` (mean reference in the air), and over the grasp
-        phase (on the table, before the lift), relative to the reference just
-        before the lift: ``overshoot_pct`` (peak grip over it), ``settling_time_s``
-        (from the start until the grip stays within 5 % or 0.2 N of it; None if
-        it never does), plus ``peak_force_n`` (whole episode) and
+        phase (on the table, before the lift): ``overshoot_pct`` (peak grip over
+        the reference just before the lift), ``settling_time_s`` (from the start
+        until the grip stays within 5 % or 0.2 N of the current reference; None
+        if it never does), plus ``peak_force_n`` (whole episode) and
         ``reference_volatility_n_per_s``.
     """
     touching = np.flatnonzero(grip_n >= CONTACT_N)
@@ -242,9 +242,9 @@ def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray
     grasp = (t_s >= start_s) & (t_s < lift_s)
     grasp_ref = float(reference_n[grasp][-1]) if grasp.any() else float("nan")
     peak_grasp = float(np.max(grip_n[grasp])) if grasp.any() else 0.0
-    band = max(SETTLE_BAND * grasp_ref, SETTLE_FLOOR_N)
     idx = np.flatnonzero(grasp)
-    outside = idx[np.abs(grip_n[idx] - grasp_ref) > band]
+    band = np.maximum(SETTLE_BAND * reference_n[idx], SETTLE_FLOOR_N)
+    outside = idx[np.abs(grip_n[idx] - reference_n[idx]) > band]
     if outside.size == 0:
         settling = 0.0
     elif outside[-1] == idx[-1]:
@@ -375,11 +375,12 @@ def run_episode(
                         generator=generator, order=order,
                         identification_fraction=identification_fraction,
                         calibration_s=calibration_s)
-        design = design_for_object(obj, controller, control_dt_s=control_dt_s,
-                                   **dict(controller_spec or {}))
-
-        # The user's intent and their sEMG during the episode.
+        # The user's intent; the loop is designed around the force they will hold.
         target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
+        design = design_for_object(obj, controller, control_dt_s=control_dt_s,
+                                   operating_force_n=target_n, **dict(controller_spec or {}))
+
+        # ... and their sEMG during the episode.
         hold_level = float(np.clip(target_n / hand_force_at_mvc_n * cal.mvc_cal_n
                                    / subject.mvc_n, 0.0, 1.0))
         g = np.random.default_rng(episode_seq)

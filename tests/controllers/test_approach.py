@@ -44,3 +44,28 @@ def test_loop_is_the_wrapped_controllers(plant):
     lhs = control.ss(gate.loop(plant))
     rhs = control.ss(pid.loop(plant))
     assert np.allclose(lhs(np.exp(1j * w * 0.01)), rhs(np.exp(1j * w * 0.01)))
+
+
+def test_hand_over_restarts_from_the_feedforward_command(plant):
+    pid = design_pid(plant, crossover_rad_s=20.0)
+    k_n = 80.0
+    gate = ContactGate(pid, closing_command=0.2, contact_force_n=0.5, force_per_command_n=k_n)
+    for _ in range(30):
+        gate.act(_obs(0.0, ref=4.0))
+    assert pid.last_u == pytest.approx(0.2)
+    u = gate.act(_obs(0.6, ref=4.0))
+    # a fresh controller tracking ref / K, then one PI step on the 3.4 N error
+    fresh = design_pid(plant, crossover_rad_s=20.0)
+    fresh.track(_obs(0.6, ref=4.0), 4.0 / k_n)
+    assert u == pytest.approx(fresh.act(_obs(0.6, ref=4.0)))
+    assert u < 0.2
+    # a heavy reference never starts above the closing command
+    heavy = ContactGate(design_pid(plant, crossover_rad_s=20.0), closing_command=0.2,
+                        force_per_command_n=k_n)
+    heavy.act(_obs(0.0, ref=50.0))
+    u_heavy = heavy.act(_obs(0.6, ref=50.0))
+    clamped = design_pid(plant, crossover_rad_s=20.0)
+    clamped.track(_obs(0.6, ref=50.0), 0.2)  # min(closing 0.2, 50 / 80)
+    assert u_heavy == pytest.approx(clamped.act(_obs(0.6, ref=50.0)))
+    with pytest.raises(ValueError, match="force_per_command_n"):
+        ContactGate(pid, force_per_command_n=0.0)
