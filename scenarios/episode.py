@@ -375,10 +375,14 @@ def run_episode(
                         generator=generator, order=order,
                         identification_fraction=identification_fraction,
                         calibration_s=calibration_s)
-        # The user's intent; the loop is designed around the force they will hold.
-        target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
+        # Robust design point: the object held at the default operating force,
+        # where the pads are bottomed out and the plant gain is highest. A loop
+        # designed on the soft-pad plant (below ~8 N, ~5x less gain) exceeds its
+        # gain margin as soon as a reference pushes the grip onto the stops.
         design = design_for_object(obj, controller, control_dt_s=control_dt_s,
-                                   operating_force_n=target_n, **dict(controller_spec or {}))
+                                   **dict(controller_spec or {}))
+        # The user's intent ...
+        target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
 
         # ... and their sEMG during the episode.
         hold_level = float(np.clip(target_n / hand_force_at_mvc_n * cal.mvc_cal_n
