@@ -104,6 +104,10 @@ class MLPBaseline:
         self.n_iter_no_change = n_iter_no_change
         self.random_state = random_state
 
+    def _regressors(self, U: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Network inputs for training: the features themselves (NARX adds delays)."""
+        return U
+
     def fit(self, U: np.ndarray, y: np.ndarray) -> MLPBaseline:
         """Train on normalized features ``U`` (n_samples, n_inputs) and force ``y``."""
         U = check_features(U)
@@ -111,7 +115,7 @@ class MLPBaseline:
         self.net_ = make_mlp(self.hidden, max_epochs=self.max_epochs,
                              learning_rate=self.learning_rate, rho=self.rho, tol=self.tol,
                              n_iter_no_change=self.n_iter_no_change, rng=self.random_state)
-        self.converged_ = fit_quietly(self.net_, U, y)
+        self.converged_ = fit_quietly(self.net_, self._regressors(U, y), y)
         self.n_epochs_ = int(self.net_.n_iter_)
         self.n_features_in_ = U.shape[1]
         return self

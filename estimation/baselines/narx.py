@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from estimation.baselines.mlp import MLPForward, fit_quietly, make_mlp
+from estimation.baselines.mlp import MLPBaseline, MLPForward
 from estimation.errors import (
     ModeError,
     check_features,
@@ -35,8 +35,10 @@ def narx_regressors(U: np.ndarray, y: np.ndarray, delays: int) -> np.ndarray:
     return np.hstack(cols)
 
 
-class NARXBaseline:
-    """Nonlinear ARX network; hyperparameters as :class:`MLPBaseline` plus ``delays``.
+class NARXBaseline(MLPBaseline):
+    """Nonlinear ARX network: the paper's MLP on delayed inputs and outputs.
+
+    Hyperparameters as :class:`MLPBaseline`, plus ``delays`` (the SS order).
 
     Attributes
     ----------
@@ -51,26 +53,14 @@ class NARXBaseline:
                  learning_rate: float = 1e-2, rho: float = 0.9, tol: float = 1e-4,
                  n_iter_no_change: int = 10,
                  random_state: np.random.Generator | int | None = None) -> None:
+        super().__init__(hidden=hidden, max_epochs=max_epochs, learning_rate=learning_rate,
+                         rho=rho, tol=tol, n_iter_no_change=n_iter_no_change,
+                         random_state=random_state)
         self.delays = delays
-        self.hidden = hidden
-        self.max_epochs = max_epochs
-        self.learning_rate = learning_rate
-        self.rho = rho
-        self.tol = tol
-        self.n_iter_no_change = n_iter_no_change
-        self.random_state = random_state
 
-    def fit(self, U: np.ndarray, y: np.ndarray) -> NARXBaseline:
-        """Train series-parallel on normalized ``U`` (n_samples, n_inputs) and ``y``."""
-        U = check_features(U)
-        y = check_target(y, U.shape[0])
-        self.net_ = make_mlp(self.hidden, max_epochs=self.max_epochs,
-                             learning_rate=self.learning_rate, rho=self.rho, tol=self.tol,
-                             n_iter_no_change=self.n_iter_no_change, rng=self.random_state)
-        self.converged_ = fit_quietly(self.net_, narx_regressors(U, y, self.delays), y)
-        self.n_epochs_ = int(self.net_.n_iter_)
-        self.n_features_in_ = U.shape[1]
-        return self
+    def _regressors(self, U: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Series-parallel training: measured past force in the regressor."""
+        return narx_regressors(U, y, self.delays)
 
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
                 mode: str = "one_step") -> np.ndarray:
