@@ -195,10 +195,13 @@ def required_controller_phase(
     dt_s: float,
     computation_delay_samples: int,
 ) -> tuple[float, float]:
-    """Phase (deg, wrapped to (-180, 180]) and gain a controller needs at the crossover.
+    """Phase (deg) and gain a controller needs at the crossover.
 
     ``arg C(wc) = -180 + PM - arg P(wc)`` and ``|C(wc)| = 1 / |P(wc)|`` for the
-    sampled, delayed plant.
+    sampled, delayed plant. ``arg P`` is the plant's *unwrapped* phase, followed
+    continuously from low frequency: a plant lagging 250 deg at ``wc`` needs
+    250 - 180 + PM deg of lead, not a small lag (wrapping the requirement into
+    (-180, 180] would pass designs whose loop encircles -1 and is unstable).
 
     Raises
     ------
@@ -216,10 +219,14 @@ def required_controller_phase(
             f"phase margin must lie in (0, 90) deg, found {phase_margin_deg}"
         )
     lp = loop_plant(plant, dt_s, computation_delay_samples=computation_delay_samples)
-    pw = frequency_response(lp, np.array([crossover_rad_s]))[0]
-    theta = -180.0 + phase_margin_deg - np.angle(pw, deg=True)
-    theta = 180.0 - np.mod(180.0 - theta, 360.0)
-    return float(theta), float(1.0 / np.abs(pw))
+    grid = np.geomspace(crossover_rad_s * 1e-4, crossover_rad_s, 400)
+    response = frequency_response(lp, grid)
+    phase = np.rad2deg(np.unwrap(np.angle(response)))
+    # anchor the unwrapped curve at low frequency in (-360, 0]: a causal plant
+    # (with integrators) starts between 0 and -270 deg
+    phase += 360.0 * np.ceil(-phase[0] / 360.0 - 1e-9) if phase[0] > 1e-9 else 0.0
+    theta = -180.0 + phase_margin_deg - phase[-1]
+    return float(theta), float(1.0 / np.abs(response[-1]))
 
 
 def design_pid(

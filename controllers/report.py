@@ -5,7 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from controllers.analysis import LoopMargins
+from controllers.errors import SpecificationError
 from controllers.plant import PlantReport
 
 
@@ -27,6 +30,14 @@ class DesignReport:
         Analysis of the designed loop ``C P z**-d``.
     notes : list of str
         Design decisions worth knowing (fixed ratios, limits close to binding).
+
+    Raises
+    ------
+    SpecificationError
+        If the designed loop is closed-loop unstable: a specification met at
+        the crossover does not guarantee stability (e.g. a lead's high-frequency
+        gain can lift the loop above 1 where its phase crosses -180 deg), so no
+        report, and hence no design, exists for an unstable loop.
     """
 
     controller: str
@@ -35,6 +46,21 @@ class DesignReport:
     plant: PlantReport
     margins: LoopMargins
     notes: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        m = self.margins
+        if m.stable:
+            return
+        spec = ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}"
+                         for k, v in self.spec.items() if isinstance(v, (int, float, str)))
+        worst = (f"gain margin {min(m.gain_margins_db):.1f} dB at "
+                 f"{m.phase_crossover_rad_s[int(np.argmin(m.gain_margins_db))]:.4g} rad/s; "
+                 if len(m.gain_margins_db) else "")
+        raise SpecificationError(
+            f"{self.controller} design ({spec}) gives an unstable closed loop ({worst}largest "
+            f"closed-loop pole |z| = {np.max(np.abs(m.closed_loop_poles)):.3f}); lower the "
+            "crossover or raise the phase margin"
+        )
 
     def to_text(self) -> str:
         """A short human-readable report."""

@@ -532,7 +532,8 @@ def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarra
 
 
 # ------------------------------------------------------------------------ runners
-def _subject_for(scenario: Scenario) -> VirtualSubject:
+def subject_for(scenario: Scenario) -> VirtualSubject:
+    """The scenario's virtual subject, with its electrode shift, noise and fatigue."""
     s = scenario.subject
     return VirtualSubject.sample(s.population_seed, s.subject_id).with_scenario(
         electrode_shift=s.electrode_shift, extra_noise_lsb=s.extra_noise_lsb,
@@ -558,7 +559,7 @@ def run_episode_scenario(scenario: Scenario) -> dict[str, Any]:
     p, e = scenario.protocol, scenario.estimator
     dt = 1.0 / scenario.controller.control_hz
     result = run_episode(
-        _subject_for(scenario), scenario_object(scenario), estimator=e.name, mode=e.mode,
+        subject_for(scenario), scenario_object(scenario), estimator=e.name, mode=e.mode,
         controller=scenario.controller.kind, controller_spec=controller_spec(scenario),
         seed=int(scenario.seed or 0), generator=scenario.subject.generator,
         order=PAPER_ORDER if e.order is None else e.order,
@@ -570,7 +571,7 @@ def run_episode_scenario(scenario: Scenario) -> dict[str, Any]:
 def run_calibration_scenario(scenario: Scenario) -> dict[str, Any]:
     """Runner of scenario kind ``calibration``: fit on a session, score the rest, no grasp."""
     e, p = scenario.estimator, scenario.protocol
-    subject = _subject_for(scenario)
+    subject = subject_for(scenario)
     with threadpool_limits(limits=1, user_api="blas"):
         cal = calibrate(subject, e.name, e.mode,
                         rng=np.random.default_rng(np.random.SeedSequence(scenario.seed or 0)),

@@ -11,7 +11,13 @@ import numpy as np
 
 from estimation.registry import ESTIMATOR_NAMES
 from scenarios.commands.margins import format_table
-from scenarios.episode import ORACLE, controller_spec, run_episode, scenario_object
+from scenarios.episode import (
+    ORACLE,
+    controller_spec,
+    run_episode,
+    scenario_object,
+    subject_for,
+)
 from scenarios.schema import parse_scenario
 from scenarios.video import write_video
 
@@ -74,10 +80,8 @@ def run(args: argparse.Namespace) -> int:
     if args.video is not None and args.video.suffix.lower() != ".gif":
         raise ValueError(f"--video: expected a .gif file, found {args.video.name!r}")
     scenario = scenario_from_args(args)
-    from scenarios.episode import _subject_for
-
     result = run_episode(
-        _subject_for(scenario), scenario_object(scenario), estimator=args.estimator,
+        subject_for(scenario), scenario_object(scenario), estimator=args.estimator,
         mode=args.mode, controller=args.controller, controller_spec=controller_spec(scenario),
         seed=args.seed, episode_s=args.episode_s, hold_s=scenario.protocol.hold_s,
         control_dt_s=1.0 / scenario.controller.control_hz, record_frames=args.video is not None)

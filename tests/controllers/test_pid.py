@@ -144,3 +144,15 @@ def test_reset_gives_initial_output():
     pid = _pid(u_limits=(-1.0, 1.0))
     pid.reset(u0=0.25)
     assert pid.step(3.0, 3.0) == pytest.approx(0.25)
+
+
+def test_plant_lagging_past_180_deg_is_refused_not_wrapped():
+    # a gain with one sample of transport delay, plus the computation delay and the
+    # hold: at 250 rad/s the loop plant lags about 2.5 * 250 * 0.01 rad = 358 deg.
+    # Wrapping the requirement modulo 360 used to "meet" 89 deg with an unstable loop.
+    plant = control.tf([86.0], [1.0, 0.0], 0.01)
+    with pytest.raises(SpecificationError, match="deg of lead"):
+        design_pid(plant, phase_margin_deg=89.0, crossover_rad_s=250.0)
+    ok = design_pid(plant, phase_margin_deg=60.0, crossover_rad_s=40.0)
+    assert ok.report_.margins.stable
+

@@ -42,3 +42,13 @@ def test_mpc_bounds_follow_the_object_and_reflex_wraps() -> None:
 def test_unknown_controller_lists_valid_names() -> None:
     with pytest.raises(LookupError, match="lead_lag"):
         design_for_object(CAN, "fuzzy")
+
+
+def test_design_meeting_the_margin_but_unstable_is_refused() -> None:
+    # on the held block the lead's high-frequency gain lifts |L| above 1 where the
+    # phase crosses -180 deg: the phase margin is met at 100 rad/s, the loop is unstable
+    block = make_object("block", mass_kg=0.3)
+    with pytest.raises(SpecificationError, match=r"unstable closed loop \(gain margin -"):
+        design_for_object(block, "lead_lag", phase_margin_deg=60.0, crossover_rad_s=100.0)
+    assert design_for_object(block, "lead_lag", phase_margin_deg=60.0,
+                             crossover_rad_s=60.0).margins.stable
