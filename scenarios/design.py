@@ -161,8 +161,8 @@ def design_for_object(
         raise LookupError(f"unknown controller {kind!r}; expected one of {list(CONTROLLER_NAMES)}")
     plant = cached_design_plant(obj, float(control_dt_s),
                                 None if operating_force_n is None else float(operating_force_n))
-    bounds = object_force_bounds(obj, safety_factor=safety_factor)
-    if kind == "mpc":
+    if kind == "mpc":  # only the MPC needs feasible bounds: it enforces them
+        bounds = object_force_bounds(obj, safety_factor=safety_factor)
         spec: dict[str, Any] = {"horizon": int(horizon), "force_bounds": bounds}
     else:
         extra = {"structure": "pi"} if kind == "pid" else {"lag_ratio": LEAD_LAG_RATIO}
@@ -178,7 +178,7 @@ def design_for_object(
     controller: Any = ContactGate(core, closing_command=closing_command,
                                   force_per_command_n=plant.y0_n / plant.u0)
     if slip_reflex:
-        limit = bounds.max_n if np.isfinite(bounds.max_n) else 1e3
+        limit = 1e3 if obj.break_force_n is None else float(obj.break_force_n)
         controller = SlipReflex(
             controller, dt_s=control_dt_s, latency_s=float(slip_reflex["latency_s"]),
             step_n=float(slip_reflex["gain"]), max_reference_n=limit,

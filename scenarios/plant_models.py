@@ -26,7 +26,7 @@ from typing import Any, Literal
 import control
 import numpy as np
 
-from controllers.bounds import ForceBounds, force_bounds
+from controllers.bounds import ForceBounds, force_bounds, slip_threshold_n
 from controllers.errors import PlantError
 from controllers.identify import identify_low_order
 from controllers.plant import delay, truncate_slow_modes
@@ -90,12 +90,22 @@ def object_force_bounds(obj: ObjectSpec, *, safety_factor: float = 1.5) -> Force
                         safety_factor=safety_factor)
 
 
-def default_operating_force_n(obj: ObjectSpec) -> float:
-    """Operating grip force for linearization: 10 N, or midway in the bounds if fragile."""
-    bounds = object_force_bounds(obj)
-    if np.isfinite(bounds.max_n):
-        return float(min(10.0, 0.5 * (bounds.min_n + bounds.max_n)))
-    return float(max(10.0, bounds.min_n))
+def default_operating_force_n(obj: ObjectSpec, *, safety_factor: float = 1.5) -> float:
+    """Operating grip force for linearization, N.
+
+    10 N (the pads bottomed out: the stiffest, highest-gain regime) or the
+    secure grip ``safety_factor * m g / (2 mu)`` if larger; for a fragile object,
+    midway between that grip and the break force, capped at 10 N. An object that
+    breaks below its secure grip is linearized at the secure grip: the design
+    needs the object held in the air, and whether it then cracks is the
+    episode's outcome, not the design's.
+    """
+    secure_n = safety_factor * slip_threshold_n(obj.mass_kg, obj.friction)
+    if obj.break_force_n is None:
+        return float(max(10.0, secure_n))
+    if secure_n >= obj.break_force_n:
+        return float(secure_n)
+    return float(min(10.0, 0.5 * (secure_n + obj.break_force_n)))
 
 
 def _nrmse_fit(y: np.ndarray, y_hat: np.ndarray) -> float:
