@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from controllers import SlipReflex
@@ -52,3 +53,13 @@ def test_design_meeting_the_margin_but_unstable_is_refused() -> None:
         design_for_object(block, "lead_lag", phase_margin_deg=60.0, crossover_rad_s=100.0)
     assert design_for_object(block, "lead_lag", phase_margin_deg=60.0,
                              crossover_rad_s=60.0).margins.stable
+
+
+def test_operating_force_sets_the_linearization_point() -> None:
+    soft = cached_design_plant(CAN, 0.01, 5.0)  # on the pads' springs
+    stiff = cached_design_plant(CAN, 0.01, None)  # default: 10 N, pads bottomed out
+    assert soft.y0_n == pytest.approx(5.0, rel=0.05)
+    assert stiff.y0_n == pytest.approx(10.0, rel=0.05)
+    w = 30.0  # the compliant pads make the plant several times slower below ~8 N per side
+    z = np.exp(1j * w * 0.01)
+    assert abs(stiff.model(z)) > 2.0 * abs(soft.model(z))
