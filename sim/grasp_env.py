@@ -91,6 +91,35 @@ class WristSchedule:
             z -= self.lift_height_m * _min_jerk((after - self.place_delay_s) / self.lift_duration_s)
         return z
 
+    def moves_during(self, t0_s: float, t1_s: float, lift_start_s: float | None) -> bool:
+        """Whether the wrist set-point changes anywhere in ``[t0_s, t1_s]``.
+
+        Parameters
+        ----------
+        t0_s, t1_s : float
+            Interval, episode time in s.
+        lift_start_s : float or None
+            When the lift started (``None``: not yet; ``-inf``: lifted by
+            :meth:`GraspEnv.steady_grasp`).
+
+        Returns
+        -------
+        bool
+            True when the interval overlaps the lift, the shake or the place
+            motion; outside them :meth:`height_m` is constant.
+        """
+        if lift_start_s is None:
+            return False
+        end = lift_start_s + self.lift_duration_s
+        windows = [(lift_start_s, end)]
+        if self.shake_amplitude_m > 0:
+            windows.append((end + self.shake_delay_s,
+                            end + self.shake_delay_s + self.shake_duration_s))
+        if self.place_delay_s is not None:
+            windows.append((end + self.place_delay_s,
+                            end + self.place_delay_s + self.lift_duration_s))
+        return any(t0_s < b and a < t1_s for a, b in windows)
+
 
 def _min_jerk(s: float) -> float:
     s = 0.0 if s < 0 else 1.0 if s > 1 else s
@@ -297,8 +326,20 @@ class GraspEnv(gym.Env):
             if (c.thumb_contact and c.finger_contact
                     and c.grip_force_n >= self.schedule.lift_min_grip_n):
                 self._lift_start_s = t
-        ctrl[self._i_wrist_z] = self.schedule.height_m(t + self.control_dt_s, self._lift_start_s)
-        mujoco.mj_step(m, d, self.n_substeps)
+        lift_start, schedule = self._lift_start_s, self.schedule
+        if schedule.moves_during(t, t + self.control_dt_s, lift_start):
+            # While the wrist moves its path is sampled at every physics
+            # substep: a set-point held over the control period is a staircase
+            # that the stiff wrist servo follows with acceleration spikes of
+            # about 2 g, which shook light objects out of the grasp
+            # (docs/HAND.md, "The lift").
+            height_m, dt, i_wrist = schedule.height_m, self.physics_dt_s, self._i_wrist_z
+            for i in range(1, self.n_substeps + 1):
+                ctrl[i_wrist] = height_m(t + i * dt, lift_start)
+                mujoco.mj_step(m, d)
+        else:
+            ctrl[self._i_wrist_z] = schedule.height_m(t + self.control_dt_s, lift_start)
+            mujoco.mj_step(m, d, self.n_substeps)
         self._step_count += 1
 
         # MuJoCo checks qpos/qvel/qacc for NaN, inf and huge values itself

@@ -318,7 +318,7 @@ def build_pinch_model(obj: ObjectSpec, grip_force_n: float,
     """Two flat pads squeezing ``obj`` with exactly ``grip_force_n`` each, no table.
 
     A reference fixture for Coulomb friction with the hand's contact physics:
-    the solver options (cone, impratio, noslip, tolerance) and the pad contact
+    the solver options (cone, impratio, noslip, tolerances) and the pad contact
     parameters are those of ``hand.xml``. Each pad slides along x, pushed
     inward by a force actuator (``ctrl = 1`` gives ``grip_force_n``), so the
     normal force on each side is the commanded force whatever the pose. Pads
@@ -328,7 +328,7 @@ def build_pinch_model(obj: ObjectSpec, grip_force_n: float,
         resources.files("sim").joinpath("assets", HAND_XML).read_text())
     spec = mujoco.MjSpec()
     for name in ("timestep", "integrator", "cone", "impratio", "noslip_iterations",
-                 "iterations", "tolerance"):
+                 "iterations", "tolerance", "ccd_tolerance"):
         setattr(spec.option, name, getattr(hand.option, name))
     spec.option.timestep = timestep_s
     pad = hand.geom("thumb_pad")
