@@ -47,7 +47,8 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from controllers.base import Observation
-from estimation.features import PAPER_CHANNELS, FeatureSet, extract_features
+from controllers.bounds import slip_threshold_n
+from estimation.features import PAPER_CHANNELS, FeatureSet, align_to_windows, extract_features
 from estimation.metrics import r2_score, total_variation_rate
 from estimation.paper import PAPER_ORDER
 from estimation.protocol import split_index
@@ -56,10 +57,9 @@ from estimation.reproduce import estimator_params
 from scenarios.design import ControllerDesign, design_for_object
 from scenarios.runner import DivergedError, UnsupportedScenarioError
 from scenarios.schema import Scenario
-from sim.grasp_env import G_M_S2, GraspEnv, WristSchedule
+from sim.grasp_env import GraspEnv, WristSchedule
 from sim.objects import ObjectSpec, make_object
 from sim.protocol import IntentProfile, grasp_lift_hold, paper_protocol
-from sim.recording import Recording
 from sim.subjects import VirtualSubject
 
 ORACLE = "oracle"
@@ -168,8 +168,7 @@ def calibrate(
 # ------------------------------------------------------------------------ reference
 def intended_grip_n(obj: ObjectSpec, safety_factor: float) -> float:
     """Hand grip force the user aims at for ``obj``, N (see module notes)."""
-    slip_n = obj.mass_kg * G_M_S2 / (2.0 * obj.friction)
-    target = max(safety_factor * slip_n, MIN_GRIP_N)
+    target = max(safety_factor * slip_threshold_n(obj.mass_kg, obj.friction), MIN_GRIP_N)
     if obj.break_force_n is not None:
         target = min(target, FRAGILE_MARGIN * obj.break_force_n)
     return float(target)
@@ -402,7 +401,8 @@ def run_episode(
 
         # Estimates at the window rate, then the held reference at the control rate.
         to_hand = hand_force_at_mvc_n / cal.mvc_cal_n
-        oracle_windows = _true_force_windows(recording, features) * to_hand
+        # the user's true grip force (before the FSR) at each window's end
+        oracle_windows = align_to_windows(recording.intent_force_n, recording.fs_hz) * to_hand
         t0 = time.perf_counter()
         if cal.pipeline is None:
             estimate_windows = oracle_windows
@@ -462,12 +462,6 @@ def run_episode(
 
 def _finite(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
-
-
-def _true_force_windows(recording: Recording, features: FeatureSet) -> np.ndarray:
-    """The user's true grip force (before the FSR) at each window's end, N."""
-    ends = np.round(features.t_s * recording.fs_hz).astype(int)
-    return recording.intent_force_n[ends]
 
 
 def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarray,
@@ -554,18 +548,22 @@ def controller_spec(scenario: Scenario) -> dict[str, Any]:
     return spec
 
 
-def run_episode_scenario(scenario: Scenario) -> dict[str, Any]:
-    """Runner of scenario kind ``episode`` (see :mod:`scenarios.runner`)."""
+def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False) -> EpisodeResult:
+    """:func:`run_episode` with every argument taken from a validated scenario."""
     p, e = scenario.protocol, scenario.estimator
-    dt = 1.0 / scenario.controller.control_hz
-    result = run_episode(
+    return run_episode(
         subject_for(scenario), scenario_object(scenario), estimator=e.name, mode=e.mode,
         controller=scenario.controller.kind, controller_spec=controller_spec(scenario),
         seed=int(scenario.seed or 0), generator=scenario.subject.generator,
         order=PAPER_ORDER if e.order is None else e.order,
         identification_fraction=p.identification_fraction, calibration_s=p.calibration_s,
-        episode_s=p.episode_s, hold_s=p.hold_s, control_dt_s=dt)
-    return result.as_result_row()
+        episode_s=p.episode_s, hold_s=p.hold_s,
+        control_dt_s=1.0 / scenario.controller.control_hz, record_frames=record_frames)
+
+
+def run_episode_scenario(scenario: Scenario) -> dict[str, Any]:
+    """Runner of scenario kind ``episode`` (see :mod:`scenarios.runner`)."""
+    return episode_from_scenario(scenario).as_result_row()
 
 
 def run_calibration_scenario(scenario: Scenario) -> dict[str, Any]:

@@ -30,7 +30,7 @@ from controllers.bounds import ForceBounds, force_bounds, slip_threshold_n
 from controllers.errors import PlantError
 from controllers.identify import identify_low_order
 from controllers.plant import delay, truncate_slow_modes
-from sim.linearize import linearize_grasp, simulate_step
+from sim.linearize import linearize_grasp, nrmse_fit, simulate_step
 from sim.objects import ObjectSpec, make_object
 
 PLANT_METHODS = ("linearized", "identified")
@@ -106,10 +106,6 @@ def default_operating_force_n(obj: ObjectSpec, *, safety_factor: float = 1.5) ->
     if secure_n >= obj.break_force_n:
         return float(secure_n)
     return float(min(10.0, 0.5 * (secure_n + obj.break_force_n)))
-
-
-def _nrmse_fit(y: np.ndarray, y_hat: np.ndarray) -> float:
-    return float(1.0 - np.linalg.norm(y - y_hat) / np.linalg.norm(y - y.mean()))
 
 
 def design_plant(
@@ -193,8 +189,8 @@ def design_plant(
         fit = {"order": int(reduced.nstates + 1),
                "full_order": int(lin.sys.nstates + 1),
                "removed_time_constants_s": sorted((1.0 / rates).tolist(), reverse=True),
-               "step_fit_percent": 100.0 * _nrmse_fit(y_ref, np.concatenate([pad, y_reduced])),
-               "full_step_fit_percent": 100.0 * _nrmse_fit(
+               "step_fit_percent": 100.0 * nrmse_fit(y_ref, np.concatenate([pad, y_reduced])),
+               "full_step_fit_percent": 100.0 * nrmse_fit(
                    y_ref, np.concatenate([pad, y_linear])),
                "step_command": step_command}
         model = control.ss(reduced * delay(1, control_dt_s))

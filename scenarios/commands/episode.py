@@ -11,13 +11,7 @@ import numpy as np
 
 from estimation.registry import ESTIMATOR_NAMES
 from scenarios.commands.margins import format_table
-from scenarios.episode import (
-    ORACLE,
-    controller_spec,
-    run_episode,
-    scenario_object,
-    subject_for,
-)
+from scenarios.episode import ORACLE, episode_from_scenario
 from scenarios.schema import parse_scenario
 from scenarios.video import write_video
 
@@ -80,11 +74,7 @@ def run(args: argparse.Namespace) -> int:
     if args.video is not None and args.video.suffix.lower() != ".gif":
         raise ValueError(f"--video: expected a .gif file, found {args.video.name!r}")
     scenario = scenario_from_args(args)
-    result = run_episode(
-        subject_for(scenario), scenario_object(scenario), estimator=args.estimator,
-        mode=args.mode, controller=args.controller, controller_spec=controller_spec(scenario),
-        seed=args.seed, episode_s=args.episode_s, hold_s=scenario.protocol.hold_s,
-        control_dt_s=1.0 / scenario.controller.control_hz, record_frames=args.video is not None)
+    result = episode_from_scenario(scenario, record_frames=args.video is not None)
     row, design = result.row, result.design
     print(format_table(args.controller, design.margins))
     print(f"episode: {args.estimator} ({args.mode}) -> {args.controller} on {row['object_name']} "
