@@ -32,6 +32,14 @@ class Observation:
         Whether a slip detector flags the object as slipping at this step.
     slip_speed_m_s : float, default 0.0
         Tangential slip speed of the object relative to the pads in m/s.
+    thumb_contact, finger_contact : bool, default False
+        Whether the thumb side and the finger side touch the object (a pad
+        force sensor reading above its noise floor).
+    finger_position_rad : float, default 0.0
+        Finger joint encoder, rad (0 = straight down, + closes).
+    load_force_n : float, default 0.0
+        Tangential load the digits carry (a three-axis fingertip sensor, or
+        the wrist load cell minus the hand's own weight), N.
     """
 
     time_s: float
@@ -40,10 +48,46 @@ class Observation:
     finger_velocity: float = 0.0
     slip_detected: bool = False
     slip_speed_m_s: float = 0.0
+    thumb_contact: bool = False
+    finger_contact: bool = False
+    finger_position_rad: float = 0.0
+    load_force_n: float = 0.0
+
+    @property
+    def both_sides(self) -> bool:
+        """Whether both sides of the hand touch the object (the grasp is closed)."""
+        return self.thumb_contact and self.finger_contact
 
 
 _FIELDS = tuple(f.name for f in fields(Observation))
 _REQUIRED = ("time_s", "reference_n", "grip_force_n")
+
+
+def observation_from_info(info: Mapping[str, Any], reference_n: float, *,
+                          slip_speed_threshold_m_s: float = 0.005) -> Observation:
+    """The observation a prosthesis has after a :class:`sim.grasp_env.GraspEnv` step.
+
+    Parameters
+    ----------
+    info : mapping
+        ``GraspEnv`` step ``info`` (grip force, contact flags, finger encoder,
+        load and slip readings).
+    reference_n : float
+        Grip-force reference in N.
+    slip_speed_threshold_m_s : float
+        Slip speed above which ``slip_detected`` is set, m/s.
+    """
+    slip = float(info["slip_speed_m_s"])
+    return Observation(
+        time_s=float(info["time_s"]), reference_n=float(reference_n),
+        grip_force_n=float(info["grip_force_n"]),
+        finger_velocity=float(info["finger_velocity_rad_s"]),
+        slip_detected=slip > slip_speed_threshold_m_s, slip_speed_m_s=slip,
+        thumb_contact=bool(info.get("thumb_contact", False)),
+        finger_contact=bool(info.get("finger_contact", False)),
+        finger_position_rad=float(info["finger_position_rad"]),
+        load_force_n=float(info["load_force_n"]),
+    )
 
 
 def as_observation(obs: Observation | Mapping[str, Any]) -> Observation:

@@ -416,6 +416,8 @@ class GraspEnv(gym.Env):
             "load_force_n": load,
             "grip_load_ratio": c.grip_force_n / load if load > 1e-6 else math.inf,
             "slip_speed_m_s": c.slip_speed_m_s,
+            "thumb_contact": c.thumb_contact,
+            "finger_contact": c.finger_contact,
             "slip_distance_m": tr.slip_distance_m,
             "slip_events": tr.slip_events,
             "dropped": tr.dropped,
