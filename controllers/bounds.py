@@ -82,3 +82,69 @@ def force_bounds(
             f"but the object breaks at {fragility_limit_n:.3g} N"
         )
     return ForceBounds(min_n=low, max_n=float(fragility_limit_n))
+
+
+class SensedSlipBound:
+    """The slip bound a prosthesis can know: from the load it carries and the slips it feels.
+
+    The object's mass and friction are not known to a prosthesis. What it can
+    sense is the tangential load the digits carry (a three-axis fingertip
+    sensor, or a wrist load cell) and whether the object slips. The bound is::
+
+        min_grip_n = safety_factor * load_n / (2 * mu_hat)
+
+    while both sides touch and the load exceeds ``min_load_n`` (``-inf``
+    otherwise), with the friction estimate ``mu_hat`` starting at the
+    conservative ``friction_prior`` and lowered whenever a slip is sensed at
+    grip ``G`` under load ``L``: a two-sided grasp slips only if
+    ``L > 2 mu G``, so ``mu_hat <- max(friction_floor, min(mu_hat, L / (2 G)))``.
+
+    Parameters
+    ----------
+    safety_factor : float
+        Grip over the estimated slip threshold (>= 1).
+    friction_prior : float
+        Friction coefficient assumed before any slip is felt.
+    friction_floor : float
+        Lowest friction estimate.
+    min_load_n : float
+        Load (N) below which nothing is carried and no bound applies.
+    slip_speed_threshold_m_s : float
+        Slip speed counted as a slip, m/s.
+    """
+
+    def __init__(self, *, safety_factor: float = 1.5, friction_prior: float = 0.3,
+                 friction_floor: float = 0.1, min_load_n: float = 0.05,
+                 slip_speed_threshold_m_s: float = 0.005) -> None:
+        if safety_factor < 1:
+            raise SpecificationError(
+                f"sensed slip bound: expected safety_factor >= 1, found {safety_factor}"
+            )
+        if not 0 < friction_floor <= friction_prior:
+            raise SpecificationError(
+                f"sensed slip bound: expected 0 < friction_floor <= friction_prior, found "
+                f"{friction_floor}, {friction_prior}"
+            )
+        self.safety_factor = float(safety_factor)
+        self.friction_prior = float(friction_prior)
+        self.friction_floor = float(friction_floor)
+        self.min_load_n = float(min_load_n)
+        self.slip_speed_threshold_m_s = float(slip_speed_threshold_m_s)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the friction estimate and the bound."""
+        self.friction_ = self.friction_prior
+        self.min_n = float("-inf")
+
+    def update(self, grip_force_n: float, load_force_n: float, slip_speed_m_s: float,
+               both_sides: bool) -> float:
+        """Update from one sensed sample; returns the lower grip bound in N."""
+        if not both_sides or load_force_n <= self.min_load_n:
+            self.min_n = float("-inf")
+            return self.min_n
+        if slip_speed_m_s > self.slip_speed_threshold_m_s and grip_force_n > 0:
+            self.friction_ = max(self.friction_floor,
+                                 min(self.friction_, load_force_n / (2.0 * grip_force_n)))
+        self.min_n = self.safety_factor * load_force_n / (2.0 * self.friction_)
+        return self.min_n

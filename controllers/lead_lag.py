@@ -116,6 +116,11 @@ class LinearController:
         obs = as_observation(observation)
         return self.step(obs.reference_n, obs.grip_force_n)
 
+    def handover(self, observation: Observation | Mapping[str, Any], u: float) -> None:
+        """Take over from someone else's command ``u``: the next command continues from it."""
+        self.reset(u)
+        self.track(observation, u)
+
     def transfer_function(self) -> control.TransferFunction:
         """``C(z)`` from error (N) to command."""
         return control.tf(self._ss)

@@ -14,9 +14,12 @@ subject to ``u_min <= u_k <= u_max``, ``|u_k - u_{k-1}| <= du_max`` (hard) and
 hard-bound solution whenever one exists), for the outputs ``y_k`` the first move
 can still change (those fixed by the delay are not constrained). The problem is
 condensed (``Y = Phi x0 + Gamma U``) and warm-started with the shifted plan.
-``f_min`` is the slip threshold times a safety factor (active while the
-reference asks to hold, ``r > 0``), ``f_max`` the fragility limit. The state is
-estimated by a steady-state Kalman filter.
+``f_min`` is the slip bound (active while the reference asks to hold, ``r > 0``):
+by default sensed online (:class:`controllers.bounds.SensedSlipBound`: the
+load the digits carry and the slips felt, never the object's true mass or
+friction); ``f_max`` is the user's force limit (a "fragile" setting; none by
+default). A fixed :class:`~controllers.bounds.ForceBounds` can be given too. The
+state is estimated by a steady-state Kalman filter.
 
 A solve that fails (solver status, non-finite result) falls back to the
 unconstrained law clipped to the amplitude and rate limits; every fallback is
@@ -36,7 +39,7 @@ import numpy as np
 
 from controllers.analysis import loop_margins
 from controllers.base import COMMAND_LIMITS, Observation, as_observation
-from controllers.bounds import ForceBounds
+from controllers.bounds import ForceBounds, SensedSlipBound
 from controllers.errors import PlantError, SpecificationError
 from controllers.pid import _plant_dt
 from controllers.plant import check_plant, frequency_response, loop_plant
@@ -119,6 +122,10 @@ class MPC:
         output-disturbance increment (N) and of force measurement noise (N).
     slack_weight : float
         Linear and quadratic weight of force-bound violations (per N).
+    slip_sensing : SensedSlipBound, optional
+        Lower force bound from sensed load and slip (updated every step).
+    force_max_n : float
+        The user's force limit, N (``inf``: none).
     """
 
     name = "mpc"
@@ -139,6 +146,8 @@ class MPC:
         disturbance_std_n: float = 0.5,
         measurement_noise_std_n: float = 0.5,
         slack_weight: float = 1e4,
+        slip_sensing: SensedSlipBound | None = None,
+        force_max_n: float = float("inf"),
     ) -> None:
         if solver not in QP_SOLVERS:
             raise SpecificationError(
@@ -158,6 +167,8 @@ class MPC:
         self.solver = solver
         self.computation_delay_samples = int(computation_delay_samples)
         self.slack_weight = float(slack_weight)
+        self.slip_sensing = slip_sensing
+        self.force_max_n = float(force_max_n)
 
         model = control.ss(loop_plant(plant, self.dt_s,
                                       computation_delay_samples=computation_delay_samples))
@@ -182,7 +193,7 @@ class MPC:
         self.filter_gain_ = (pc / (self.C_ @ pc + rn)).ravel()
 
         self._build_unconstrained_law()
-        self._build_qp()
+        self._qp: Any = None  # built at the first solve: analysis needs only the law
         self.report_: DesignReport | None = None
         self.reset()
 
@@ -271,13 +282,36 @@ class MPC:
         self._u_guess = np.full(self.horizon, self.last_u)
         self.stats_ = MPCStats()
         self.last_slack_n = 0.0
+        if self.slip_sensing is not None:
+            self.slip_sensing.reset()
+
+    def handover(self, observation: Observation | Mapping[str, Any], u: float) -> None:
+        """Take over at command ``u``: the state estimate is the steady state of ``u``.
+
+        The plant states are set to their steady state under a constant ``u`` and
+        the output disturbance to the measured force minus the plant's output, so
+        the first prediction equals the measurement (no observer transient). Run
+        statistics are kept.
+        """
+        obs = as_observation(observation)
+        u = float(np.clip(u, *self.u_limits))
+        n = self.A_.shape[0] - 1
+        a, b, c = self.A_[:n, :n], self.B_[:n, 0], self.C_[0, :n]
+        x = np.linalg.solve(np.eye(n) - a, b * u) if n else np.zeros(0)
+        self._xp = np.concatenate([x, [obs.grip_force_n - float(c @ x)]])
+        self.last_u = u
+        self._u_guess = np.full(self.horizon, u)
 
     def bounds_for(self, reference_n: float) -> tuple[float, float]:
         """Force bounds (N) used for a reference: the slip bound applies only while holding."""
-        if self.force_bounds is None:
-            return -np.inf, np.inf
-        low = self.force_bounds.min_n if reference_n > 0 else -np.inf
-        return low, self.force_bounds.max_n
+        low, high = -np.inf, self.force_max_n
+        if self.force_bounds is not None:
+            low, high = self.force_bounds.min_n, min(high, self.force_bounds.max_n)
+        if self.slip_sensing is not None:
+            low = max(low, self.slip_sensing.min_n)
+        if not reference_n > 0:
+            low = -np.inf
+        return min(low, high), high
 
     def _fallback(self, state: np.ndarray, reference_n: float) -> float:
         """Unconstrained law clipped to the rate and amplitude limits (hold if undefined)."""
@@ -301,6 +335,8 @@ class MPC:
         time_s : float
             Recorded with a fallback.
         """
+        if self._qp is None:
+            self._build_qp()
         f_lo, f_hi = self.bounds_for(reference_n)
         ref = float(np.clip(reference_n, f_lo, f_hi))
         self._lbg[self._lower_rows] = f_lo
@@ -348,6 +384,9 @@ class MPC:
         self._advance(as_observation(observation), float(np.clip(applied_u, *self.u_limits)))
 
     def _advance(self, obs: Observation, applied_u: float | None) -> float:
+        if self.slip_sensing is not None:
+            self.slip_sensing.update(obs.grip_force_n, obs.load_force_n, obs.slip_speed_m_s,
+                                     obs.both_sides)
         innovation = obs.grip_force_n - (self.C_ @ self._xp).item()
         x_filt = self._xp + self.filter_gain_ * innovation
         if applied_u is None:
@@ -399,6 +438,10 @@ def design_mpc(plant: control.LTI, **kwargs: Any) -> MPC:
               "du_max": controller.du_max, "solver": controller.solver,
               "force_min_n": None if fb is None else fb.min_n,
               "force_max_n": None if fb is None else fb.max_n,
+              "slip_bound": "sensed" if controller.slip_sensing is not None else (
+                  "fixed" if fb is not None else "none"),
+              "user_force_max_n": None if not np.isfinite(controller.force_max_n)
+              else controller.force_max_n,
               "computation_delay_samples": controller.computation_delay_samples},
         parameters={"q": controller.q_, "rho": controller.rho_,
                     "gain_reference": controller.gain_reference_,

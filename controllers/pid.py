@@ -163,6 +163,11 @@ class PID:
         self.step(obs.reference_n, obs.grip_force_n)
         self.manual_u = held
 
+    def handover(self, observation: Observation | Mapping[str, Any], u: float) -> None:
+        """Take over from someone else's command ``u``: the next command continues from it."""
+        self.reset(u)
+        self.track(observation, u)
+
     def transfer_function(self) -> control.TransferFunction:
         """Linear part ``C(z)`` from error (N) to command, discrete with ``dt``."""
         dt, tf = self.dt_s, self.derivative_filter_s

@@ -46,15 +46,15 @@ from typing import Any
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from controllers.base import Observation
+from controllers.base import observation_from_info
 from controllers.bounds import slip_threshold_n
+from controllers.design import ControllerDesign, OperatingAnalysis, design_for_object, worst_case
 from estimation.features import PAPER_CHANNELS, FeatureSet, align_to_windows, extract_features
 from estimation.metrics import r2_score, total_variation_rate
 from estimation.paper import PAPER_ORDER
 from estimation.protocol import split_index
 from estimation.registry import make_estimator
 from estimation.reproduce import estimator_params
-from scenarios.design import ControllerDesign, design_for_object
 from scenarios.runner import DivergedError, UnsupportedScenarioError
 from scenarios.schema import Scenario
 from sim.grasp_env import GraspEnv, WristSchedule
@@ -71,7 +71,10 @@ RAMP_S = 0.5
 LIFT_DURATION_S = 0.6
 SETTLE_BAND = 0.05  # settling band: 5 % of the hold reference (at least SETTLE_FLOOR_N)
 SETTLE_FLOOR_N = 0.2
-CONTACT_N = 0.5  # grip force that counts as contact (as controllers.ContactGate)
+CONTACT_N = 0.5  # grip force that counts as contact in the metrics
+CONTACT_PEAK_WINDOW_S = 0.5  # contact_peak_ratio: peak within this long after both sides touch
+LIFTED_FRACTION = 0.5  # lifted: the object rose at least this fraction of the lift height
+OUTCOMES = ("held", "not_lifted", "dropped", "crushed")
 
 
 # --------------------------------------------------------------------- calibration
@@ -199,6 +202,38 @@ def stream_estimates(calibration: Calibration, features: FeatureSet) -> np.ndarr
 
 
 # ------------------------------------------------------------------------ metrics
+def contact_peak_ratio(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray,
+                       both_sides: np.ndarray, window_s: float = CONTACT_PEAK_WINDOW_S
+                       ) -> tuple[float | None, float | None]:
+    """Peak grip within ``window_s`` after both sides first touch, over the reference then.
+
+    Returns
+    -------
+    ratio : float or None
+        ``max grip / reference at the peak`` (None if both sides never touch or
+        the reference is zero at the peak).
+    both_sides_s : float or None
+        When both sides first touched, s.
+    """
+    touching = np.flatnonzero(both_sides)
+    if touching.size == 0:
+        return None, None
+    t0 = float(t_s[touching[0]])
+    window = np.flatnonzero((t_s >= t0) & (t_s <= t0 + window_s))
+    i = window[int(np.argmax(grip_n[window]))]
+    ref = float(reference_n[i])
+    return (float(grip_n[i] / ref) if ref > 0 else None), t0
+
+
+def outcome_of(*, lifted: bool, dropped: bool, crushed: bool) -> str:
+    """The episode's outcome category, one of :data:`OUTCOMES` (crush first)."""
+    if crushed:
+        return "crushed"
+    if not lifted:
+        return "not_lifted"
+    return "dropped" if dropped else "held"
+
+
 def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray,
                     oracle_n: np.ndarray, *, start_s: float, lift_s: float, hold_from_s: float,
                     window_values_n: np.ndarray, window_dt_s: float) -> dict[str, Any]:
@@ -374,12 +409,7 @@ def run_episode(
                         generator=generator, order=order,
                         identification_fraction=identification_fraction,
                         calibration_s=calibration_s)
-        # Robust design point: the object held at the default operating force,
-        # where the pads are bottomed out and the plant gain is highest. A loop
-        # designed on the soft-pad plant (below ~8 N, ~5x less gain) exceeds its
-        # gain margin as soon as a reference pushes the grip onto the stops.
-        design = design_for_object(obj, controller, control_dt_s=control_dt_s,
-                                   **dict(controller_spec or {}))
+        design = cached_design(obj, controller, control_dt_s, controller_spec)
         # The user's intent ...
         target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
 
@@ -421,43 +451,128 @@ def run_episode(
                                              record_frames)
     if failure is not None:
         raise DivergedError(f"physics diverged at t = {info['time_s']:.3f} s: {failure}")
-    metrics = episode_metrics(t_ctrl[: traces["grip_force_n"].size],
-                              reference[: traces["grip_force_n"].size], traces["grip_force_n"],
-                              oracle[: traces["grip_force_n"].size], start_s=start_s,
+    n_run = traces["grip_force_n"].size
+    metrics = episode_metrics(t_ctrl[:n_run], reference[:n_run], traces["grip_force_n"],
+                              oracle[:n_run], start_s=start_s,
                               lift_s=lift_after_s, hold_from_s=episode_s - hold_s,
                               window_values_n=estimate_windows[features.t_s <= episode_s],
                               window_dt_s=features.dt_s)
+    ratio, both_s = contact_peak_ratio(traces["t_s"], traces["reference_n"],
+                                       traces["grip_force_n"], traces["both_sides"])
+    rise = traces["object_height_m"] - traces["object_height_m"][0]
+    lifted = bool(rise.size and np.max(rise) >= LIFTED_FRACTION * design_lift_height_m())
+    dropped, crushed = bool(info["dropped"]), bool(info["crushed"])
+    held_n, visited_n = operating_forces(traces, design, hold_from_s=episode_s - hold_s,
+                                         both_sides_s=both_s)
+    held = design.analyse(held_n) if held_n is not None else None
+    worst = worst_case([design.analyse(f) for f in visited_n]) if visited_n else {}
     simulated = traces["t_s"][-1] + control_dt_s
     loop_time = sum(timings[k] for k in ("t_estimator_s", "t_controller_s", "t_physics_s",
                                          "t_semg_s", "t_features_s"))
-    m = design.margins
     row = {
         "subject_id": subject.subject_id, "seed": int(seed),
         "object_name": obj.name, "object_mass_kg": obj.mass_kg,
         "object_friction": obj.friction, "object_break_force_n": obj.break_force_n,
         "controller": controller, "estimator": estimator, "mode": mode,
+        "scheduled": bool(design.scheduled),
         **metrics,
         "intended_grip_n": target_n,
         "slip_events": int(info["slip_events"]), "slip_distance_m": float(info["slip_distance_m"]),
-        "dropped": bool(info["dropped"]), "crushed": bool(info["crushed"]),
-        "lifted": bool(info["lifted"]),
-        "gain_margin_db": _finite(m.gain_margin_db),
-        "phase_margin_deg": _finite(m.phase_margin_deg),
-        "delay_margin_s": _finite(m.delay_margin_s), "ms": _finite(m.ms),
-        "crossover_rad_s": float(m.crossover_rad_s[0]) if len(m.crossover_rad_s) else None,
-        "n_crossovers": len(m.crossover_rad_s), "stable": bool(m.stable),
-        "bandwidth_rad_s": _finite(m.bandwidth_rad_s), "loop_dt_s": float(control_dt_s),
-        "mpc_failures": int(design.core.stats_.n_failures) if controller == "mpc" else 0,
+        "lifted": lifted, "dropped": dropped, "crushed": crushed,
+        "outcome": outcome_of(lifted=lifted, dropped=dropped, crushed=crushed),
+        "contact_peak_ratio": ratio, "both_sides_time_s": both_s,
+        "held_force_n": held_n,
+        **_margin_fields(held),
+        **{f"worst_{k}": v for k, v in worst.items()},
+        "loop_dt_s": float(control_dt_s),
+        "mpc_failures": mpc_failures(design),
         "cal_r2": cal.r2, "cal_mvc_n": cal.mvc_cal_n, "fit_s": cal.fit_s,
         **timings,
         "simulated_s": float(simulated),
         "realtime_factor": float(simulated / loop_time) if loop_time > 0 else None,
     }
-    A, B, C, D = (np.atleast_2d(np.asarray(M, dtype=float)) for M in
-                  (design.loop.A, design.loop.B, design.loop.C, design.loop.D))
-    traces.update(intent_n=oracle[: traces["grip_force_n"].size],
-                  loop_A=A, loop_B=B, loop_C=C, loop_D=D)
+    traces["intent_n"] = oracle[:n_run]
+    if held is not None and held.ok:
+        A, B, C, D = (np.atleast_2d(np.asarray(M, dtype=float)) for M in
+                      (held.margins.loop.A, held.margins.loop.B, held.margins.loop.C,
+                       held.margins.loop.D))
+        traces.update(loop_A=A, loop_B=B, loop_C=C, loop_D=D)
     return EpisodeResult(row=row, traces=traces, design=design)
+
+
+_DESIGNS: dict[tuple, ControllerDesign] = {}
+
+
+def cached_design(obj: ObjectSpec, controller: str, control_dt_s: float,
+                  spec: Mapping[str, Any] | None) -> ControllerDesign:
+    """:func:`controllers.design.design_for_object` memoized per object, kind, period and spec.
+
+    A design is reset at the start of every episode, so episodes in one process
+    share it (and the analyses it has cached). A fragile object's break force
+    is the user's force limit (the hand's "fragile" setting), which bounds the
+    MPC and the slip reflex.
+    """
+    spec = dict(spec or {})
+    if obj.break_force_n is not None:
+        spec.setdefault("force_max_n", float(obj.break_force_n))
+    key = (obj, controller, float(control_dt_s),
+           tuple(sorted((k, tuple(sorted(v.items())) if isinstance(v, Mapping) else v)
+                        for k, v in spec.items())))
+    if key not in _DESIGNS:
+        _DESIGNS[key] = design_for_object(obj, controller, control_dt_s=control_dt_s, **spec)
+    return _DESIGNS[key]
+
+
+def design_lift_height_m() -> float:
+    """The wrist's lift height in episodes, m."""
+    return WristSchedule().lift_height_m
+
+
+def operating_forces(traces: Mapping[str, np.ndarray], design: ControllerDesign, *,
+                     hold_from_s: float, both_sides_s: float | None
+                     ) -> tuple[float | None, list[float]]:
+    """The force an episode held and the forces it visited, N.
+
+    The held force is the median grip in the in-air hold (the last ``hold_s``);
+    the visited forces are the design grid points between the 5th and 95th
+    percentiles of the grip once both sides touched, plus the held force. Both
+    are clamped into the analysed range and rounded to 0.1 N.
+    """
+    if both_sides_s is None:
+        return None, []
+    lo_range, hi_range = design.family.range_n
+    t, grip = traces["t_s"], traces["grip_force_n"]
+    hold = t >= hold_from_s
+    after = t >= both_sides_s
+    if not hold.any() or not after.any():
+        return None, []
+
+    def clamp(f: float) -> float:
+        return float(np.clip(round(f, 1), lo_range, hi_range))
+
+    held = clamp(float(np.median(grip[hold])))
+    p5, p95 = np.percentile(grip[after], [5, 95])
+    visited = {clamp(f) for f in design.family.forces_n if p5 <= f <= p95} | {held}
+    return held, sorted(visited)
+
+
+def mpc_failures(design: ControllerDesign) -> int:
+    """QP solves that fell back to the unconstrained law, summed over the bank."""
+    return int(sum(d.stats_.n_failures for d in design.core.designs if hasattr(d, "stats_")))
+
+
+def _margin_fields(analysis: OperatingAnalysis | None) -> dict[str, Any]:
+    keys = ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "ms", "crossover_rad_s",
+            "n_crossovers", "stable", "bandwidth_rad_s")
+    if analysis is None or not analysis.ok:
+        return dict.fromkeys(keys)
+    m = analysis.margins
+    return {"gain_margin_db": _finite(m.gain_margin_db),
+            "phase_margin_deg": _finite(m.phase_margin_deg),
+            "delay_margin_s": _finite(m.delay_margin_s), "ms": _finite(m.ms),
+            "crossover_rad_s": float(m.crossover_rad_s[0]) if len(m.crossover_rad_s) else None,
+            "n_crossovers": len(m.crossover_rad_s), "stable": bool(m.stable),
+            "bandwidth_rad_s": _finite(m.bandwidth_rad_s)}
 
 
 def _finite(x: float) -> float | None:
@@ -478,6 +593,7 @@ def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarra
     command = np.zeros(n)
     height = np.zeros(n)
     slip = np.zeros(n)
+    both = np.zeros(n, dtype=bool)
     frames: list[np.ndarray] = []
     frame_every = max(1, int(round(0.04 / control_dt_s)))
     ctl = design.controller
@@ -492,13 +608,8 @@ def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarra
         for k in range(n):
             ref = float(reference[k])
             env.set_reference(ref)
-            slip_speed = float(info["slip_speed_m_s"])
             t0 = time.perf_counter()
-            u = ctl.act(Observation(time_s=float(t_ctrl[k]), reference_n=ref,
-                                    grip_force_n=float(info["grip_force_n"]),
-                                    finger_velocity=float(obs[3]),
-                                    slip_detected=slip_speed > 0.005,
-                                    slip_speed_m_s=slip_speed))
+            u = ctl.act(observation_from_info(info, ref))
             t1 = time.perf_counter()
             action[0] = pending
             obs, _, terminated, truncated, info = env.step(action)
@@ -507,6 +618,7 @@ def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarra
             pending = u
             grip[k], command[k] = info["grip_force_n"], action[0]
             height[k], slip[k] = info["object_height_m"], info["slip_speed_m_s"]
+            both[k] = info["thumb_contact"] and info["finger_contact"]
             if record_frames and k % frame_every == 0:
                 frames.append(env.render())
             failure = info.get("failure")
@@ -519,7 +631,8 @@ def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarra
     timings["t_physics_s"] += t_phys
     traces = {"t_s": t_ctrl[:k_end], "reference_n": reference[:k_end],
               "grip_force_n": grip[:k_end], "command": command[:k_end],
-              "object_height_m": height[:k_end], "slip_speed_m_s": slip[:k_end]}
+              "object_height_m": height[:k_end], "slip_speed_m_s": slip[:k_end],
+              "both_sides": both[:k_end]}
     if record_frames:
         traces["frames"] = np.stack(frames)
     return traces, failure, info
@@ -545,6 +658,8 @@ def controller_spec(scenario: Scenario) -> dict[str, Any]:
         spec["horizon"] = c.horizon
     if c.slip_reflex.enabled:
         spec["slip_reflex"] = {"latency_s": c.slip_reflex.latency_s, "gain": c.slip_reflex.gain}
+    if not c.scheduled:
+        spec["scheduled"] = False
     return spec
 
 

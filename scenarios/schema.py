@@ -249,6 +249,9 @@ class ControllerSpec(_Model):
         whole number of the hand's 2 ms physics steps.
     slip_reflex : SlipReflexSpec
         Slip reflex settings.
+    scheduled : bool
+        Gain-scheduled over grip force (default) or one fixed design at the
+        design force (see :mod:`controllers.schedule`).
     """
 
     kind: Literal["pid", "lead_lag", "mpc"] = "pid"
@@ -259,6 +262,7 @@ class ControllerSpec(_Model):
     safety_factor: float = Field(1.5, ge=1.0, le=5.0)
     control_hz: float = Field(100.0, ge=100.0, le=500.0)
     slip_reflex: SlipReflexSpec = Field(default_factory=SlipReflexSpec)
+    scheduled: bool = True
 
     @model_validator(mode="after")
     def _consistent(self) -> ControllerSpec:

@@ -209,6 +209,11 @@ class PadSpec:
         return self.thumb_scale * self.stiffness_n_m * self.travel_m
 
 
+#: x of the point midway between the thumb pad surface (hinge at -0.06 m, radius
+#: 0.011 m) and the finger pad surfaces (hinges at +0.06 m, radius 0.010 m), m.
+GRASP_CENTRE_X_M = 0.5 * ((-0.06 + 0.011) + (0.06 - 0.010))
+
+
 def approach_height_m(obj: ObjectSpec) -> float:
     """Wrist (palm centre) height so that the pads meet the object near its middle.
 
@@ -262,7 +267,9 @@ def build_spec(obj: ObjectSpec, motor: MotorSpec | None = None,
         spec.joint(joint).armature = reflected * coef_sum * coef
 
     spec.body("wrist").pos = [0.0, 0.0, approach_height_m(obj)]
-    _add_object(spec, obj, (0.0, 0.0, obj.half_height_m))
+    # Centred between the pad surfaces (the thumb pad is 1 mm thicker than the
+    # finger pads), so that both sides touch together on a symmetric close.
+    _add_object(spec, obj, (GRASP_CENTRE_X_M, 0.0, obj.half_height_m))
     site = mujoco.mjtObj.mjOBJ_SITE
     spec.add_sensor(name="object_pos", type=mujoco.mjtSensor.mjSENS_FRAMEPOS, objtype=site,
                     objname="object_center")

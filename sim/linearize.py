@@ -242,8 +242,8 @@ def _minimal_marginal(A: np.ndarray, B: np.ndarray, C: np.ndarray, atol: float
 def linearize_grasp(object: Any = "ball", grip_force_n: float = 10.0, *,
                     lifted: bool = False, control_dt_s: float = 0.01,
                     physics_dt_s: float = 0.002, eps: float = 1e-6,
-                    hsv_rtol: float = 1e-4, env_kwargs: dict[str, Any] | None = None
-                    ) -> LinearGrasp:
+                    hsv_rtol: float = 1e-4, settle_s: float = 0.5, weightless: bool = False,
+                    env_kwargs: dict[str, Any] | None = None) -> LinearGrasp:
     """Linear discrete model from motor command to grip force around a steady grasp.
 
     Parameters
@@ -260,6 +260,14 @@ def linearize_grasp(object: Any = "ball", grip_force_n: float = 10.0, *,
         Finite-difference step for ``mjd_transitionFD`` and the output gradient.
     hsv_rtol : float
         Relative Hankel singular value threshold of the truncation.
+    settle_s : float
+        Settling time of each grip correction before linearizing, s
+        (:meth:`GraspEnv.hold_grip`).
+    weightless : bool
+        Cancel gravity on the object (MuJoCo's ``body_gravcomp``). A grip below
+        the slip threshold cannot hold the object in the air, so there is no
+        steady lifted grasp to linearize; the squeeze dynamics (pads, digits,
+        drive) are those of the held object without its weight.
     env_kwargs : dict, optional
         Further :class:`GraspEnv` arguments.
 
@@ -273,7 +281,9 @@ def linearize_grasp(object: Any = "ball", grip_force_n: float = 10.0, *,
     env = GraspEnv(object, grip_force_n, control_dt_s=control_dt_s,
                    physics_dt_s=physics_dt_s, **kwargs)
     env.reset(seed=0)
-    u0 = env.steady_grasp(grip_force_n, lifted=lifted)
+    if weightless:
+        env.model.body_gravcomp[env.ids.object_body] = 1.0
+    u0 = env.steady_grasp(grip_force_n, lifted=lifted, settle_s=settle_s)
     m, d = env.model, env.data
     y0 = read_contacts(m, d, env.ids).grip_force_n
 
