@@ -222,6 +222,11 @@ def loop_margins(loop: control.LTI) -> LoopMargins:
     # ill-conditioned high-order loops
     w_gc, pms = _refine_gain_crossovers(loop, w_gc, pms)
     w_pc, gms = _refine_phase_crossovers(loop, w_pc, gms, dt)
+    # a near pole-zero cancellation (a slow creep mode of the plant against the
+    # controller's integrator) can make the polynomial method miss a crossover
+    # altogether; the dense grid of the frequency response finds it
+    omega = frequency_grid(loop)
+    w_gc, pms, w_pc, gms = _add_grid_crossovers(loop, omega, w_gc, pms, w_pc, gms)
     with np.errstate(divide="ignore"):
         gms_db = 20.0 * np.log10(gms)
     order = np.argsort(w_gc)
@@ -236,7 +241,6 @@ def loop_margins(loop: control.LTI) -> LoopMargins:
     if dt is not None and np.isfinite(dm):
         dm_samples = int(np.ceil(dm / dt - 1e-12) - 1)
 
-    omega = frequency_grid(loop)
     s_mag = np.abs(1.0 / (1.0 + frequency_response(loop, omega)))
     i = int(np.argmax(s_mag))
     lo, hi = omega[max(i - 1, 0)], omega[min(i + 1, omega.size - 1)]
@@ -270,6 +274,39 @@ def loop_margins(loop: control.LTI) -> LoopMargins:
         dt=dt,
         loop=control.ss(loop),
     )
+
+
+def _add_grid_crossovers(loop: control.LTI, omega: np.ndarray, w_gc: np.ndarray,
+                         pms: np.ndarray, w_pc: np.ndarray, gms: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Add the gain and phase crossovers a sign change on ``omega`` shows and the lists lack."""
+    resp = frequency_response(loop, omega)
+
+    def known(w: float, ws: np.ndarray) -> bool:
+        return bool(ws.size and np.min(np.abs(ws - w)) <= 1e-3 * w)
+
+    def at(w: float) -> complex:
+        return complex(frequency_response(loop, np.array([w]))[0])
+
+    excess = np.abs(resp) - 1.0
+    new_gc, new_pm = list(w_gc), list(pms)
+    for i in np.nonzero(np.sign(excess[:-1]) * np.sign(excess[1:]) < 0)[0]:
+        w = scipy.optimize.brentq(lambda x: abs(at(x)) - 1.0, omega[i], omega[i + 1],
+                                  xtol=1e-14, rtol=1e-13)
+        if not known(w, w_gc):
+            new_gc.append(w)
+            new_pm.append(float(np.mod(np.angle(at(w), deg=True), 360.0) - 180.0))
+    new_pc, new_gm = list(w_pc), list(gms)
+    im = resp.imag
+    for i in np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) < 0)
+                        & (resp.real[:-1] < 0) & (resp.real[1:] < 0))[0]:
+        w = scipy.optimize.brentq(lambda x: at(x).imag, omega[i], omega[i + 1],
+                                  xtol=1e-14, rtol=1e-13)
+        if not known(w, w_pc):
+            new_pc.append(w)
+            new_gm.append(1.0 / abs(at(w)))
+    return (np.asarray(new_gc, float), np.asarray(new_pm, float),
+            np.asarray(new_pc, float), np.asarray(new_gm, float))
 
 
 def _refine_gain_crossovers(

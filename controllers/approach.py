@@ -90,7 +90,7 @@ class ContactGate:
         feedforward: Callable[[float], float] | None = None,
         approach_speed_rad_s: float = 0.15,
         approach_gain: float = 8.0,
-        force_rate_n_s: float = 40.0,
+        force_rate_n_s: float = 15.0,
         lost_contact_s: float = 0.1,
         handover_fraction: float = 0.5,
         dt_s: float = 0.01,

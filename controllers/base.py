@@ -38,8 +38,10 @@ class Observation:
     finger_position_rad : float, default 0.0
         Finger joint encoder, rad (0 = straight down, + closes).
     load_force_n : float, default 0.0
-        Tangential load the digits carry (a three-axis fingertip sensor, or
-        the wrist load cell minus the hand's own weight), N.
+        Tangential load the digits carry (three-axis fingertip sensors), N.
+    lift_force_n : float, default 0.0
+        Upward force the hand applies to the object (a wrist load cell less
+        the hand's own weight), N: the carried weight once lifted.
     """
 
     time_s: float
@@ -52,6 +54,7 @@ class Observation:
     finger_contact: bool = False
     finger_position_rad: float = 0.0
     load_force_n: float = 0.0
+    lift_force_n: float = 0.0
 
     @property
     def both_sides(self) -> bool:
@@ -87,6 +90,7 @@ def observation_from_info(info: Mapping[str, Any], reference_n: float, *,
         finger_contact=bool(info.get("finger_contact", False)),
         finger_position_rad=float(info["finger_position_rad"]),
         load_force_n=float(info["load_force_n"]),
+        lift_force_n=float(info.get("lift_force_n", 0.0)),
     )
 
 

@@ -402,7 +402,7 @@ def design_for_object(
     dt = float(control_dt_s)
     family = cached_plant_family(obj, dt, tuple(float(f) for f in forces_n))
     limit = float("inf") if force_max_n is None else float(force_max_n)
-    sensing = SensedSlipBound(safety_factor=safety_factor) if kind == "mpc" else None
+    sensing = SensedSlipBound(safety_factor=safety_factor, dt_s=dt) if kind == "mpc" else None
     if scheduled:
         points = [(p.force_n, p.plant) for p in family.usable]
     else:
@@ -418,9 +418,9 @@ def design_for_object(
                                     crossover_rad_s=crossover_rad_s,
                                     bandwidth_rad_s=bandwidth_rad_s, horizon=horizon,
                                     slip_sensing=sensing, force_max_n=limit)
-        except (SpecificationError, PlantError) as exc:
+        except (ValueError, np.linalg.LinAlgError) as exc:  # Specification/PlantError too
             last_error = exc if isinstance(exc, SpecificationError) else SpecificationError(
-                str(exc))
+                f"{kind} at {force:g} N: {exc}")
             notes.append(f"no design at {force:g} N: {exc}")
             continue
         designs.append(core)

@@ -337,9 +337,10 @@ def operating_point(obj: ObjectSpec, force_n: float, *, control_dt_s: float = 0.
                                          [abs(complex(p)) for p in removed],
                                          "step_fit_percent": fit})
                 return OperatingPoint(force_n, plant, "creep_truncated", tuple(notes))
-    try:
+    try:  # a small step: a large one crosses the pads' knee and averages two regimes
+        step = max(0.002, 0.1 * first.u0)
         ident = design_plant(obj, grip_force_n=force_n, control_dt_s=control_dt_s,
-                             method="identified")
+                             method="identified", step_command=step)
     except (PlantError, IdentificationError) as exc:
         notes.append(f"identification failed: {exc}")
         return OperatingPoint(force_n, None, "failed", tuple(notes), notes[-1])

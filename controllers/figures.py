@@ -126,3 +126,68 @@ def save_loop_figures(margins: LoopMargins, directory: str | Path, stem: str) ->
         make(margins, title=f"{stem}: {suffix}").savefig(path, dpi=110)
         written.append(path)
     return written
+
+
+def margins_over_force_figure(analyses: dict[str, list], title: str = "") -> Figure:
+    """Gain margin, phase margin and crossover against grip force, one line per controller.
+
+    Parameters
+    ----------
+    analyses : dict
+        ``{controller name: [OperatingAnalysis, ...]}``
+        (:meth:`controllers.design.ControllerDesign.analyse`); failed points are
+        left out of the lines and marked with an ``x`` on the force axis.
+    title : str
+        Figure title (the object).
+    """
+    fig = Figure(figsize=(7.5, 6.5), layout="constrained")
+    ax_gm, ax_pm, ax_wc = fig.subplots(3, 1, sharex=True)
+    for i, (name, points) in enumerate(analyses.items()):
+        good = [a for a in points if a.ok]
+        f = np.array([a.force_n for a in good])
+        gm = np.array([a.margins.gain_margin_db for a in good])
+        pm = np.array([a.margins.phase_margin_deg for a in good])
+        wc = np.array([a.margins.crossover_rad_s[0] if a.margins.crossover_rad_s else np.nan
+                       for a in good])
+        color = f"C{i}"
+        ax_gm.plot(f, np.where(np.isfinite(gm), gm, np.nan), "o-", ms=3, color=color, label=name)
+        ax_pm.plot(f, np.where(np.isfinite(pm), pm, np.nan), "o-", ms=3, color=color)
+        ax_wc.plot(f, wc, "o-", ms=3, color=color)
+        failed = [a.force_n for a in points if not a.ok]
+        if failed:
+            ax_pm.plot(failed, np.zeros(len(failed)), "x", color=color, ms=8,
+                       label=f"{name}: no model")
+    ax_pm.axhline(45.0, color="0.5", lw=0.8, ls="--")
+    ax_gm.axhline(6.0, color="0.5", lw=0.8, ls="--")
+    ax_gm.set_ylabel("gain margin (dB)", fontsize=11)
+    ax_pm.set_ylabel("phase margin (deg)", fontsize=11)
+    ax_wc.set_ylabel("crossover (rad/s)", fontsize=11)
+    ax_wc.set_xlabel("grip force (N)", fontsize=11)
+    ax_gm.set_title(title or "Margins over grip force", fontsize=12)
+    ax_gm.legend(fontsize=9, loc="best")
+    for ax in (ax_gm, ax_pm, ax_wc):
+        ax.set_xscale("log")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.tick_params(labelsize=9)
+    return fig
+
+
+def measured_bode_figure(margins: LoopMargins, frequencies_rad_s: np.ndarray,
+                         measured_loop: np.ndarray, title: str = "") -> Figure:
+    """The predicted Bode plot of ``L`` with loop gains measured on the hand overlaid."""
+    fig = bode_figure(margins, title=title)
+    ax_mag, ax_ph = fig.axes[:2]
+    w = np.asarray(frequencies_rad_s, float)
+    lm = np.asarray(measured_loop, complex)
+    pred = frequency_response(margins.loop, w)
+    # measured phases are placed on the predicted curve's branch (multiples of 360)
+    ph_pred = np.interp(w, frequency_grid(margins.loop),
+                        np.rad2deg(np.unwrap(np.angle(frequency_response(
+                            margins.loop, frequency_grid(margins.loop))))))
+    ph = np.angle(lm, deg=True)
+    ph = ph + 360.0 * np.round((ph_pred - ph) / 360.0)
+    ax_mag.plot(w, 20 * np.log10(np.abs(lm)), "ks", ms=5, mfc="none", label="measured on the hand")
+    ax_ph.plot(w, ph, "ks", ms=5, mfc="none")
+    ax_mag.plot(w, 20 * np.log10(np.abs(pred)), "C0.", ms=3)
+    ax_mag.legend(fontsize=9)
+    return fig

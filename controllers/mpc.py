@@ -282,6 +282,7 @@ class MPC:
         self._u_guess = np.full(self.horizon, self.last_u)
         self.stats_ = MPCStats()
         self.last_slack_n = 0.0
+        self.last_reference_n = 0.0
         if self.slip_sensing is not None:
             self.slip_sensing.reset()
 
@@ -339,6 +340,7 @@ class MPC:
             self._build_qp()
         f_lo, f_hi = self.bounds_for(reference_n)
         ref = float(np.clip(reference_n, f_lo, f_hi))
+        self.last_reference_n = ref
         self._lbg[self._lower_rows] = f_lo
         self._ubg[self._upper_rows] = f_hi
         self.stats_.n_solves += 1
@@ -385,7 +387,7 @@ class MPC:
 
     def _advance(self, obs: Observation, applied_u: float | None) -> float:
         if self.slip_sensing is not None:
-            self.slip_sensing.update(obs.grip_force_n, obs.load_force_n, obs.slip_speed_m_s,
+            self.slip_sensing.update(obs.grip_force_n, obs.lift_force_n, obs.slip_speed_m_s,
                                      obs.both_sides)
         innovation = obs.grip_force_n - (self.C_ @ self._xp).item()
         x_filt = self._xp + self.filter_gain_ * innovation

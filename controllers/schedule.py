@@ -172,6 +172,7 @@ class ScheduledController:
                                    kd_s=self._gains[0][2])
             self._runner.reset(u0)
         self.last_u = float(u0)
+        self.last_reference_n = 0.0
 
     def act(self, observation: Observation | Mapping[str, Any]) -> float:
         """Update the schedule from the measured force, then let the active design act."""
@@ -182,6 +183,7 @@ class ScheduledController:
             self.active.handover(obs, self.last_u)
         u = self.active.act(obs)
         self.last_u = u
+        self.last_reference_n = float(getattr(self.active, "last_reference_n", obs.reference_n))
         return u
 
     def track(self, observation: Observation | Mapping[str, Any], applied_u: float) -> None:
@@ -191,6 +193,7 @@ class ScheduledController:
         self._pending_handover = False
         self.active.track(obs, applied_u)
         self.last_u = float(applied_u)
+        self.last_reference_n = float(obs.reference_n)
 
     def handover(self, observation: Observation | Mapping[str, Any], u: float) -> None:
         """Take over at command ``u`` (contact): the schedule jumps to the measured force."""
@@ -203,6 +206,7 @@ class ScheduledController:
         self._pending_handover = False
         self.active.handover(obs, u)
         self.last_u = float(u)
+        self.last_reference_n = float(obs.reference_n)
 
     def loop(self, plant: control.LTI, force_n: float | None = None) -> control.LTI:
         """Open loop at ``force_n`` (default: the present scheduling signal)."""

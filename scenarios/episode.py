@@ -207,6 +207,10 @@ def contact_peak_ratio(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndar
                        ) -> tuple[float | None, float | None]:
     """Peak grip within ``window_s`` after both sides first touch, over the reference then.
 
+    The reference is the one the controller tracks: the user's, or more where
+    the controller raises it on purpose (the MPC's sensed slip bound, the slip
+    reflex), so a deliberate rise is not counted as a slam.
+
     Returns
     -------
     ratio : float or None
@@ -457,7 +461,7 @@ def run_episode(
                               lift_s=lift_after_s, hold_from_s=episode_s - hold_s,
                               window_values_n=estimate_windows[features.t_s <= episode_s],
                               window_dt_s=features.dt_s)
-    ratio, both_s = contact_peak_ratio(traces["t_s"], traces["reference_n"],
+    ratio, both_s = contact_peak_ratio(traces["t_s"], traces["tracked_reference_n"],
                                        traces["grip_force_n"], traces["both_sides"])
     rise = traces["object_height_m"] - traces["object_height_m"][0]
     lifted = bool(rise.size and np.max(rise) >= LIFTED_FRACTION * design_lift_height_m())
@@ -481,7 +485,7 @@ def run_episode(
         "lifted": lifted, "dropped": dropped, "crushed": crushed,
         "outcome": outcome_of(lifted=lifted, dropped=dropped, crushed=crushed),
         "contact_peak_ratio": ratio, "both_sides_time_s": both_s,
-        "held_force_n": held_n,
+        "held_force_n": held_n, "visited_forces_n": visited_n,
         **_margin_fields(held),
         **{f"worst_{k}": v for k, v in worst.items()},
         "loop_dt_s": float(control_dt_s),
@@ -594,6 +598,7 @@ def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarra
     height = np.zeros(n)
     slip = np.zeros(n)
     both = np.zeros(n, dtype=bool)
+    tracked = np.zeros(n)
     frames: list[np.ndarray] = []
     frame_every = max(1, int(round(0.04 / control_dt_s)))
     ctl = design.controller
@@ -610,6 +615,7 @@ def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarra
             env.set_reference(ref)
             t0 = time.perf_counter()
             u = ctl.act(observation_from_info(info, ref))
+            tracked[k] = max(ref, design.core.last_reference_n)
             t1 = time.perf_counter()
             action[0] = pending
             obs, _, terminated, truncated, info = env.step(action)
@@ -632,7 +638,7 @@ def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarra
     traces = {"t_s": t_ctrl[:k_end], "reference_n": reference[:k_end],
               "grip_force_n": grip[:k_end], "command": command[:k_end],
               "object_height_m": height[:k_end], "slip_speed_m_s": slip[:k_end],
-              "both_sides": both[:k_end]}
+              "both_sides": both[:k_end], "tracked_reference_n": tracked[:k_end]}
     if record_frames:
         traces["frames"] = np.stack(frames)
     return traces, failure, info

@@ -17,6 +17,11 @@ load force (N)
     the object: the weight and inertial load carried by friction. With a
     two-sided grasp the object slips when ``load > mu (grip + finger)``, i.e.
     ``grip / load < 1 / (2 mu)`` (Johansson and Westling's slip ratio).
+lift force (N)
+    Upward component of the summed contact force (normal and friction) the
+    hand applies to the object: the object's weight and vertical inertial load
+    while it is carried, negative while the digits press it into the table.
+    What a wrist load cell reads, less the hand's own weight.
 slip speed (m/s)
     Largest relative tangential velocity between object and digit at the
     hand-object contact points: the friction rows of ``efc_vel = J qvel``,
@@ -49,6 +54,8 @@ class ContactReading:
         Finger-side (index + middle) normal force sum, N.
     load_force_n : float
         Magnitude of the summed tangential force on the object, N.
+    lift_force_n : float
+        Upward component of the summed hand-object contact force, N.
     slip_speed_m_s : float
         Largest tangential relative speed at a hand-object contact, m/s.
     n_contacts : int
@@ -60,6 +67,7 @@ class ContactReading:
     grip_force_n: float = 0.0
     finger_force_n: float = 0.0
     load_force_n: float = 0.0
+    lift_force_n: float = 0.0
     slip_speed_m_s: float = 0.0
     n_contacts: int = 0
     thumb_contact: bool = False
@@ -99,21 +107,23 @@ def read_contacts(model: mujoco.MjModel, data: mujoco.MjData, ids: HandIds,
     frame = con.frame.tolist()
     efc_f = data.efc_force
     efc_v = data.efc_vel
-    grip = finger = lx = ly = lz = slip2 = 0.0
+    grip = finger = lx = ly = lz = nz = slip2 = 0.0
     for i, (side, sign) in hits:
         # Elliptic cones: rows a, a+1, a+2 are the normal and the two tangent
         # directions of the contact frame (forces act on geom2).
         a = adr[i]
+        f0 = efc_f.item(a)
         if side == 1:
-            grip += efc_f.item(a)
+            grip += f0
         else:
-            finger += efc_f.item(a)
+            finger += f0
         f1 = sign * efc_f.item(a + 1)
         f2 = sign * efc_f.item(a + 2)
         fr = frame[i]
         lx += f1 * fr[3] + f2 * fr[6]
         ly += f1 * fr[4] + f2 * fr[7]
         lz += f1 * fr[5] + f2 * fr[8]
+        nz += sign * f0 * fr[2]
         # Relative tangential velocity: the friction rows of efc_vel = J qvel.
         v1 = efc_v.item(a + 1)
         v2 = efc_v.item(a + 2)
@@ -123,6 +133,7 @@ def read_contacts(model: mujoco.MjModel, data: mujoco.MjData, ids: HandIds,
     out.grip_force_n = grip
     out.finger_force_n = finger
     out.load_force_n = math.sqrt(lx * lx + ly * ly + lz * lz)
+    out.lift_force_n = lz + nz
     out.slip_speed_m_s = math.sqrt(slip2)
     out.n_contacts = len(hits)
     out.thumb_contact = any(h[1][0] == 1 for h in hits)
@@ -134,6 +145,7 @@ def _zero(out: ContactReading) -> None:
     out.grip_force_n = 0.0
     out.finger_force_n = 0.0
     out.load_force_n = 0.0
+    out.lift_force_n = 0.0
     out.slip_speed_m_s = 0.0
     out.n_contacts = 0
     out.thumb_contact = False

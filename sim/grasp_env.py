@@ -414,6 +414,7 @@ class GraspEnv(gym.Env):
             "grip_force_n": c.grip_force_n,
             "finger_force_n": c.finger_force_n,
             "load_force_n": load,
+            "lift_force_n": c.lift_force_n,
             "grip_load_ratio": c.grip_force_n / load if load > 1e-6 else math.inf,
             "slip_speed_m_s": c.slip_speed_m_s,
             "thumb_contact": c.thumb_contact,

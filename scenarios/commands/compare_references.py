@@ -8,7 +8,7 @@ from pathlib import Path
 
 from scenarios.commands.episode import ESTIMATOR_CHOICES
 from scenarios.compare import DEFAULT_REFERENCES, compare_references, format_comparison
-from scenarios.plant_models import object_for
+from controllers.design_plant import object_for
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

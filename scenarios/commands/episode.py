@@ -10,15 +10,17 @@ from typing import Any
 import numpy as np
 
 from estimation.registry import ESTIMATOR_NAMES
+from controllers.design import worst_case
 from scenarios.commands.margins import format_table
 from scenarios.episode import ORACLE, episode_from_scenario
 from scenarios.schema import parse_scenario
 from scenarios.video import write_video
 
 ESTIMATOR_CHOICES = (*ESTIMATOR_NAMES, ORACLE)
-METRIC_KEYS = ("tracking_rmse_n", "estimation_rmse_n", "hold_reference_n", "overshoot_pct",
-               "settling_time_s", "slip_events", "slip_distance_m", "dropped", "crushed",
-               "lifted", "peak_force_n", "reference_volatility_n_per_s", "cal_r2")
+METRIC_KEYS = ("outcome", "tracking_rmse_n", "estimation_rmse_n", "hold_reference_n",
+               "held_force_n", "overshoot_pct", "settling_time_s", "contact_peak_ratio",
+               "slip_events", "slip_distance_m", "lifted", "dropped", "crushed", "peak_force_n",
+               "reference_volatility_n_per_s", "cal_r2")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -46,7 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="seed of the virtual population (default 0)")
     p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
     p.add_argument("--episode-s", type=float, default=6.0, help="episode length, s (default 6)")
-    p.add_argument("--json", required=True, type=Path, metavar="FILE", help="write results here")
+    p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write JSON here")
     p.add_argument("--video", type=Path, default=None, metavar="FILE",
                    help="also render the episode to an animated GIF (.gif)")
     p.set_defaults(func=run)
@@ -76,7 +78,11 @@ def run(args: argparse.Namespace) -> int:
     scenario = scenario_from_args(args)
     result = episode_from_scenario(scenario, record_frames=args.video is not None)
     row, design = result.row, result.design
-    print(format_table(args.controller, design.margins))
+    visited = sorted({f for f in (row["held_force_n"],) if f is not None}
+                     | {f for f in design.family.forces_n
+                        if row["held_force_n"] is not None and f in _visited(row)})
+    analyses = [design.analyse(f) for f in visited]
+    print(format_table(args.controller, analyses, worst_case(analyses) if analyses else None))
     print(f"episode: {args.estimator} ({args.mode}) -> {args.controller} on {row['object_name']} "
           f"({row['object_mass_kg']:g} kg, mu {row['object_friction']:g})")
     for key in METRIC_KEYS:
@@ -84,20 +90,29 @@ def run(args: argparse.Namespace) -> int:
         text = f"{value:.4g}" if isinstance(value, float) else str(value)
         print(f"  {key:<30} {text}")
     print(f"  {'real-time factor':<30} {row['realtime_factor']:.1f}x")
+    held = design.analyse(row["held_force_n"]) if row["held_force_n"] is not None else None
     out = {
         "scenario": scenario.model_dump(mode="json"),
-        "margins": design.margins.to_dict(),
-        "design": {"spec": design.spec, "plant_fit": design.plant.fit},
+        "margins_at_held_force": None if held is None else held.to_dict(),
+        "worst_over_visited": {k[len("worst_"):]: v for k, v in row.items()
+                               if k.startswith("worst_")},
+        "design": {"spec": design.spec, "plant_family": design.family.summary()},
         "metrics": {k: row[k] for k in METRIC_KEYS},
         "row": row,
         "traces": {k: np.asarray(v).tolist() for k, v in result.traces.items()
                    if k in ("t_s", "intent_n", "reference_n", "grip_force_n", "command",
                             "object_height_m", "slip_speed_m_s")},
     }
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(out, indent=1, default=float))
-    print(f"wrote {args.json}")
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(out, indent=1, default=float))
+        print(f"wrote {args.json}")
     if args.video is not None:
         write_video(result.traces["frames"], args.video, fps=25)
         print(f"wrote {args.video}")
     return 0
+
+
+def _visited(row: dict[str, Any]) -> set[float]:
+    """Grid forces the episode visited (stored in the row by the runner)."""
+    return set(row.get("visited_forces_n") or ())

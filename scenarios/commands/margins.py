@@ -1,9 +1,12 @@
-"""``griploop margins``: design a controller for an object and report its loop margins.
+"""``griploop margins``: design a controller for an object and report its loop margins over force.
 
 Example::
 
     griploop margins --controller pid --object can --mass-kg 0.4 --friction 0.5 \\
-        --json margins.json --plots figs/
+        --at-force 3,5,10,20 --json margins.json --plots figs/
+
+A margin is a property of a loop at an operating point: every row is the
+controller that runs at that grip force, on the plant linearized at that force.
 """
 
 from __future__ import annotations
@@ -16,67 +19,118 @@ from typing import Any
 import numpy as np
 
 from controllers.analysis import LoopMargins
-from controllers.figures import save_loop_figures
-from controllers.registry import CONTROLLER_NAMES, design_controller
-from scenarios.plant_models import PLANT_METHODS, design_plant, object_force_bounds
+from controllers.design import (
+    DEFAULT_SPECS,
+    ControllerDesign,
+    OperatingAnalysis,
+    design_for_object,
+    worst_case,
+)
+from controllers.design_plant import object_for
+from controllers.figures import margins_over_force_figure, save_loop_figures
+from controllers.registry import CONTROLLER_NAMES
 
-# Specifications used when none are given; chosen for the simulated hand, whose
-# command-to-force response is nearly static over the control band (~88 N per
-# unit command plus the sample-and-hold and one period of computation delay).
-DEFAULT_SPECS: dict[str, dict[str, Any]] = {
-    "pid": {"phase_margin_deg": 60.0, "crossover_rad_s": 30.0, "structure": "pi"},
-    "lead_lag": {"phase_margin_deg": 60.0, "crossover_rad_s": 30.0, "lag_ratio": 2.0},
-    "mpc": {"horizon": 20},
-}
+
+def parse_forces(text: str) -> list[float]:
+    """``"3,5,10"`` -> ``[3.0, 5.0, 10.0]``; a one-line error otherwise."""
+    try:
+        forces = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise ValueError(f"--at-force: expected comma-separated forces in N, found {text!r}")
+    if not forces or not all(np.isfinite(forces)):
+        raise ValueError(f"--at-force: expected comma-separated forces in N, found {text!r}")
+    return forces
+
+
+def add_design_options(p: argparse.ArgumentParser) -> None:
+    """Options shared by ``margins`` and ``measure-loop``: controller, object, specification."""
+    p.add_argument("--controller", required=True, metavar="NAME",
+                   help=f"one of {', '.join(CONTROLLER_NAMES)}")
+    p.add_argument("--object", required=True, metavar="NAME", help="object name (sim.objects)")
+    p.add_argument("--mass-kg", type=float, default=None, help="override the object's mass, kg")
+    p.add_argument("--friction", type=float, default=None, help="override the friction coeff.")
+    p.add_argument("--phase-margin-deg", type=float, default=None,
+                   help="target phase margin (pid, lead_lag; default 60)")
+    p.add_argument("--crossover-rad-s", type=float, default=None,
+                   help="target crossover frequency (pid, lead_lag; default 30)")
+    p.add_argument("--fixed-at-n", type=float, default=None, metavar="F",
+                   help="one fixed-gain design at grip force F (N) instead of the gain-scheduled "
+                   "designs")
+    p.add_argument("--dt-s", type=float, default=0.01, help="control period, s (default 0.01)")
+
+
+def design_from_args(args: argparse.Namespace) -> ControllerDesign:
+    """The design the shared options describe (library defaults where none are given)."""
+    if args.controller not in CONTROLLER_NAMES:
+        raise LookupError(
+            f"--controller: expected one of {list(CONTROLLER_NAMES)}, found {args.controller!r}"
+        )
+    spec = dict(DEFAULT_SPECS[args.controller])
+    shaping = {"phase_margin_deg": args.phase_margin_deg, "crossover_rad_s": args.crossover_rad_s}
+    given = {k: v for k, v in shaping.items() if v is not None}
+    if args.controller == "mpc" and given:
+        raise ValueError(
+            f"mpc is specified by horizon and weights, found loop-shaping options {sorted(given)}"
+        )
+    spec.update(given)
+    obj = object_for(args.object, mass_kg=args.mass_kg, friction=args.friction)
+    return design_for_object(obj, args.controller, control_dt_s=args.dt_s,
+                             scheduled=args.fixed_at_n is None,
+                             operating_force_n=args.fixed_at_n, **spec)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``margins`` subcommand."""
     p = subparsers.add_parser(
         "margins",
-        help="design a controller for an object and report gain/phase/delay margins",
-        description="Design a force controller from specifications on the object's design "
-        "plant and print its loop margins (all crossovers, delay margin, Ms, poles).",
+        help="design a controller for an object and report its margins at each grip force",
+        description="Design a force controller from specifications over the object's force "
+        "range (gain-scheduled, or fixed with --fixed-at-n) and print its loop margins at each "
+        "grip force, on the plant linearized at that force, ending with the worst case.",
     )
-    p.add_argument("--controller", required=True, metavar="NAME",
-                   help=f"one of {', '.join(CONTROLLER_NAMES)}")
-    p.add_argument("--object", required=True, metavar="NAME", help="object name (sim.objects)")
-    p.add_argument("--mass-kg", type=float, default=None, help="override the object's mass, kg")
-    p.add_argument("--friction", type=float, default=None, help="override the friction coeff.")
-    p.add_argument("--json", required=True, type=Path, metavar="FILE", help="write results here")
+    add_design_options(p)
+    p.add_argument("--at-force", type=parse_forces, default=None, metavar="F1,F2,...",
+                   help="analyse at these grip forces, N (default: the design grid)")
+    p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write JSON here")
     p.add_argument("--plots", type=Path, default=None, metavar="DIR",
-                   help="write Bode, Nyquist and pole-zero PNGs here")
-    p.add_argument("--plant", default="linearized", metavar="METHOD",
-                   help=f"design plant: one of {', '.join(PLANT_METHODS)} (default linearized)")
-    p.add_argument("--phase-margin-deg", type=float, default=None,
-                   help="target phase margin (pid, lead_lag)")
-    p.add_argument("--crossover-rad-s", type=float, default=None,
-                   help="target crossover frequency (pid, lead_lag)")
-    p.add_argument("--grip-force-n", type=float, default=None,
-                   help="operating grip force of the design plant, N")
-    p.add_argument("--dt-s", type=float, default=0.01, help="control period, s (default 0.01)")
+                   help="write margins-over-force, Bode, Nyquist and pole-zero PNGs here")
     p.set_defaults(func=run)
 
 
-def _spec(args: argparse.Namespace, bounds: Any) -> dict[str, Any]:
-    spec = dict(DEFAULT_SPECS.get(args.controller, {}))
-    loop_shaping = {"phase_margin_deg": args.phase_margin_deg,
-                    "crossover_rad_s": args.crossover_rad_s}
-    given = {k: v for k, v in loop_shaping.items() if v is not None}
-    if args.controller == "mpc":
-        if given:
-            raise ValueError(
-                f"margins: mpc is specified by horizon and weights, found loop-shaping options "
-                f"{sorted(given)}"
-            )
-        spec["force_bounds"] = bounds
-    else:
-        spec.update(given)
-    return spec
+def _cell(x: float | None, fmt: str) -> str:
+    return "-" if x is None or not np.isfinite(x) else format(x, fmt)
 
 
-def format_table(controller: str, margins: LoopMargins) -> str:
-    """The margin table printed by the command."""
+def format_table(controller: str, analyses: list[OperatingAnalysis],
+                 worst: dict[str, Any] | None = None) -> str:
+    """The per-force margin table printed by the command, with the worst case last."""
+    head = (f"{'force N':>8} {'GM dB':>7} {'PM deg':>7} {'DM ms':>7} {'wc rad/s':>9} "
+            f"{'Ms':>5} {'stable':>6}  plant")
+    lines = [f"margins of {controller} (each row: the loop that runs at that force)", head]
+    for a in analyses:
+        if not a.ok:
+            lines.append(f"{a.force_n:8.3g}  failed: {a.reason}")
+            continue
+        m = a.margins
+        wc = m.crossover_rad_s[0] if m.crossover_rad_s else None
+        lines.append(f"{a.force_n:8.3g} {_cell(m.gain_margin_db, '7.2f')} "
+                     f"{_cell(m.phase_margin_deg, '7.1f')} "
+                     f"{_cell(m.delay_margin_s * 1e3 if np.isfinite(m.delay_margin_s) else None, '7.1f')} "
+                     f"{_cell(wc, '9.3g')} {_cell(m.ms, '5.2f')} {str(m.stable):>6}  {a.how}")
+    if worst and worst.get("n_points"):
+        dm = worst["delay_margin_s"]
+        lines.append(
+            f"{'worst':>8} {_cell(worst['gain_margin_db'], '7.2f')} "
+            f"{_cell(worst['phase_margin_deg'], '7.1f')} "
+            f"{_cell(None if dm is None else dm * 1e3, '7.1f')} {'':>9} "
+            f"{_cell(worst['ms'], '5.2f')} {str(worst['all_stable']):>6}  "
+            f"(PM at {worst['phase_margin_at_n']:g} N, GM at {worst['gain_margin_at_n']:g} N)"
+        )
+    return "\n".join(lines)
+
+
+def format_margins(controller: str, margins: LoopMargins) -> str:
+    """One loop's margins as a short table (used by ``griploop episode``)."""
     m = margins
     dm_samples = "" if m.delay_margin_samples is None else f" ({m.delay_margin_samples} samples)"
     rows = [
@@ -84,48 +138,54 @@ def format_table(controller: str, margins: LoopMargins) -> str:
         ("phase margin", f"{m.phase_margin_deg:.2f} deg"),
         ("delay margin", f"{m.delay_margin_s * 1e3:.1f} ms{dm_samples}"),
         ("gain crossovers", ", ".join(f"{w:.4g}" for w in m.crossover_rad_s) + " rad/s"),
-        ("phase margins", ", ".join(f"{p:.2f}" for p in m.phase_margins_deg) + " deg"),
-        ("phase crossovers", ", ".join(f"{w:.4g}" for w in m.phase_crossover_rad_s) + " rad/s"),
         ("peak sensitivity Ms", f"{m.ms:.3f} at {m.ms_frequency_rad_s:.4g} rad/s"),
-        ("bandwidth", f"{m.bandwidth_rad_s:.4g} rad/s"),
-        ("max |closed-loop pole|", f"{np.max(np.abs(m.closed_loop_poles)):.4f}"),
         ("stable", str(m.stable)),
     ]
     width = max(len(r[0]) for r in rows)
-    lines = [f"margins of {controller}"] + [f"  {k:<{width}}  {v}" for k, v in rows]
-    return "\n".join(lines)
+    return "\n".join([f"margins of {controller}"] + [f"  {k:<{width}}  {v}" for k, v in rows])
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``griploop margins``; returns the exit status."""
-    if args.controller not in CONTROLLER_NAMES:  # checked before the (slower) plant build
-        design_controller(args.controller, None)
-    plant = design_plant(args.object, mass_kg=args.mass_kg, friction=args.friction,
-                         method=args.plant, grip_force_n=args.grip_force_n,
-                         control_dt_s=args.dt_s)
-    bounds = object_force_bounds(plant.object)
-    controller = design_controller(args.controller, plant.model, **_spec(args, bounds))
-    report = controller.report_
-    margins = report.margins
-    print(format_table(args.controller, margins))
+    design = design_from_args(args)
+    if args.at_force is None:
+        forces = [p.force_n for p in design.family.points]
+    else:
+        forces = args.at_force
+        for f in forces:
+            design.check_force(f)
+    analyses = [design.analyse(f) for f in forces]
+    worst = worst_case(analyses)
+    print(f"plant family of {design.object.name}: {len(design.family.points)} grid forces "
+          f"{design.family.range_n[0]:g}..{design.family.range_n[1]:g} N built in "
+          f"{design.family.build_s:.2f} s")
+    print(format_table(args.controller, analyses, worst))
+    obj = design.object
     result = {
         "controller": args.controller,
-        "object": {"name": plant.object.name, "mass_kg": plant.object.mass_kg,
-                   "friction": plant.object.friction,
-                   "break_force_n": plant.object.break_force_n},
-        "force_bounds_n": {"min": bounds.min_n,
-                           "max": None if not np.isfinite(bounds.max_n) else bounds.max_n},
-        "plant": {"method": plant.method, "u0": plant.u0, "y0_n": plant.y0_n,
-                  "order": int(plant.model.nstates), "fit": plant.fit},
-        "design": {"spec": {k: v for k, v in report.spec.items()},
-                   "parameters": report.parameters, "notes": report.notes},
-        "margins": margins.to_dict(),
+        "object": {"name": obj.name, "mass_kg": obj.mass_kg, "friction": obj.friction,
+                   "break_force_n": obj.break_force_n},
+        "design": {"spec": design.spec, "notes": design.notes,
+                   "plant_family": design.family.summary(),
+                   "plant_family_build_s": design.family.build_s},
+        "operating_points": [a.to_dict() for a in analyses],
+        "worst_case": worst,
     }
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(result, indent=2, default=float))
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(result, indent=1, default=float))
+        print(f"wrote {args.json}")
     if args.plots is not None:
-        stem = f"{args.controller}_{plant.object.name}"
-        for path in save_loop_figures(margins, args.plots, stem):
-            print(f"wrote {path}")
-    print(f"wrote {args.json}")
+        args.plots.mkdir(parents=True, exist_ok=True)
+        stem = f"{args.controller}_{obj.name}"
+        fig = margins_over_force_figure({args.controller: analyses}, title=obj.name)
+        path = args.plots / f"{stem}_margins_over_force.png"
+        fig.savefig(path, dpi=110)
+        print(f"wrote {path}")
+        shown = [a for a in analyses if a.ok]
+        if shown:
+            worst_pm = min(shown, key=lambda a: a.margins.phase_margin_deg)
+            for path in save_loop_figures(worst_pm.margins, args.plots,
+                                          f"{stem}_at_{worst_pm.force_n:g}N"):
+                print(f"wrote {path}")
     return 0

@@ -7,7 +7,7 @@ import pytest
 
 from controllers import SlipReflex
 from controllers.errors import SpecificationError
-from scenarios.design import cached_design_plant, design_for_object
+from controllers.design import cached_design_plant, design_for_object
 from sim.objects import make_object
 
 CAN = make_object("can", mass_kg=0.4, friction=0.5)

@@ -3,7 +3,7 @@ import pytest
 
 from controllers import ContactGate, check_plant, design_controller
 from scenarios.commands.margins import DEFAULT_SPECS
-from scenarios.plant_models import design_plant, object_force_bounds
+from controllers.design_plant import design_plant, object_force_bounds
 from sim.grasp_env import GraspEnv
 
 CAN = {"mass_kg": 0.4, "friction": 0.5}
