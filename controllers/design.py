@@ -46,7 +46,7 @@ from sim.objects import ObjectSpec
 #: Default specification of each controller family, shared by the library and the CLI.
 DEFAULT_SPECS: dict[str, dict[str, Any]] = {
     "pid": {"phase_margin_deg": 60.0, "crossover_rad_s": 30.0},
-    "lead_lag": {"phase_margin_deg": 60.0, "crossover_rad_s": 30.0},
+    "lead_lag": {"phase_margin_deg": 60.0, "crossover_rad_s": 30.0, "lag_ratio": 2.0},
     "mpc": {"horizon": 20},
 }
 #: Crossover used when a specification gives neither crossover nor bandwidth, rad/s.
@@ -317,14 +317,15 @@ def _crossover_for_bandwidth(kind: str, plant: control.LTI, phase_margin_deg: fl
 
 def _design_at(kind: str, plant: DesignPlant, *, phase_margin_deg: float,
                crossover_rad_s: float | None, bandwidth_rad_s: float | None, horizon: int,
-               slip_sensing: SensedSlipBound | None, force_max_n: float) -> tuple[Any, dict]:
+               lag_ratio: float, slip_sensing: SensedSlipBound | None, force_max_n: float
+               ) -> tuple[Any, dict]:
     """One design on one plant; returns the controller and its public spec."""
     if kind == "mpc":
         spec: dict[str, Any] = {"horizon": int(horizon)}
         core = MPC(plant.model, horizon=int(horizon), slip_sensing=slip_sensing,
                    force_max_n=force_max_n)
         return core, spec
-    extra = {"structure": "pi"} if kind == "pid" else {"lag_ratio": LEAD_LAG_RATIO}
+    extra = {"structure": "pi"} if kind == "pid" else {"lag_ratio": float(lag_ratio)}
     if bandwidth_rad_s is not None:
         wc = _crossover_for_bandwidth(kind, plant.model, phase_margin_deg,
                                       float(bandwidth_rad_s), extra)
@@ -343,6 +344,7 @@ def design_for_object(
     crossover_rad_s: float | None = None,
     bandwidth_rad_s: float | None = None,
     horizon: int = 20,
+    lag_ratio: float = LEAD_LAG_RATIO,
     safety_factor: float = 1.5,
     slip_reflex: dict[str, float] | None = None,
     closing_command: float = 0.2,
@@ -368,6 +370,8 @@ def design_for_object(
         neither: :data:`DEFAULT_CROSSOVER_RAD_S`.
     horizon : int
         MPC horizon in control periods.
+    lag_ratio : float
+        Lead-lag: crossover over the integral corner ``wc / wl``.
     safety_factor : float
         Grip over the *sensed* slip threshold for the MPC's lower bound
         (:class:`controllers.bounds.SensedSlipBound`).
@@ -417,7 +421,8 @@ def design_for_object(
             core, spec = _design_at(kind, plant, phase_margin_deg=phase_margin_deg,
                                     crossover_rad_s=crossover_rad_s,
                                     bandwidth_rad_s=bandwidth_rad_s, horizon=horizon,
-                                    slip_sensing=sensing, force_max_n=limit)
+                                    lag_ratio=lag_ratio, slip_sensing=sensing,
+                                    force_max_n=limit)
         except (ValueError, np.linalg.LinAlgError) as exc:  # Specification/PlantError too
             last_error = exc if isinstance(exc, SpecificationError) else SpecificationError(
                 f"{kind} at {force:g} N: {exc}")

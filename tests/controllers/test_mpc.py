@@ -76,6 +76,7 @@ def test_failed_solve_falls_back_and_is_recorded(plant):
 
 def test_solver_failure_is_detected(plant):
     mpc = MPC(plant, solver="osqp")
+    mpc._build_qp()  # built lazily at the first solve otherwise
     mpc._qp = _failing(mpc._qp)
     u = mpc.act({"time_s": 0.0, "reference_n": 5.0, "grip_force_n": 0.0})
     assert mpc.stats_.n_failures == 1
