@@ -4,8 +4,16 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
-from scenarios.schema import DEFAULT_MAX_SCENARIOS, check_size, iter_expanded, load_sweep
+from scenarios.schema import (
+    DEFAULT_MAX_SCENARIOS,
+    SweepSpec,
+    check_size,
+    design_size,
+    iter_expanded,
+    load_sweep,
+)
 from scenarios.store import ResultStore
 from scenarios.sweep import DEFAULT_TASK, SweepError, count_pending, iter_plan, run_sweep
 
@@ -96,16 +104,11 @@ def run(args: argparse.Namespace) -> int:
         raise SweepError(f"--max-scenarios must be >= 0 (found {args.max_scenarios})")
     cap = args.max_scenarios or None
     spec = load_sweep(args.file)
+    if args.dry_run:
+        return _dry_run(args, spec, cap)
     total = check_size(spec, cap, args.file)
     planned = iter_plan(iter_expanded(spec, args.file, max_scenarios=cap), args.task)
     with ResultStore(args.db) as store:
-        if args.dry_run:
-            total, todo = count_pending(planned, store, retry_failed=args.retry_failed)
-            print(
-                f"{spec.name}: {total} scenarios, {total - todo} stored, "
-                f"{todo} to run"
-            )
-            return 0
         summary = run_sweep(
             planned,
             store,
@@ -124,4 +127,24 @@ def run(args: argparse.Namespace) -> int:
         f"({summary.rate_per_min:.1f}/min) -> {args.db}",
         file=sys.stdout,
     )
+    return 0
+
+
+def _dry_run(args: argparse.Namespace, spec: SweepSpec, cap: int | None) -> int:
+    """Print the design's size (counted, not expanded) and, for a runnable size, what is pending."""
+    total = design_size(spec)
+    if cap is not None and total > cap:
+        print(f"{spec.name}: {total} scenarios, above --max-scenarios {cap}: "
+              "griploop sweep would refuse it")
+        return 0
+    if total > DEFAULT_MAX_SCENARIOS:
+        print(f"{spec.name}: {total} scenarios (too many to look each up in the store)")
+        return 0
+    if not Path(args.db).is_file():
+        print(f"{spec.name}: {total} scenarios, 0 stored, {total} to run")
+        return 0
+    planned = iter_plan(iter_expanded(spec, args.file, max_scenarios=cap), args.task)
+    with ResultStore(args.db, read_only=True) as store:
+        total, todo = count_pending(planned, store, retry_failed=args.retry_failed)
+    print(f"{spec.name}: {total} scenarios, {total - todo} stored, {todo} to run")
     return 0
