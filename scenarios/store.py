@@ -232,6 +232,8 @@ def _explain(path: Path, action: str, exc: BaseException) -> str:
         hint = "the file or its directory is read-only; export and report can still read it"
     elif "malformed" in low or "not a database" in low or "corrupt" in low:
         hint = "the file is corrupted; restore it from a copy or start a new store"
+    elif "unable to open" in low:
+        hint = "its directory is read-only, missing or not writable"
     elif "locked" in low or "busy" in low:
         hint = "another process holds the store locked"
     else:
@@ -298,7 +300,8 @@ class ResultStore:
                 )
         except sqlite3.Error as exc:
             self._conn.close()
-            if ours and "readonly" in str(exc).lower().replace("-", ""):
+            low = str(exc).lower()
+            if ours and any(k in low for k in ("readonly", "read-only", "unable to open")):
                 self.read_only = True  # read-only media: reading still works
                 self._conn = self._open_read_only()
                 return
