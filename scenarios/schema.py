@@ -72,8 +72,8 @@ MAX_YAML_NODES = 100_000
 """Most YAML nodes a sweep file may hold, counting every alias as a copy of its target."""
 DEFAULT_MAX_SCENARIOS = 100_000
 """Default cap on the scenarios a sweep expands to (``griploop sweep --max-scenarios``)."""
-DEFAULT_TIME_LIMIT_S = 600.0
-"""Default per-scenario time limit, s: about 10x a slow scenario (typical ones take 1-60 s)."""
+DEFAULT_TIME_LIMIT_S = 120.0
+"""Default per-scenario time limit, s: 100x a typical episode (1 s), 10x a slow one."""
 
 
 class ScenarioError(ValueError):

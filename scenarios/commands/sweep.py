@@ -25,7 +25,7 @@ griploop version and the task; running the same sweep again skips the stored
 ones, so an interrupted sweep (even killed with SIGKILL) resumes where it
 stopped. A scenario that raises is stored as failed with its traceback and
 the sweep goes on; so is a scenario still running after the sweep file's
-time_limit_s (default 600 s), recorded with a "timeout" error, and one that
+time_limit_s (default 120 s), recorded with a "timeout" error, and one that
 kills its process twice. The number of scenarios is counted from the design
 before anything is expanded and refused above --max-scenarios. Two drivers
 on one store share the work: each scenario is claimed before it runs.
