@@ -16,6 +16,7 @@ callable or as ``"package.module:function"``; the default is
 
 from __future__ import annotations
 
+import gc
 import importlib
 import itertools
 import logging
@@ -741,6 +742,10 @@ def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
     """A dask client on an existing scheduler or on a fresh LocalCluster."""
     from distributed import Client, LocalCluster
 
+    # A half-built Client from an earlier failed connection closes itself in __del__;
+    # if the garbage collector runs that inside a new cluster's IO-loop thread, the
+    # loop never starts (distributed waits 10 s, then fails). Collect it here first.
+    gc.collect()
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout="10s")
