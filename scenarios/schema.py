@@ -35,9 +35,11 @@ import difflib
 import hashlib
 import itertools
 import json
+import math
+import re
 import typing
 from collections import Counter
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -64,6 +66,14 @@ SCENARIO_KINDS = ("reproduction", "calibration", "episode")
 SIZE_LENGTHS = {"sphere": 1, "cylinder": 2, "box": 3}
 _CALIBRATION_KINDS = ("reproduction", "calibration")
 _MAX_SEED = 2**63 - 1
+MAX_YAML_DEPTH = 32
+"""Deepest nesting of mappings and lists a sweep file may have (aliases followed)."""
+MAX_YAML_NODES = 100_000
+"""Most YAML nodes a sweep file may hold, counting every alias as a copy of its target."""
+DEFAULT_MAX_SCENARIOS = 100_000
+"""Default cap on the scenarios a sweep expands to (``griploop sweep --max-scenarios``)."""
+DEFAULT_TIME_LIMIT_S = 120.0
+"""Default per-scenario time limit, s: 100x a typical episode (1 s), 10x a slow one."""
 
 
 class ScenarioError(ValueError):
@@ -71,7 +81,7 @@ class ScenarioError(ValueError):
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_default=True)
+    model_config = ConfigDict(extra="forbid", validate_default=True, allow_inf_nan=False)
 
 
 class SubjectSpec(_Model):
@@ -332,6 +342,10 @@ class Uniform(_Model):
     @model_validator(mode="after")
     def _ordered(self) -> Uniform:
         _check_order(self.low, self.high)
+        if not np.isfinite(self.high - self.low):
+            raise ValueError(
+                f"high - low must be a finite span (found low={self.low:g}, high={self.high:g})"
+            )
         return self
 
     def draw(self, rng: np.random.Generator, n: int) -> list[Any]:
@@ -360,8 +374,8 @@ class Normal(_Model):
     """Gaussian with mean ``mean`` and standard deviation ``sd``."""
 
     dist: Literal["normal"]
-    mean: float
-    sd: float = Field(gt=0.0)
+    mean: float = Field(ge=-1e300, le=1e300)
+    sd: float = Field(gt=0.0, le=1e300)
 
     def draw(self, rng: np.random.Generator, n: int) -> list[Any]:
         """``n`` draws."""
@@ -372,8 +386,8 @@ class Integers(_Model):
     """Integers uniform on ``low..high`` inclusive."""
 
     dist: Literal["integers"]
-    low: int
-    high: int
+    low: int = Field(ge=-(2**62), le=2**62)
+    high: int = Field(ge=-(2**62), le=2**62)
 
     @model_validator(mode="after")
     def _ordered(self) -> Integers:
@@ -433,6 +447,10 @@ class SweepSpec(_Model):
         Sweep seed: per-scenario seeds and random designs derive from it.
     replicates : int
         Copies of each design point; copies differ only by their derived seed.
+    time_limit_s : float
+        Wall-time limit of one scenario, s: a scenario still running after it
+        is stopped and recorded as failed with a ``timeout`` error. Not part
+        of the scenario's content hash.
     seed_by : list of str or None
         Dotted field paths (or sections, e.g. ``subject``) the derived seeds
         depend on. ``None``: the whole scenario, so every scenario draws
@@ -451,6 +469,7 @@ class SweepSpec(_Model):
     description: str = ""
     seed: int = Field(0, ge=0, le=_MAX_SEED)
     replicates: int = Field(1, ge=1, le=10_000)
+    time_limit_s: float = Field(DEFAULT_TIME_LIMIT_S, gt=0.0, le=86_400.0)
     seed_by: list[str] | None = Field(None, min_length=1)
     base: Scenario = Field(default_factory=Scenario)
     grid: dict[str, list[Any]] | None = None
@@ -494,16 +513,52 @@ def _check_order(low: float, high: float) -> None:
         raise ValueError(f"high must be > low (found low={low:g}, high={high:g})")
 
 
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that also reads ``1e5`` and ``1e-3`` as floats (YAML 1.2, as users write)."""
+
+
+_Loader.yaml_implicit_resolvers = {
+    first: [r for r in resolvers if r[0] != "tag:yaml.org,2002:float"]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(
+        r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+        |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+        |[-+]?\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+        |[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+\.[0-9_]*
+        |[-+]?\.(?:inf|Inf|INF)
+        |\.(?:nan|NaN|NAN))$""",
+        re.X,
+    ),
+    list("-+0123456789."),
+)
+
+
 def _yaml_with_lines(text: str, source: str) -> tuple[Any, dict[tuple, int]]:
-    """Parse YAML and map every key path to its 1-based line number."""
-    loader = yaml.SafeLoader(text)
+    """Parse YAML and map every key path to its 1-based line number.
+
+    Bounded in time and memory whatever the text: nesting and node count are
+    checked on the parser's event stream (iteratively, before any node tree is
+    built), then on the composed node graph with every alias counted as a copy
+    of its target but without expanding it; self-referencing aliases are
+    refused. The line map is built over each node once (aliases are not
+    walked again).
+    """
     try:
-        node = loader.get_single_node()
-        if node is None:
-            raise ScenarioError(f"{source}: empty file (expected a YAML mapping with 'base')")
-        data = loader.construct_document(node)
-        lines: dict[tuple, int] = {(): node.start_mark.line + 1}
-        _walk_marks(node, (), lines, loader, source)
+        _check_events(text, source)
+        loader = _Loader(text)
+        try:
+            node = loader.get_single_node()
+            if node is None:
+                raise ScenarioError(f"{source}: empty file (expected a YAML mapping with 'base')")
+            _check_graph(node, source)
+            data = loader.construct_document(node)
+            lines: dict[tuple, int] = {(): node.start_mark.line + 1}
+            _walk_marks(node, (), lines, loader, source, set())
+        finally:
+            loader.dispose()
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         where = f"{source}:{mark.line + 1}:{mark.column + 1}" if mark else source
@@ -512,15 +567,100 @@ def _yaml_with_lines(text: str, source: str) -> tuple[Any, dict[tuple, int]]:
     except yaml.YAMLError as exc:
         problem = " ".join(str(exc).split())
         raise ScenarioError(f"{source}: malformed YAML: {problem}") from None
-    finally:
-        loader.dispose()
+    except (RecursionError, OverflowError, ValueError, TypeError) as exc:
+        if isinstance(exc, ScenarioError):
+            raise
+        problem = " ".join(str(exc).split())[:120] or type(exc).__name__
+        raise ScenarioError(f"{source}: malformed YAML: {problem}") from None
     return data, lines
 
 
-def _walk_marks(node: yaml.Node, path: tuple, lines: dict, loader: Any, source: str) -> None:
+def _check_events(text: str, source: str) -> None:
+    """Refuse nesting deeper than MAX_YAML_DEPTH or more than MAX_YAML_NODES events."""
+    depth = count = 0
+    for event in yaml.parse(text, Loader=_Loader):
+        if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            depth += 1
+            if depth > MAX_YAML_DEPTH:
+                raise ScenarioError(
+                    f"{source}:{event.start_mark.line + 1}: <top>: expected nesting of at most "
+                    f"{MAX_YAML_DEPTH} levels, found deeper"
+                )
+        elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+            depth -= 1
+        if isinstance(event, yaml.NodeEvent):
+            count += 1
+            if count > MAX_YAML_NODES:
+                raise ScenarioError(
+                    f"{source}:{event.start_mark.line + 1}: <top>: expected at most "
+                    f"{MAX_YAML_NODES} YAML nodes, found more"
+                )
+
+
+def _check_graph(root: yaml.Node, source: str) -> None:
+    """Count nodes and depth with aliases expanded, without expanding them.
+
+    Each node's expanded size and depth are computed once (post-order,
+    iteratively, memoized by identity); a node reached again while its own
+    children are being counted is a self-referencing alias.
+    """
+    size: dict[int, int] = {}
+    depth: dict[int, int] = {}
+    on_path: set[int] = set()
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    while stack:
+        node, done = stack.pop()
+        key = id(node)
+        children = _children(node)
+        if done:
+            on_path.discard(key)
+            size[key] = 1 + sum(size[id(c)] for c in children)
+            depth[key] = 1 + max((depth[id(c)] for c in children), default=0)
+            line = node.start_mark.line + 1
+            if size[key] > MAX_YAML_NODES:
+                raise ScenarioError(
+                    f"{source}:{line}: <top>: expected at most {MAX_YAML_NODES} YAML nodes "
+                    f"with aliases expanded, found {size[key]} (an alias bomb?)"
+                )
+            if depth[key] > MAX_YAML_DEPTH + 1:
+                raise ScenarioError(
+                    f"{source}:{line}: <top>: expected nesting of at most {MAX_YAML_DEPTH} "
+                    f"levels with aliases expanded, found {depth[key] - 1}"
+                )
+            continue
+        if key in size:
+            continue
+        on_path.add(key)
+        stack.append((node, True))
+        for child in children:
+            if id(child) in on_path:
+                raise ScenarioError(
+                    f"{source}:{child.start_mark.line + 1}: <top>: expected a tree, found an "
+                    "alias that contains itself"
+                )
+            if id(child) not in size:
+                stack.append((child, False))
+
+
+def _children(node: yaml.Node) -> list[yaml.Node]:
+    if isinstance(node, yaml.MappingNode):
+        return [n for pair in node.value for n in pair]
+    if isinstance(node, yaml.SequenceNode):
+        return list(node.value)
+    return []
+
+
+def _walk_marks(
+    node: yaml.Node, path: tuple, lines: dict, loader: Any, source: str, seen_nodes: set
+) -> None:
+    if id(node) in seen_nodes:  # an alias: its lines are those of its anchor
+        return
+    seen_nodes.add(id(node))
     if isinstance(node, yaml.MappingNode):
         seen: set = set()
         for key_node, value_node in node.value:
+            if not isinstance(key_node, yaml.ScalarNode):
+                continue
             key = loader.construct_object(key_node, deep=True)
             line = key_node.start_mark.line + 1
             if not isinstance(key, (str, int, float, bool)):
@@ -532,11 +672,11 @@ def _walk_marks(node: yaml.Node, path: tuple, lines: dict, loader: Any, source: 
                 )
             seen.add(key)
             lines[path + (key,)] = line
-            _walk_marks(value_node, path + (key,), lines, loader, source)
+            _walk_marks(value_node, path + (key,), lines, loader, source, seen_nodes)
     elif isinstance(node, yaml.SequenceNode):
         for i, item in enumerate(node.value):
             lines[path + (i,)] = item.start_mark.line + 1
-            _walk_marks(item, path + (i,), lines, loader, source)
+            _walk_marks(item, path + (i,), lines, loader, source, seen_nodes)
 
 
 def _dotted(loc: Sequence[Any]) -> str:
@@ -587,8 +727,12 @@ def _describe(exc: ValidationError, root: type[BaseModel] | None) -> tuple[tuple
         field = _dotted(loc[:-1]) or "<top>"
     else:
         reason = err["msg"].removeprefix("Value error, ")
+        if reason.startswith("Input should be "):
+            reason = "expected " + reason.removeprefix("Input should be ")
         if err["type"] != "value_error" and not isinstance(err.get("input"), dict):
-            reason += f" (found {_short(err.get('input'))})"
+            found = err.get("input")
+            kind = f"{type(found).__name__} " if isinstance(found, (bool, str)) else ""
+            reason += f" (found {kind}{_short(found)})"
     more = len(exc.errors()) - 1
     tail = f" [+{more} more error{'s' if more > 1 else ''}]" if more else ""
     return loc, f"{field}: {reason}{tail}"
@@ -675,7 +819,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
     ScenarioError
         One line: ``SOURCE: field.path: reason (found VALUE)``.
     """
-    return _validate(Scenario, data, source, {})
+    return _validate(Scenario, data, source, {}, strict=False)
 
 
 def parse_sweep(data: Mapping[str, Any], source: str = "<sweep>") -> SweepSpec:
@@ -685,9 +829,12 @@ def parse_sweep(data: Mapping[str, Any], source: str = "<sweep>") -> SweepSpec:
     return spec
 
 
-def _validate(model: type[BaseModel], data: Any, source: str, lines: Mapping) -> Any:
+def _validate(
+    model: type[BaseModel], data: Any, source: str, lines: Mapping, *, strict: bool = True
+) -> Any:
+    """Validate ``data``; strict: no coercion of booleans or strings into numbers."""
     try:
-        return model.model_validate(data)
+        return model.model_validate(data, strict=strict)
     except ValidationError as exc:
         raise ScenarioError(_format_error(exc, source, lines, model)) from None
 
@@ -734,7 +881,7 @@ def _check_design(spec: SweepSpec, source: str, lines: Mapping[tuple, int]) -> N
         field_loc = tuple(path.split("."))
         for i, value in enumerate(values):
             try:
-                Scenario.model_validate(_set_path(base, path, value))
+                Scenario.model_validate(_set_path(base, path, value), strict=True)
             except ValidationError as exc:
                 if not any(tuple(e["loc"])[: len(field_loc)] == field_loc for e in exc.errors()):
                     continue
@@ -782,24 +929,64 @@ def derive_seed(sweep_seed: int, content: str, occurrence: int = 0) -> int:
     return int(seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
 
 
+def design_size(spec: SweepSpec) -> int:
+    """Number of scenarios the sweep expands to, counted from its axes without expanding."""
+    if spec.grid is not None:
+        points = math.prod(len(values) for values in spec.grid.values())
+    elif spec.random is not None:
+        points = spec.random.n
+    else:
+        points = 1
+    return points * spec.replicates
+
+
+def check_size(
+    spec: SweepSpec, max_scenarios: int | None = DEFAULT_MAX_SCENARIOS, source: str | None = None
+) -> int:
+    """:func:`design_size`, or ScenarioError when it exceeds ``max_scenarios`` (None: no cap)."""
+    n = design_size(spec)
+    if max_scenarios is not None and n > max_scenarios:
+        if spec.grid is not None:
+            how = " x ".join(str(len(v)) for v in spec.grid.values()) + " grid points"
+        elif spec.random is not None:
+            how = f"{spec.random.n} random points"
+        else:
+            how = "1 point"
+        raise ScenarioError(
+            f"{source or spec.name or '<sweep>'}: design: expected at most {max_scenarios} "
+            f"scenarios, found {n} ({how} x {spec.replicates} replicates); "
+            "raise the cap (--max-scenarios) to run it"
+        )
+    return n
+
+
 def design_points(spec: SweepSpec) -> list[dict[str, Any]]:
-    """The design's override dicts, one per point, before replication.
+    """The design's override dicts, one per point, before replication (see :func:`iter_design`)."""
+    return list(iter_design(spec))
+
+
+def iter_design(spec: SweepSpec) -> Iterator[dict[str, Any]]:
+    """The design's override dicts one at a time, before replication.
 
     Grid points come in row-major order of the grid as written (the last path
     varies fastest); random points are drawn with
     ``numpy.random.default_rng(random.seed or sweep seed)``, one vectorized
-    draw per path in sorted path order.
+    draw per path in sorted path order (columns of ``n`` values, the dicts
+    built one at a time).
     """
     if spec.grid is not None:
         paths = list(spec.grid)
-        combos = itertools.product(*spec.grid.values())
-        return [dict(zip(paths, combo, strict=True)) for combo in combos]
+        for combo in itertools.product(*spec.grid.values()):
+            yield dict(zip(paths, combo, strict=True))
+        return
     if spec.random is not None:
         design = spec.random
         rng = np.random.default_rng(spec.seed if design.seed is None else design.seed)
         columns = {p: design.params[p].draw(rng, design.n) for p in sorted(design.params)}
-        return [{p: columns[p][i] for p in design.params} for i in range(design.n)]
-    return [{}]
+        for i in range(design.n):
+            yield {p: columns[p][i] for p in design.params}
+        return
+    yield {}
 
 
 def _seed_key(scenario: Scenario, paths: Sequence[str]) -> str:
@@ -814,7 +1001,12 @@ def _seed_key(scenario: Scenario, paths: Sequence[str]) -> str:
     return json.dumps(picked, sort_keys=True, separators=(",", ":"))
 
 
-def expand_sweep(spec: SweepSpec, source: str | None = None) -> list[ExpandedScenario]:
+def expand_sweep(
+    spec: SweepSpec,
+    source: str | None = None,
+    *,
+    max_scenarios: int | None = DEFAULT_MAX_SCENARIOS,
+) -> list[ExpandedScenario]:
     """Expand a sweep into validated scenarios with their seeds filled in.
 
     Parameters
@@ -823,6 +1015,9 @@ def expand_sweep(spec: SweepSpec, source: str | None = None) -> list[ExpandedSce
         A validated sweep.
     source : str, optional
         Name used in error messages (defaults to the sweep name).
+    max_scenarios : int or None
+        Refuse a sweep of more scenarios, counted before expanding
+        (:func:`check_size`); ``None``: no cap.
 
     Returns
     -------
@@ -835,18 +1030,34 @@ def expand_sweep(spec: SweepSpec, source: str | None = None) -> list[ExpandedSce
     Raises
     ------
     ScenarioError
-        A design point makes an invalid scenario (cross-field checks).
+        Too many scenarios, or a design point makes an invalid scenario
+        (cross-field checks).
     """
+    return list(iter_expanded(spec, source, max_scenarios=max_scenarios))
+
+
+def iter_expanded(
+    spec: SweepSpec,
+    source: str | None = None,
+    *,
+    max_scenarios: int | None = DEFAULT_MAX_SCENARIOS,
+) -> Iterator[ExpandedScenario]:
+    """:func:`expand_sweep` one scenario at a time (the size is checked first, eagerly)."""
     source = source or spec.name or "<sweep>"
+    check_size(spec, max_scenarios, source)
+    return _expand(spec, source)
+
+
+def _expand(spec: SweepSpec, source: str) -> Iterator[ExpandedScenario]:
     base = spec.base.model_dump()
-    seen: Counter[str] = Counter()
-    out: list[ExpandedScenario] = []
-    for point in design_points(spec):
+    seen: Counter[bytes] = Counter()
+    index = 0
+    for point in iter_design(spec):
         data = base
         for path, value in point.items():
             data = _set_path(data, path, value)
         try:
-            scenario = Scenario.model_validate(data)
+            scenario = Scenario.model_validate(data, strict=True)
         except ValidationError as exc:
             reason = _describe(exc, Scenario)[1]
             desc = ", ".join(f"{k}={_short(v, 30)}" for k, v in point.items())
@@ -855,10 +1066,11 @@ def expand_sweep(spec: SweepSpec, source: str | None = None) -> list[ExpandedSce
             if scenario.seed is None:
                 content = scenario.canonical_json()
                 key = content if spec.seed_by is None else _seed_key(scenario, spec.seed_by)
-                seed = derive_seed(spec.seed, key, seen[content])
-                seen[content] += 1
+                digest = hashlib.sha256(content.encode()).digest()  # bounded memory per point
+                seed = derive_seed(spec.seed, key, seen[digest])
+                seen[digest] += 1
                 final = scenario.model_copy(update={"seed": seed})
             else:
                 final = scenario
-            out.append(ExpandedScenario(index=len(out), scenario=final, overrides=dict(point)))
-    return out
+            yield ExpandedScenario(index=index, scenario=final, overrides=dict(point))
+            index += 1

@@ -18,15 +18,27 @@ Tables
 ``sweep_members``
     ``(sweep, hash)`` primary key, ``idx`` and ``overrides`` (JSON): which
     scenarios belong to which named sweep.
+``claims``
+    ``hash``, ``owner`` (``host:pid:token`` of a driver), ``expires_at`` (Unix
+    time, s) and ``orphaned``: a scenario being run. A driver claims a
+    scenario before running it and the claim goes when its result is
+    recorded, so two drivers on one store run each scenario once. A claim
+    whose owner died (same host, no such process) or whose lease expired may
+    be taken over; ``orphaned`` counts such takeovers, and a scenario orphaned
+    twice (its driver died twice while running it) is recorded as failed.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import io
 import json
+import os
+import socket
 import sqlite3
 import time
+import urllib.parse
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from importlib import metadata
@@ -59,6 +71,12 @@ CREATE TABLE IF NOT EXISTS results (
     worker TEXT,
     recorded_at REAL NOT NULL,
     attempts INTEGER NOT NULL DEFAULT 1
+);
+CREATE TABLE IF NOT EXISTS claims (
+    hash TEXT PRIMARY KEY,
+    owner TEXT NOT NULL,
+    expires_at REAL NOT NULL,
+    orphaned INTEGER NOT NULL DEFAULT 0
 );
 CREATE TABLE IF NOT EXISTS sweep_members (
     sweep TEXT NOT NULL,
@@ -132,6 +150,21 @@ class Outcome:
     worker: str
 
 
+def owner_alive(owner: str) -> bool:
+    """Whether the driver ``host:pid:token`` may still be running (False only if surely dead)."""
+    host, _, rest = owner.partition(":")
+    pid_text = rest.partition(":")[0]
+    if host != socket.gethostname() or not pid_text.isdigit():
+        return True
+    try:
+        os.kill(int(pid_text), 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
 def package_version() -> str:
     """Installed version of the ``griploop`` distribution (part of every content hash).
 
@@ -171,6 +204,43 @@ def decode_traces(blob: bytes) -> dict[str, np.ndarray]:
         return {name: archive[name] for name in archive.files}
 
 
+_SQLITE_MAGIC = b"SQLite format 3\x00"
+
+
+def _guard(action: str) -> Any:
+    """Turn SQLite errors of a store method into one-line StoreErrors naming the file."""
+
+    def wrap(method: Any) -> Any:
+        @functools.wraps(method)
+        def guarded(self: ResultStore, *args: Any, **kwargs: Any) -> Any:
+            try:
+                return method(self, *args, **kwargs)
+            except sqlite3.Error as exc:
+                raise StoreError(_explain(self.path, action, exc)) from None
+
+        return guarded
+
+    return wrap
+
+
+def _explain(path: Path, action: str, exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    low = text.lower()
+    if "disk is full" in low or "disk full" in low:
+        hint = "free some space and run again (finished rows are kept)"
+    elif "readonly" in low or "read-only" in low:
+        hint = "the file or its directory is read-only; export and report can still read it"
+    elif "malformed" in low or "not a database" in low or "corrupt" in low:
+        hint = "the file is corrupted; restore it from a copy or start a new store"
+    elif "unable to open" in low:
+        hint = "its directory is read-only, missing or not writable"
+    elif "locked" in low or "busy" in low:
+        hint = "another process holds the store locked"
+    else:
+        hint = "expected a readable and writable griploop results store"
+    return f"{path}: cannot {action} ({text}); {hint}"
+
+
 class ResultStore:
     """The SQLite results store of one or more sweeps.
 
@@ -178,17 +248,48 @@ class ResultStore:
     ----------
     path : str or Path
         Database file; created (with its parent directory) if missing.
+    read_only : bool
+        Open an existing store for reading only (export, report): nothing is
+        written, not even the WAL switch, and read-only media work. A store
+        that cannot be opened for writing is opened this way too.
 
     Raises
     ------
     StoreError
-        The file exists but is not a griploop results store.
+        The file exists but is not a griploop results store (it is then left
+        unchanged), is corrupted, or cannot be created.
+    FileNotFoundError
+        ``read_only`` and no such file.
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, read_only: bool = False) -> None:
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._conn = sqlite3.connect(self.path, timeout=_BUSY_TIMEOUT_MS / 1000)
+        self.read_only = read_only
+        exists = self.path.exists()
+        if exists and not self.path.is_file():
+            raise StoreError(f"{self.path}: not a file (expected a griploop results store)")
+        if exists:
+            self._check_header()
+        elif read_only:
+            raise FileNotFoundError(
+                f"{self.path}: no such results store (expected a file written by griploop sweep)"
+            )
+        ours = exists and self.path.stat().st_size > 0 and self._identify()
+        if read_only:
+            if not ours:
+                raise StoreError(f"{self.path}: not a griploop results store (found no tables)")
+            self._conn = self._open_read_only()
+            return
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise StoreError(
+                f"{self.path}: cannot create the results store's directory ({exc.strerror})"
+            ) from None
+        try:
+            self._conn = sqlite3.connect(self.path, timeout=_BUSY_TIMEOUT_MS / 1000)
+        except sqlite3.Error as exc:
+            raise StoreError(_explain(self.path, "create the results store", exc)) from None
         try:
             self._conn.execute("PRAGMA journal_mode=WAL")
             self._conn.execute("PRAGMA synchronous=NORMAL")
@@ -197,18 +298,81 @@ class ResultStore:
                 self._conn.execute(
                     "INSERT OR IGNORE INTO meta VALUES ('schema_version', ?)", (SCHEMA_VERSION,)
                 )
-            (found,) = self._conn.execute(
-                "SELECT value FROM meta WHERE key = 'schema_version'"
-            ).fetchone()
-        except sqlite3.DatabaseError as exc:
+        except sqlite3.Error as exc:
             self._conn.close()
+            low = str(exc).lower()
+            if ours and any(k in low for k in ("readonly", "read-only", "unable to open")):
+                self.read_only = True  # read-only media: reading still works
+                self._conn = self._open_read_only()
+                return
+            action = "open the results store" if exists else "create the results store"
+            raise StoreError(_explain(self.path, action, exc)) from None
+        self._check_version()
+
+    def _check_header(self) -> None:
+        try:
+            with self.path.open("rb") as fh:
+                head = fh.read(len(_SQLITE_MAGIC))
+        except OSError as exc:
             raise StoreError(
-                f"{self.path}: not a griploop results store (expected SQLite; found: {exc})"
+                f"{self.path}: cannot read the results store ({exc.strerror})"
             ) from None
+        if head and head != _SQLITE_MAGIC[: len(head)] or 0 < len(head) < len(_SQLITE_MAGIC):
+            raise StoreError(
+                f"{self.path}: not a griploop results store (expected an SQLite file, "
+                "found other data); left unchanged"
+            )
+
+    def _open_read_only(self) -> sqlite3.Connection:
+        """A read-only connection; on read-only media, an immutable one."""
+        uri = "file:" + urllib.parse.quote(str(self.path.resolve()))
+        last: sqlite3.Error | None = None
+        for query in ("?mode=ro", "?mode=ro&immutable=1"):
+            try:
+                conn = sqlite3.connect(uri + query, uri=True, timeout=_BUSY_TIMEOUT_MS / 1000)
+                conn.execute("SELECT COUNT(*) FROM sqlite_master").fetchone()
+                return conn
+            except sqlite3.Error as exc:
+                last = exc
+        raise StoreError(_explain(self.path, "open the results store", last)) from None
+
+    def _identify(self) -> bool:
+        """True for a griploop store, False for an empty database; StoreError otherwise."""
+        conn = self._open_read_only()
+        try:
+            tables = sorted(
+                r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")
+            )
+            if not tables:
+                return False
+            if not {"meta", "results", "sweep_members"} <= set(tables):
+                shown = ", ".join(tables[:5]) + (", ..." if len(tables) > 5 else "")
+                raise StoreError(
+                    f"{self.path}: not a griploop results store (found an SQLite database "
+                    f"with tables {shown}); left unchanged"
+                )
+            self._conn = conn
+            self._check_version()
+            return True
+        except sqlite3.Error as exc:
+            raise StoreError(_explain(self.path, "open the results store", exc)) from None
+        finally:
+            conn.close()
+
+    def _check_version(self) -> None:
+        row = self._conn.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
+        found = row[0] if row else None
         if found != SCHEMA_VERSION:
             self._conn.close()
             raise StoreError(
                 f"{self.path}: results store schema {found} (expected {SCHEMA_VERSION})"
+            )
+
+    def _writable(self, action: str) -> None:
+        if self.read_only:
+            raise StoreError(
+                f"{self.path}: cannot {action}: the store is open read-only "
+                "(read-only file or media); export and report can still read it"
             )
 
     def __enter__(self) -> ResultStore:
@@ -223,14 +387,17 @@ class ResultStore:
 
     # -------------------------------------------------------------- writing
 
+    @_guard("register the sweep's scenarios")
     def add_members(
         self, sweep: str, members: Iterable[tuple[str, int, Mapping[str, Any]]]
     ) -> None:
         """Register ``(hash, index, overrides)`` of a sweep's scenarios, once each."""
+        self._writable("register the sweep's scenarios")
         rows = [(sweep, h, int(i), json.dumps(dict(o), sort_keys=True)) for h, i, o in members]
         with self._conn:
             self._conn.executemany("INSERT OR IGNORE INTO sweep_members VALUES (?, ?, ?, ?)", rows)
 
+    @_guard("record a result")
     def record(self, outcome: Outcome, *, kind: str, config_json: str, task: str,
                version: str) -> bool:
         """Store one outcome and commit.
@@ -243,6 +410,7 @@ class ResultStore:
         bool
             Whether the row was inserted or replaced.
         """
+        self._writable("record a result")
         if outcome.status not in STATUSES:
             raise StoreError(f"status must be one of {STATUSES} (found {outcome.status!r})")
         params = {
@@ -264,10 +432,65 @@ class ResultStore:
         }
         with self._conn:
             cursor = self._conn.execute(_UPSERT, params)
+            self._conn.execute("DELETE FROM claims WHERE hash = ?", (outcome.hash,))
         return cursor.rowcount == 1
+
+    @_guard("claim a scenario")
+    def claim(self, hash_: str, owner: str, lease_s: float, *, retry_failed: bool = False) -> str:
+        """Claim one scenario for ``owner`` before running it.
+
+        Returns
+        -------
+        {"run", "done", "busy", "orphaned"}
+            ``run``: claimed, run it. ``done``: already stored (``ok``, or
+            ``failed`` without ``retry_failed``). ``busy``: another live
+            driver holds an unexpired claim. ``orphaned``: claimed, but its
+            driver died twice while running it: record it as failed.
+        """
+        self._writable("claim a scenario")
+        now = time.time()
+        with self._conn:
+            self._conn.execute("BEGIN IMMEDIATE")
+            row = self._conn.execute(
+                "SELECT status FROM results WHERE hash = ?", (hash_,)
+            ).fetchone()
+            if row is not None and (row[0] == "ok" or not retry_failed):
+                return "done"
+            held = self._conn.execute(
+                "SELECT owner, expires_at, orphaned FROM claims WHERE hash = ?", (hash_,)
+            ).fetchone()
+            orphaned = 0
+            if held is not None and held[0] != owner:
+                if held[1] > now and owner_alive(held[0]):
+                    return "busy"
+                orphaned = held[2] + 1
+            elif held is not None:
+                orphaned = held[2]
+            self._conn.execute(
+                "INSERT OR REPLACE INTO claims VALUES (?, ?, ?, ?)",
+                (hash_, owner, now + lease_s, orphaned),
+            )
+        return "orphaned" if orphaned >= 2 else "run"
+
+    @_guard("renew claims")
+    def renew_claims(self, owner: str, lease_s: float) -> None:
+        """Extend every claim of ``owner`` to ``lease_s`` from now."""
+        with self._conn:
+            self._conn.execute(
+                "UPDATE claims SET expires_at = ? WHERE owner = ?", (time.time() + lease_s, owner)
+            )
+
+    def release_claims(self, owner: str) -> None:
+        """Drop every claim of ``owner`` (a driver stopping cleanly); best effort."""
+        try:
+            with self._conn:
+                self._conn.execute("DELETE FROM claims WHERE owner = ?", (owner,))
+        except sqlite3.Error:
+            pass  # left claims expire, or are taken over once this process is gone
 
     # -------------------------------------------------------------- reading
 
+    @_guard("read the results store")
     def statuses(self, hashes: Iterable[str] | None = None) -> dict[str, str]:
         """``{hash: status}`` of stored rows, restricted to ``hashes`` if given."""
         rows = self._conn.execute("SELECT hash, status FROM results").fetchall()
@@ -276,6 +499,7 @@ class ResultStore:
             return found
         return {h: found[h] for h in hashes if h in found}
 
+    @_guard("read the results store")
     def counts(self, sweep: str | None = None) -> dict[str, int]:
         """Number of rows per status (``{"ok": n, "failed": m}``), optionally of one sweep."""
         sql, args = "SELECT status, COUNT(*) FROM results", ()
@@ -285,11 +509,13 @@ class ResultStore:
         found = dict(self._conn.execute(sql + " GROUP BY status", args).fetchall())
         return {s: int(found.get(s, 0)) for s in STATUSES}
 
+    @_guard("read the results store")
     def sweeps(self) -> list[str]:
         """Names of the sweeps registered in the store."""
         rows = self._conn.execute("SELECT DISTINCT sweep FROM sweep_members ORDER BY sweep")
         return [r[0] for r in rows]
 
+    @_guard("read the results store")
     def rows(self, *, sweep: str | None = None, status: str | None = None) -> list[dict[str, Any]]:
         """Stored rows with ``config`` and ``result`` parsed, ordered by sweep index then hash.
 
@@ -334,6 +560,7 @@ class ResultStore:
             out.append(row)
         return out
 
+    @_guard("read traces")
     def traces(self, hash_: str) -> dict[str, np.ndarray]:
         """Traces stored with one scenario (empty if it stored none).
 

@@ -16,15 +16,18 @@ callable or as ``"package.module:function"``; the default is
 
 from __future__ import annotations
 
+import gc
 import importlib
+import itertools
 import logging
 import math
 import os
+import signal
 import socket
 import sys
 import time
 import traceback
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, TextIO
@@ -32,7 +35,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from scenarios.runner import require_runners
-from scenarios.schema import ExpandedScenario, Scenario
+from scenarios.schema import DEFAULT_TIME_LIMIT_S, ExpandedScenario, Scenario
 from scenarios.store import Outcome, ResultStore, content_hash, encode_traces, package_version
 
 DEFAULT_TASK = "scenarios.runner:run_scenario"
@@ -138,7 +141,7 @@ def resolve_task(task: Task) -> Callable[[Scenario], Mapping[str, Any]]:
 
 
 def plan(
-    expanded: Sequence[ExpandedScenario], task: Task = DEFAULT_TASK, version: str | None = None
+    expanded: Iterable[ExpandedScenario], task: Task = DEFAULT_TASK, version: str | None = None
 ) -> list[PlannedScenario]:
     """Attach content hashes to expanded scenarios.
 
@@ -147,9 +150,22 @@ def plan(
     SweepError
         Two scenarios have the same hash (the expansion produced duplicates).
     """
+    return list(iter_plan(expanded, task, version))
+
+
+def iter_plan(
+    expanded: Iterable[ExpandedScenario], task: Task = DEFAULT_TASK, version: str | None = None
+) -> Iterator[PlannedScenario]:
+    """:func:`plan` one scenario at a time (the task is named eagerly)."""
     name = task_name(task)
     version = package_version() if version is None else version
-    out, seen = [], {}
+    return _iter_plan(expanded, name, version)
+
+
+def _iter_plan(
+    expanded: Iterable[ExpandedScenario], name: str, version: str
+) -> Iterator[PlannedScenario]:
+    seen: dict[str, int] = {}
     for item in expanded:
         config = item.scenario.canonical_json()
         key = content_hash(config, version, name)
@@ -159,8 +175,7 @@ def plan(
                 "(expected distinct scenarios)"
             )
         seen[key] = item.index
-        out.append(PlannedScenario(key, item.index, item.scenario, config, dict(item.overrides)))
-    return out
+        yield PlannedScenario(key, item.index, item.scenario, config, dict(item.overrides))
 
 
 def split_result(raw: Any) -> tuple[dict[str, Any], bytes | None]:
@@ -239,6 +254,168 @@ def _lost(p: PlannedScenario, exc: BaseException) -> Outcome:
         finished_at=now,
         duration_s=0.0,
         worker="",
+    )
+
+
+def _failed(hash_: str, error: str, started: float, duration: float, worker: str) -> Outcome:
+    return Outcome(
+        hash=hash_,
+        status="failed",
+        result={},
+        traces=None,
+        error=error,
+        traceback=None,
+        started_at=started,
+        finished_at=started + duration,
+        duration_s=duration,
+        worker=worker,
+    )
+
+
+class _Crashed(Exception):
+    """The sandbox's child process died while running a scenario."""
+
+
+class Sandbox:
+    """A forked child process that runs tasks and can be stopped.
+
+    The child is forked on first use and kept for the following scenarios
+    (so caches warmed by one scenario serve the next, as in-process); a
+    scenario past its time limit is stopped by killing the child, which is
+    forked again for the next one. The child runs exactly the code the
+    parent would, on a copy of its memory, so results are the same as
+    in-process. The parent holds no simulation state.
+    """
+
+    def __init__(self) -> None:
+        self._pid: int | None = None
+        self._conn: Any = None
+
+    def __enter__(self) -> Sandbox:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _start(self) -> None:
+        import multiprocessing
+
+        parent, child = multiprocessing.Pipe()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        pid = os.fork()
+        if pid == 0:  # the child: serve tasks until the parent goes away
+            code = 0
+            try:
+                parent.close()
+                _die_with_parent()
+                _serve(child)
+            except BaseException:
+                code = 1
+            finally:
+                os._exit(code)
+        child.close()
+        self._pid, self._conn = pid, parent
+
+    def close(self) -> None:
+        """Stop the child process."""
+        if self._pid is None:
+            return
+        self._conn.close()
+        self._kill()
+
+    def _kill(self) -> int:
+        pid, self._pid = self._pid, None
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        _, status = os.waitpid(pid, 0)
+        return os.waitstatus_to_exitcode(status)
+
+    def run(self, task: Task, scenario: Scenario, hash_: str,
+            time_limit_s: float | None) -> Outcome:
+        """Run one scenario in the child; a ``timeout`` failure past ``time_limit_s``.
+
+        Raises
+        ------
+        _Crashed
+            The child died (killed by a signal, or exited) during the scenario.
+        """
+        if self._pid is None:
+            self._start()
+        started, t0 = time.time(), time.perf_counter()
+        worker = f"{socket.gethostname()}:{self._pid}"
+        try:
+            self._conn.send((task, scenario, hash_))
+            ready = self._conn.poll(time_limit_s)
+            if ready:
+                return self._conn.recv()
+        except (EOFError, OSError):
+            ready = True
+        self._conn.close()
+        code = self._kill()
+        duration = time.perf_counter() - t0
+        if not ready:
+            return _failed(
+                hash_,
+                f"timeout: still running after {time_limit_s:g} s (time_limit_s); stopped",
+                started, duration, worker,
+            )
+        how = f"signal {-code} ({signal.Signals(-code).name})" if code < 0 else f"exit {code}"
+        raise _Crashed(f"its process died ({how}) after {duration:.1f} s")
+
+
+def _serve(conn: Any) -> None:
+    while True:
+        try:
+            task, scenario, hash_ = conn.recv()
+        except EOFError:
+            return
+        conn.send(execute(task, scenario, hash_))
+
+
+def _die_with_parent() -> None:
+    """Ask Linux to kill this process when its parent dies (no-op elsewhere)."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
+_SANDBOX: Sandbox | None = None
+
+
+def execute_limited(task: Task, scenario: Scenario, hash_: str,
+                    time_limit_s: float | None) -> Outcome:
+    """:func:`execute` in this process's :class:`Sandbox`, stopped after ``time_limit_s``.
+
+    A scenario whose process dies is run once more in a fresh process; if it
+    dies again it is recorded as failed. Never raises for a failing task.
+    """
+    global _SANDBOX
+    if _SANDBOX is None:
+        _SANDBOX = Sandbox()
+    return run_guarded(_SANDBOX, task, scenario, hash_, time_limit_s)
+
+
+def run_guarded(box: Sandbox, task: Task, scenario: Scenario, hash_: str,
+                time_limit_s: float | None) -> Outcome:
+    """:meth:`Sandbox.run`, retried once if the process dies, then a failed outcome."""
+    started = time.time()
+    reasons = []
+    for _ in range(2):
+        try:
+            return box.run(task, scenario, hash_, time_limit_s)
+        except _Crashed as exc:
+            reasons.append(str(exc))
+    return _failed(
+        hash_,
+        f"killed: the scenario killed its process twice ({'; '.join(reasons)})",
+        started, time.time() - started, f"{socket.gethostname()}:{os.getpid()}",
     )
 
 
@@ -326,16 +503,43 @@ def _clock(seconds: float) -> str:
 
 
 def pending(
-    planned: Sequence[PlannedScenario], store: ResultStore, *, retry_failed: bool = False
+    planned: Iterable[PlannedScenario], store: ResultStore, *, retry_failed: bool = False
 ) -> list[PlannedScenario]:
     """The planned scenarios not finished in ``store`` (failed ones too if ``retry_failed``)."""
-    stored = store.statuses(p.hash for p in planned)
-    keep = ("failed",) if retry_failed else ()
-    return [p for p in planned if p.hash not in stored or stored[p.hash] in keep]
+    out: list[PlannedScenario] = []
+    for chunk in _chunks(planned, _CHUNK):
+        stored = store.statuses(p.hash for p in chunk)
+        keep = ("failed",) if retry_failed else ()
+        out.extend(p for p in chunk if p.hash not in stored or stored[p.hash] in keep)
+    return out
+
+
+def count_pending(
+    planned: Iterable[PlannedScenario], store: ResultStore, *, retry_failed: bool = False
+) -> tuple[int, int]:
+    """``(total, pending)`` of a stream of planned scenarios, holding one chunk at a time."""
+    total = todo = 0
+    for chunk in _chunks(planned, _CHUNK):
+        total += len(chunk)
+        todo += len(pending(chunk, store, retry_failed=retry_failed))
+    return total, todo
+
+
+_CHUNK = 1024
+
+
+def _chunks(items: Iterable[Any], size: int) -> Iterator[list[Any]]:
+    it = iter(items)
+    while chunk := list(itertools.islice(it, size)):
+        yield chunk
+
+
+def _owner() -> str:
+    return f"{socket.gethostname()}:{os.getpid()}:{os.urandom(4).hex()}"
 
 
 def run_sweep(
-    planned: Sequence[PlannedScenario],
+    planned: Iterable[PlannedScenario],
     store: ResultStore,
     *,
     task: Task = DEFAULT_TASK,
@@ -345,20 +549,32 @@ def run_sweep(
     retry_failed: bool = False,
     progress: Progress | bool = True,
     version: str | None = None,
+    time_limit_s: float | None = DEFAULT_TIME_LIMIT_S,
+    total: int | None = None,
+    poll_s: float = 0.25,
 ) -> SweepSummary:
     """Run the unfinished scenarios of a planned sweep and record each outcome.
 
+    Scenarios are taken from ``planned`` in chunks (registered, checked
+    against the store and claimed chunk by chunk), so a generator from
+    :func:`iter_plan` is never held in memory whole. Each runs in a child
+    process (:class:`Sandbox`) on the driver or on a dask worker, stopped and
+    recorded as a ``timeout`` failure after ``time_limit_s``. A scenario is
+    claimed in the store before it runs: a scenario another live driver is
+    running is left to it and waited for, so two drivers on one store run
+    each scenario once and both return when the sweep is done.
+
     Parameters
     ----------
-    planned : sequence of PlannedScenario
-        From :func:`plan` with the same ``task``.
+    planned : iterable of PlannedScenario
+        From :func:`plan` or :func:`iter_plan` with the same ``task``.
     store : ResultStore
         Where outcomes are recorded (by this process only).
     task : str or callable
         ``task(scenario) -> ResultRow``; default :func:`scenarios.runner.run_scenario`.
     workers : int
-        1 runs in this process; more start a dask ``LocalCluster`` with that
-        many single-threaded worker processes.
+        1 runs in a child process of this one; more start a dask
+        ``LocalCluster`` with that many single-threaded worker processes.
     scheduler : str, optional
         Address of an existing dask scheduler (``workers`` is then ignored).
     sweep_name : str
@@ -369,6 +585,13 @@ def run_sweep(
         Progress bar (``True``: on stderr; ``False``: none).
     version : str, optional
         Package version recorded with each row; default the installed one.
+    time_limit_s : float or None
+        Wall-time limit of one scenario, s (``None``: none).
+    total : int, optional
+        Number of scenarios in ``planned`` when it is an iterator (for the
+        progress bar); default ``len(planned)``.
+    poll_s : float
+        How often to look at scenarios another driver is running, s.
 
     Returns
     -------
@@ -383,52 +606,127 @@ def run_sweep(
     """
     if workers < 1:
         raise SweepError(f"workers must be >= 1 (found {workers})")
+    if time_limit_s is not None and not time_limit_s > 0:
+        raise SweepError(f"time_limit_s must be > 0 (found {time_limit_s})")
     name = task_name(task)
     version = package_version() if version is None else version
-    store.add_members(sweep_name, ((p.hash, p.index, p.overrides) for p in planned))
-    todo = pending(planned, store, retry_failed=retry_failed)
-    if name == DEFAULT_TASK:
-        require_runners({p.scenario.kind for p in todo})
+    if total is None:
+        total = len(planned) if isinstance(planned, Sequence) else 0
+    owner = _owner()
+    lease_s = 24 * 3600.0 if time_limit_s is None else 2 * time_limit_s + 60.0
     bar = progress if isinstance(progress, Progress) else None
     if progress is True:
-        bar = Progress(len(todo), sweep_name)
-    counts = {"ok": 0, "failed": 0}
+        bar = Progress(total, sweep_name)
+    counts = {"ok": 0, "failed": 0, "seen": 0, "skipped": 0}
+    busy: list[PlannedScenario] = []
+
+    def record(p: PlannedScenario, outcome: Outcome) -> None:
+        store.record(
+            outcome, kind=p.scenario.kind, config_json=p.config_json, task=name, version=version
+        )
+        store.renew_claims(owner, lease_s)
+        counts[outcome.status] += 1
+        if bar is not None:
+            bar.update(outcome.status)
+
+    def claimed(items: Iterable[PlannedScenario]) -> Iterator[PlannedScenario]:
+        for p in items:
+            state = store.claim(p.hash, owner, lease_s, retry_failed=retry_failed)
+            if state == "run":
+                yield p
+            elif state == "busy":
+                busy.append(p)
+            elif state == "orphaned":
+                now = time.time()
+                record(p, _failed(p.hash, "killed: its driver process died twice while running "
+                                  "it (not run again)", now, 0.0, ""))
+            else:
+                counts["skipped"] += 1
+                _untally(bar)
+
+    def stream() -> Iterator[PlannedScenario]:
+        for chunk in _chunks(planned, _CHUNK):
+            counts["seen"] += len(chunk)
+            store.add_members(sweep_name, ((p.hash, p.index, p.overrides) for p in chunk))
+            todo = pending(chunk, store, retry_failed=retry_failed)
+            counts["skipped"] += len(chunk) - len(todo)
+            if bar is not None and not total:
+                bar.total += len(todo)
+            elif bar is not None:
+                bar.total -= len(chunk) - len(todo)
+            if name == DEFAULT_TASK:
+                require_runners({p.scenario.kind for p in todo})
+            yield from claimed(todo)
+
     t0 = time.perf_counter()
     try:
-        for p, outcome in _outcomes(todo, task, workers, scheduler):
-            store.record(
-                outcome, kind=p.scenario.kind, config_json=p.config_json, task=name, version=version
-            )
-            counts[outcome.status] += 1
-            if bar is not None:
-                bar.update(outcome.status)
+        for p, outcome in _outcomes(stream(), task, workers, scheduler, time_limit_s):
+            record(p, outcome)
+        while busy:  # run by another driver: wait for its rows, or take over its claims
+            time.sleep(poll_s)
+            waiting, busy[:] = list(busy), []
+            stored = store.statuses(p.hash for p in waiting)
+            mine = [p for p in waiting if p.hash not in stored]  # others: done elsewhere
+            counts["skipped"] += len(waiting) - len(mine)
+            for _ in range(len(waiting) - len(mine)):
+                _untally(bar)
+            for p, outcome in _outcomes(claimed(mine), task, workers, scheduler, time_limit_s):
+                record(p, outcome)
     finally:
+        store.release_claims(owner)
         if bar is not None:
             bar.close()
     elapsed = time.perf_counter() - t0
-    skipped = len(planned) - len(todo)
-    return SweepSummary(len(planned), skipped, counts["ok"], counts["failed"], elapsed)
+    return SweepSummary(
+        max(total, counts["seen"]), counts["skipped"], counts["ok"], counts["failed"], elapsed
+    )
+
+
+def _untally(bar: Progress | None) -> None:
+    if bar is not None:
+        bar.total -= 1
 
 
 def _outcomes(
-    todo: Sequence[PlannedScenario], task: Task, workers: int, scheduler: str | None
+    todo: Iterable[PlannedScenario], task: Task, workers: int, scheduler: str | None,
+    time_limit_s: float | None,
 ) -> Iterator[tuple[PlannedScenario, Outcome]]:
-    if not todo:
+    items = iter(todo)
+    first = next(items, None)
+    if first is None:
         return
+    items = itertools.chain([first], items)
     if workers == 1 and scheduler is None:
-        func = resolve_task(task)
-        for p in todo:
-            yield p, execute(func, p.scenario, p.hash)
+        if isinstance(task, str):
+            resolve_task(task)  # fail in the driver rather than in the child
+        with Sandbox() as box:
+            for p in items:
+                yield p, run_guarded(box, task, p.scenario, p.hash, time_limit_s)
         return
     from distributed import as_completed
 
     if isinstance(task, str):
         resolve_task(task)  # fail in the driver, once, rather than in every worker
     with _client(workers, scheduler) as client:
-        futures = {
-            client.submit(execute, task, p.scenario, p.hash, pure=False): p for p in todo
-        }
-        for future in as_completed(futures):
+        n_workers = max(1, len(client.scheduler_info().get("workers", {})) or workers)
+        futures: dict[Any, PlannedScenario] = {}
+        queue = as_completed()
+
+        def submit() -> bool:
+            p = next(items, None)
+            if p is None:
+                return False
+            future = client.submit(
+                execute_limited, task, p.scenario, p.hash, time_limit_s, pure=False
+            )
+            futures[future] = p
+            queue.add(future)
+            return True
+
+        for _ in range(2 * n_workers):  # a bounded window: scenarios stream to the workers
+            if not submit():
+                break
+        for future in queue:
             p = futures.pop(future)
             try:
                 outcome = future.result()
@@ -436,6 +734,7 @@ def _outcomes(
                 outcome = _lost(p, exc)
             future.release()
             yield p, outcome
+            submit()
 
 
 @contextmanager
@@ -443,6 +742,10 @@ def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
     """A dask client on an existing scheduler or on a fresh LocalCluster."""
     from distributed import Client, LocalCluster
 
+    # A half-built Client from an earlier failed connection closes itself in __del__;
+    # if the garbage collector runs that inside a new cluster's IO-loop thread, the
+    # loop never starts (distributed waits 10 s, then fails). Collect it here first.
+    gc.collect()
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout="10s")

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,6 +32,22 @@ _OPTIONAL_COLUMNS = ("intent", "intent_force_n")
 _EMG_COLUMN = re.compile(r"^emg(\d+)$")
 # Relative tolerance on sample-interval regularity of the time column.
 _TIME_RTOL = 1e-3
+# Relative tolerance between a metadata sampling rate and the time column's.
+_RATE_RTOL = 1e-2
+MAX_FORCE_N = 1e4
+"""Largest grip force a recording may hold, N (a hand squeezes a few hundred at most)."""
+MAX_INTENT = 10.0
+"""Largest normalized intent (0..1 of MVC; 10 leaves room for calibration error)."""
+MAX_EMG_ABS = 1e9
+"""Largest float sEMG magnitude in any unit."""
+MAX_FS_HZ = 1e6
+"""Highest sampling rate accepted, Hz."""
+MAX_FILE_BYTES = 256 * 2**20
+"""Default cap on a recording's size: the file (CSV) or its arrays uncompressed (NPZ)."""
+MAX_CSV_COLUMNS = 1 + 256 + 3
+"""Widest CSV accepted: t, up to 256 sEMG channels, force and ground truth."""
+_NPZ_ARRAYS = ("emg", "fs_hz", "channel_names", "emg_unit", "metadata_json", "force_n",
+               "intent", "intent_force_n")
 
 
 class RecordingError(ValueError):
@@ -88,41 +105,74 @@ class Recording:
         n, c = emg.shape
         if n == 0 or c == 0:
             raise RecordingError(f"{src}: emg is empty, shape {emg.shape}")
-        if not (np.isfinite(self.fs_hz) and self.fs_hz > 0):
-            raise RecordingError(f"{src}: fs_hz must be a positive number, found {self.fs_hz!r}")
+        self.fs_hz = _positive_rate(self.fs_hz, src, "fs_hz")
+        if emg.dtype.kind not in "iuf":
+            raise RecordingError(f"{src}: emg must be numeric, found dtype {emg.dtype}")
         if emg.dtype.kind == "f" and not np.all(np.isfinite(emg)):
             bad = int(np.argwhere(~np.isfinite(emg))[0][1])
             raise RecordingError(
                 f"{src}: column emg{bad + 1} contains NaN or inf; expected finite values"
             )
-        if emg.dtype.kind not in "iuf":
-            raise RecordingError(f"{src}: emg must be numeric, found dtype {emg.dtype}")
-        if self.emg_unit not in EMG_UNITS:
+        if not isinstance(self.emg_unit, str) or self.emg_unit not in EMG_UNITS:
             raise RecordingError(
                 f"{src}: emg_unit must be one of {EMG_UNITS}, found {self.emg_unit!r}"
             )
+        if self.emg_unit == "int8" and emg.dtype != np.int8:
+            lo, hi = emg.min(), emg.max()
+            if lo < -128 or hi > 127 or not np.array_equal(emg, np.round(emg)):
+                raise RecordingError(
+                    f"{src}: emg: expected int8 counts (integers in -128..127) for emg_unit "
+                    f"int8, found values in {float(lo):.6g}..{float(hi):.6g}"
+                )
+        elif emg.dtype.kind == "f" and float(np.max(np.abs(emg))) > MAX_EMG_ABS:
+            raise RecordingError(
+                f"{src}: emg: expected |values| <= {MAX_EMG_ABS:g} {self.emg_unit}, "
+                f"found {float(np.max(np.abs(emg))):.6g}"
+            )
         self.emg = emg
-        self.fs_hz = float(self.fs_hz)
         if self.channel_names is None:
             self.channel_names = [f"emg{i + 1}" for i in range(c)]
         else:
-            self.channel_names = [str(name) for name in self.channel_names]
+            if isinstance(self.channel_names, (str, bytes)) or not hasattr(
+                self.channel_names, "__len__"
+            ):
+                raise RecordingError(
+                    f"{src}: channel_names: expected a list of {c} names, "
+                    f"found {type(self.channel_names).__name__}"
+                )
             if len(self.channel_names) != c:
                 raise RecordingError(
                     f"{src}: {len(self.channel_names)} channel names for {c} channels"
                 )
+            self.channel_names = [str(name) for name in self.channel_names]
         for name in ("force_n", "intent", "intent_force_n"):
             value = getattr(self, name)
             if value is None:
                 continue
-            arr = np.asarray(value, dtype=float)
+            raw = np.asarray(value)
+            if raw.dtype.kind not in "iuf":
+                raise RecordingError(
+                    f"{src}: {name}: expected real numbers, found dtype {raw.dtype}"
+                )
+            arr = raw.astype(float)
             if arr.shape != (n,):
                 raise RecordingError(
                     f"{src}: {name} must have shape ({n},) to match emg, found {arr.shape}"
                 )
             if not np.all(np.isfinite(arr)):
                 raise RecordingError(f"{src}: column {name} contains NaN or inf")
+            limit = MAX_INTENT if name == "intent" else MAX_FORCE_N
+            peak = float(np.max(np.abs(arr)))
+            if peak > limit:
+                unit = "" if name == "intent" else " N"
+                raise RecordingError(
+                    f"{src}: {name}: expected |values| <= {limit:g}{unit}, found {peak:.6g}"
+                )
             setattr(self, name, arr)
+        if not isinstance(self.metadata, dict):
+            raise RecordingError(
+                f"{src}: metadata: expected a JSON object, found {type(self.metadata).__name__}"
+            )
 
     # ------------------------------------------------------------------ basics
     @property
@@ -250,7 +300,36 @@ class Recording:
         return path
 
 
-def load_recording(path: str | Path, *, emg_unit: str | None = None) -> Recording:
+def _positive_rate(value: Any, src: str, field: str) -> float:
+    """``value`` as a finite sampling rate in (0, MAX_FS_HZ] Hz, else RecordingError."""
+    if isinstance(value, np.ndarray) and value.size == 1 and value.dtype.kind in "iuf":
+        value = value.reshape(()).item()
+    elif isinstance(value, np.generic) and value.dtype.kind in "iuf":
+        value = value.item()
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise RecordingError(
+            f"{src}: {field}: expected a positive number of hertz, "
+            f"found {_describe(value)}"
+        )
+    rate = float(value)
+    if not (np.isfinite(rate) and 0 < rate <= MAX_FS_HZ):
+        raise RecordingError(
+            f"{src}: {field}: expected a positive number of hertz up to {MAX_FS_HZ:g}, "
+            f"found {value!r}"
+        )
+    return rate
+
+
+def _describe(value: Any) -> str:
+    if isinstance(value, np.ndarray):
+        return f"array of dtype {value.dtype} and shape {value.shape}"
+    text = repr(value)
+    return f"{type(value).__name__} {text if len(text) <= 40 else text[:37] + '...'}"
+
+
+def load_recording(
+    path: str | Path, *, emg_unit: str | None = None, max_bytes: int = MAX_FILE_BYTES
+) -> Recording:
     """Load a recording from ``.npz`` or ``.csv``.
 
     Parameters
@@ -262,73 +341,209 @@ def load_recording(path: str | Path, *, emg_unit: str | None = None) -> Recordin
         Unit of the sEMG columns for CSV files without griploop metadata.
         Default: ``"int8"`` when every value is an integer within -128..127,
         otherwise ``"uV"``.
+    max_bytes : int
+        Largest CSV file, or largest total of an NPZ file's arrays
+        uncompressed (as their zip headers declare, checked before anything
+        is decompressed), bytes.
 
     Raises
     ------
     RecordingError
-        Missing file, unknown format, NaN/inf, missing or extra columns,
-        non-monotonic or irregular time.
+        The only exception: missing or unreadable file, unknown format,
+        oversized file or array, NaN/inf, values outside the unit's range,
+        missing or extra columns, non-monotonic or irregular time, a metadata
+        sampling rate contradicting the time column. The message names the
+        file and the field.
     """
     path = Path(path)
     if not path.exists():
         raise RecordingError(f"{path}: no such file")
-    if path.suffix == ".npz":
-        return _load_npz(path)
-    if path.suffix == ".csv":
-        return _load_csv(path, emg_unit)
-    raise RecordingError(f"{path}: unknown recording format {path.suffix!r}; expected .npz or .csv")
-
-
-def _load_npz(path: Path) -> Recording:
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {k: data[k] for k in data.files}
-    except Exception as exc:  # zipfile/pickle errors: the file is not an NPZ
-        raise RecordingError(f"{path}: not a readable NPZ file ({exc})") from exc
-    for key in ("emg", "fs_hz"):
-        if key not in arrays:
-            raise RecordingError(f"{path}: missing array {key!r}")
-    known = {"emg", "fs_hz", "channel_names", "emg_unit", "metadata_json", "force_n", "intent",
-             "intent_force_n"}
-    extra = sorted(set(arrays) - known)
-    if extra:
+    if not path.is_file():
+        raise RecordingError(f"{path}: not a regular file (expected a .npz or .csv recording)")
+    if path.suffix not in (".npz", ".csv"):
         raise RecordingError(
-            f"{path}: unknown arrays {extra}; expected a subset of {sorted(known)}"
+            f"{path}: unknown recording format {path.suffix!r}; expected .npz or .csv"
+        )
+    try:
+        if path.suffix == ".npz":
+            return _load_npz(path, max_bytes)
+        return _load_csv(path, emg_unit, max_bytes)
+    except RecordingError:
+        raise
+    except MemoryError:
+        raise RecordingError(f"{path}: too large to load in memory") from None
+    except Exception as exc:  # never let a malformed file escape as another type
+        text = " ".join(str(exc).split())[:200]
+        raise RecordingError(
+            f"{path}: unreadable recording ({type(exc).__name__}: {text})"
+        ) from None
+
+
+def _load_npz(path: Path, max_bytes: int) -> Recording:
+    import zipfile
+
+    try:
+        archive = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, OSError, ValueError) as exc:
+        raise RecordingError(
+            f"{path}: not an NPZ file (expected a zip archive of .npy arrays; found: {exc})"
+        ) from None
+    with archive:
+        infos = archive.infolist()
+        names = [info.filename.removesuffix(".npy") for info in infos]
+        odd = [info.filename for info in infos if not info.filename.endswith(".npy")]
+        if odd:
+            raise RecordingError(f"{path}: member {odd[0]!r} is not a .npy array")
+        extra = sorted(set(names) - set(_NPZ_ARRAYS))
+        if extra:
+            raise RecordingError(
+                f"{path}: unknown arrays {extra}; expected a subset of {sorted(_NPZ_ARRAYS)}"
+            )
+        dup = [k for k in set(names) if names.count(k) > 1]
+        if dup:
+            raise RecordingError(f"{path}: array {dup[0]!r} appears twice")
+        for key in ("emg", "fs_hz"):
+            if key not in names:
+                raise RecordingError(f"{path}: missing array {key!r}")
+        declared = sum(info.file_size for info in infos)
+        if declared > max_bytes:
+            raise RecordingError(
+                f"{path}: arrays declare {declared} bytes uncompressed "
+                f"(expected at most {max_bytes}); raise max_bytes to load it"
+            )
+        arrays = {
+            name: _read_member(archive, info, path, name)
+            for name, info in zip(names, infos, strict=True)
+        }
+    fs_hz = _positive_rate(arrays["fs_hz"], str(path), "fs_hz")
+    emg = arrays["emg"]
+    if emg.ndim == 2 and emg.shape[0] < 2:
+        raise RecordingError(
+            f"{path}: emg: expected at least 2 samples, found shape {emg.shape}"
         )
     return Recording(
-        emg=arrays["emg"],
-        fs_hz=float(arrays["fs_hz"]),
+        emg=emg,
+        fs_hz=fs_hz,
         force_n=arrays.get("force_n"),
-        channel_names=[str(s) for s in arrays["channel_names"]]
+        channel_names=_npz_names(arrays["channel_names"], path)
         if "channel_names" in arrays else None,
-        emg_unit=str(arrays["emg_unit"]) if "emg_unit" in arrays else "int8",
+        emg_unit=_npz_text(arrays["emg_unit"], path, "emg_unit")
+        if "emg_unit" in arrays else "int8",
         intent=arrays.get("intent"),
         intent_force_n=arrays.get("intent_force_n"),
-        metadata=json.loads(str(arrays["metadata_json"])) if "metadata_json" in arrays else {},
+        metadata=_npz_metadata(arrays["metadata_json"], path)
+        if "metadata_json" in arrays else {},
         source=str(path),
     )
 
 
-def _load_csv(path: Path, emg_unit: str | None) -> Recording:
+def _read_member(archive: Any, info: Any, path: Path, name: str) -> np.ndarray:
+    """One ``.npy`` member, its header checked against the zip header before reading."""
+    fmt = np.lib.format
+    try:
+        with archive.open(info) as fp:
+            version = fmt.read_magic(fp)
+            if version == (1, 0):
+                shape, fortran, dtype = fmt.read_array_header_1_0(fp)
+            else:
+                shape, fortran, dtype = fmt.read_array_header_2_0(fp)
+            header_len = fp.tell()
+    except Exception as exc:
+        raise RecordingError(f"{path}: {name}: not a .npy array ({exc})") from None
+    if dtype.hasobject or dtype.kind not in "biufU":
+        raise RecordingError(
+            f"{path}: {name}: expected a numeric or text array, found dtype {dtype}"
+        )
+    count = 1
+    for dim in shape:
+        count *= int(dim)
+    nbytes = count * dtype.itemsize
+    if header_len + nbytes != info.file_size:
+        raise RecordingError(
+            f"{path}: {name}: header declares shape {shape} of {dtype} ({nbytes} bytes) "
+            f"but the member holds {info.file_size - header_len} bytes"
+        )
+    try:
+        with archive.open(info) as fp:
+            return fmt.read_array(fp, allow_pickle=False)
+    except Exception as exc:
+        raise RecordingError(f"{path}: {name}: unreadable array ({exc})") from None
+
+
+def _npz_text(value: np.ndarray, path: Path, field: str) -> str:
+    if value.dtype.kind != "U" or value.size != 1:
+        raise RecordingError(f"{path}: {field}: expected one string, found {_describe(value)}")
+    return str(value.reshape(()))
+
+
+def _npz_names(value: np.ndarray, path: Path) -> list[str]:
+    if value.dtype.kind != "U" or value.ndim != 1:
+        raise RecordingError(
+            f"{path}: channel_names: expected a 1-D array of strings, found {_describe(value)}"
+        )
+    return [str(s) for s in value]
+
+
+def _npz_metadata(value: np.ndarray, path: Path) -> dict[str, Any]:
+    text = _npz_text(value, path, "metadata_json")
+    try:
+        meta = json.loads(text)
+    except (json.JSONDecodeError, RecursionError) as exc:
+        raise RecordingError(f"{path}: metadata_json: not valid JSON ({exc})") from None
+    if not isinstance(meta, dict):
+        raise RecordingError(
+            f"{path}: metadata_json: expected a JSON object, found {type(meta).__name__}"
+        )
+    return meta
+
+
+def _load_csv(path: Path, emg_unit: str | None, max_bytes: int) -> Recording:
+    import io
+
+    size = path.stat().st_size
+    if size > max_bytes:
+        raise RecordingError(
+            f"{path}: file of {size} bytes (expected at most {max_bytes}); "
+            "raise max_bytes to load it"
+        )
+    raw = path.read_bytes()
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise RecordingError(
+            f"{path}: not UTF-8 text (byte {exc.start}: {exc.reason})"
+        ) from None
+    if "\0" in text:
+        raise RecordingError(f"{path}: contains NUL bytes (expected CSV text)")
     meta: dict[str, Any] = {}
     header: list[str] | None = None
+    lines = text.splitlines()
     n_comment = 0
-    with path.open() as fh:
-        for line in fh:
-            n_comment += 1
-            stripped = line.strip()
-            if stripped.startswith("#"):
-                body = stripped.lstrip("#").strip()
-                if body.startswith("griploop "):
-                    try:
-                        meta = json.loads(body[len("griploop "):])
-                    except json.JSONDecodeError as exc:
-                        raise RecordingError(f"{path}: corrupt griploop metadata line") from exc
-                continue
-            header = [h.strip() for h in stripped.split(",")]
-            break
+    for line in lines:
+        n_comment += 1
+        stripped = line.strip()
+        if stripped.startswith("#"):
+            body = stripped.lstrip("#").strip()
+            if body.startswith("griploop "):
+                try:
+                    meta = json.loads(body[len("griploop "):])
+                except (json.JSONDecodeError, RecursionError):
+                    raise RecordingError(f"{path}: corrupt griploop metadata line") from None
+                if not isinstance(meta, dict):
+                    raise RecordingError(
+                        f"{path}: griploop metadata: expected a JSON object, "
+                        f"found {type(meta).__name__}"
+                    )
+            continue
+        header = [h.strip() for h in stripped.split(",")]
+        break
     if not header or header == [""]:
         raise RecordingError(f"{path}: no header line; expected 't,emg1,...,emgN[,force]'")
+    if len(header) > MAX_CSV_COLUMNS:
+        raise RecordingError(
+            f"{path}: {len(header)} columns (expected at most {MAX_CSV_COLUMNS}: "
+            "t, emg1..emg256, force, intent, intent_force_n)"
+        )
     if header[0] != "t":
         raise RecordingError(f"{path}: first column must be 't' (seconds), found {header[0]!r}")
     emg_cols: list[tuple[int, int]] = []
@@ -343,7 +558,7 @@ def _load_csv(path: Path, emg_unit: str | None) -> Recording:
             other[name] = j
         else:
             raise RecordingError(
-                f"{path}: unknown column {name!r}; expected t, emg1..emgN, force, "
+                f"{path}: unknown column {name[:40]!r}; expected t, emg1..emgN, force, "
                 f"{', '.join(_OPTIONAL_COLUMNS)}"
             )
     if not emg_cols:
@@ -352,13 +567,17 @@ def _load_csv(path: Path, emg_unit: str | None) -> Recording:
     if numbers != list(range(1, len(numbers) + 1)):
         raise RecordingError(
             f"{path}: sEMG columns must be emg1..emg{len(numbers)} without gaps or repeats, "
-            f"found {[f'emg{k}' for k in numbers]}"
+            f"found {[f'emg{k}' for k in numbers][:10]}"
         )
+    body = "\n".join(lines[n_comment:])
     try:
-        data = np.loadtxt(path, delimiter=",", skiprows=n_comment, ndmin=2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "input contained no data"
+            data = np.loadtxt(io.StringIO(body), delimiter=",", ndmin=2, dtype=float)
     except ValueError as exc:
-        raise RecordingError(f"{path}: unparsable numeric data ({exc})") from exc
-    if data.shape[1] != len(header):
+        reason = " ".join(str(exc).split())[:160]
+        raise RecordingError(f"{path}: unparsable numeric data ({reason})") from None
+    if data.shape[1] != len(header) and data.size:
         raise RecordingError(
             f"{path}: {data.shape[1]} values per row but {len(header)} header columns"
         )
@@ -384,16 +603,39 @@ def _load_csv(path: Path, emg_unit: str | None) -> Recording:
             f"{path}: column 't' is irregular at data row {row} (step {dt[row - 2]:.6g} s, "
             f"expected {dt_med:.6g} s); resample before loading"
         )
-    fs_hz = float(meta.get("fs_hz", 1.0 / dt_med))
+    fs_time = _positive_rate(1.0 / dt_med, str(path), "column 't' (1 / step)")
+    if "fs_hz" in meta:
+        fs_hz = _positive_rate(meta["fs_hz"], str(path), "metadata fs_hz")
+        if abs(fs_hz - fs_time) > _RATE_RTOL * fs_time:
+            raise RecordingError(
+                f"{path}: metadata fs_hz {fs_hz:g} Hz contradicts column 't' "
+                f"({fs_time:.6g} Hz from its {dt_med:.6g} s step); expected them to agree "
+                f"within {_RATE_RTOL:.0%}"
+            )
+    else:
+        fs_hz = fs_time
     order = [j for _, j in sorted(emg_cols)]
     emg = data[:, order]
     unit = meta.get("emg_unit", emg_unit)
     if unit is None:
         integral = np.all(emg == np.round(emg))
         unit = "int8" if integral and emg.min() >= -128 and emg.max() <= 127 else "uV"
-    emg = emg.astype(np.int8) if unit == "int8" else emg
-    if unit == "int8" and not np.array_equal(emg, data[:, order]):
-        raise RecordingError(f"{path}: emg_unit int8 but values are not integers in -128..127")
+    if not isinstance(unit, str) or unit not in EMG_UNITS:
+        raise RecordingError(f"{path}: emg_unit must be one of {EMG_UNITS}, found {unit!r}")
+    if unit == "int8":
+        if emg.min() < -128 or emg.max() > 127 or not np.array_equal(emg, np.round(emg)):
+            raise RecordingError(
+                f"{path}: emg_unit int8 but values are not integers in -128..127 "
+                f"(found {emg.min():.6g}..{emg.max():.6g})"
+            )
+        emg = emg.astype(np.int8)
+    names = meta.get("channel_names")
+    if names is not None and (
+        not isinstance(names, list) or not all(isinstance(x, str) for x in names)
+    ):
+        raise RecordingError(
+            f"{path}: metadata channel_names: expected a list of strings, found {_describe(names)}"
+        )
 
     def col(name: str) -> np.ndarray | None:
         return data[:, other[name]] if name in other else None
@@ -402,7 +644,7 @@ def _load_csv(path: Path, emg_unit: str | None) -> Recording:
         emg=emg,
         fs_hz=fs_hz,
         force_n=col("force"),
-        channel_names=meta.get("channel_names"),
+        channel_names=names,
         emg_unit=unit,
         intent=col("intent"),
         intent_force_n=col("intent_force_n"),

@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
         )
     formats = EXPORT_FORMATS if args.format == "both" else (args.format,)
     stem = Path(args.out) if args.out else db.with_suffix("")
-    with ResultStore(db) as store:
+    with ResultStore(db, read_only=True) as store:
         written = store.export(stem, formats, sweep=args.sweep, status=args.status)
     for path in written:
         print(path)

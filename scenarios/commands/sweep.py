@@ -4,10 +4,18 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
-from scenarios.schema import expand_sweep, load_sweep
+from scenarios.schema import (
+    DEFAULT_MAX_SCENARIOS,
+    SweepSpec,
+    check_size,
+    design_size,
+    iter_expanded,
+    load_sweep,
+)
 from scenarios.store import ResultStore
-from scenarios.sweep import DEFAULT_TASK, SweepError, pending, plan, run_sweep
+from scenarios.sweep import DEFAULT_TASK, SweepError, count_pending, iter_plan, run_sweep
 
 DEFAULT_DB = "griploop-results.sqlite"
 
@@ -16,8 +24,13 @@ Each scenario is stored once under a content hash of its configuration, the
 griploop version and the task; running the same sweep again skips the stored
 ones, so an interrupted sweep (even killed with SIGKILL) resumes where it
 stopped. A scenario that raises is stored as failed with its traceback and
-the sweep goes on. Exit status: 0 when the sweep completed (failed rows
-included), 2 on a user error (bad file, option or scheduler address).
+the sweep goes on; so is a scenario still running after the sweep file's
+time_limit_s (default 120 s), recorded with a "timeout" error, and one that
+kills its process twice. The number of scenarios is counted from the design
+before anything is expanded and refused above --max-scenarios. Two drivers
+on one store share the work: each scenario is claimed before it runs.
+Exit status: 0 when the sweep completed (failed rows included), 2 on a user
+error (bad file, option, scheduler address, full disk, read-only store).
 
 examples:
   griploop sweep scenarios/library/grasp_mass_friction.yaml --workers 2
@@ -65,7 +78,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--dry-run",
         action="store_true",
-        help="validate and expand the sweep, print how many scenarios are pending, run nothing",
+        help="validate the sweep, count its scenarios from the design and print how many are "
+        "pending, run nothing",
+    )
+    parser.add_argument(
+        "--max-scenarios",
+        type=int,
+        default=DEFAULT_MAX_SCENARIOS,
+        metavar="N",
+        help=f"refuse a sweep of more than N scenarios (default: {DEFAULT_MAX_SCENARIOS}; "
+        "0: no cap)",
     )
     parser.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
     parser.set_defaults(func=run)
@@ -78,19 +100,20 @@ def run(args: argparse.Namespace) -> int:
     workers = 1 if args.workers is None else args.workers
     if workers < 1:
         raise SweepError(f"--workers must be >= 1 (found {workers})")
+    if args.max_scenarios < 0:
+        raise SweepError(f"--max-scenarios must be >= 0 (found {args.max_scenarios})")
+    cap = args.max_scenarios or None
     spec = load_sweep(args.file)
-    planned = plan(expand_sweep(spec, args.file), args.task)
+    if args.dry_run:
+        return _dry_run(args, spec, cap)
+    total = check_size(spec, cap, args.file)
+    planned = iter_plan(iter_expanded(spec, args.file, max_scenarios=cap), args.task)
     with ResultStore(args.db) as store:
-        if args.dry_run:
-            todo = pending(planned, store, retry_failed=args.retry_failed)
-            print(
-                f"{spec.name}: {len(planned)} scenarios, {len(planned) - len(todo)} stored, "
-                f"{len(todo)} to run"
-            )
-            return 0
         summary = run_sweep(
             planned,
             store,
+            total=total,
+            time_limit_s=spec.time_limit_s,
             task=args.task,
             workers=workers,
             scheduler=args.scheduler,
@@ -104,4 +127,24 @@ def run(args: argparse.Namespace) -> int:
         f"({summary.rate_per_min:.1f}/min) -> {args.db}",
         file=sys.stdout,
     )
+    return 0
+
+
+def _dry_run(args: argparse.Namespace, spec: SweepSpec, cap: int | None) -> int:
+    """Print the design's size (counted, not expanded) and, for a runnable size, what is pending."""
+    total = design_size(spec)
+    if cap is not None and total > cap:
+        print(f"{spec.name}: {total} scenarios, above --max-scenarios {cap}: "
+              "griploop sweep would refuse it")
+        return 0
+    if total > DEFAULT_MAX_SCENARIOS:
+        print(f"{spec.name}: {total} scenarios (too many to look each up in the store)")
+        return 0
+    if not Path(args.db).is_file():
+        print(f"{spec.name}: {total} scenarios, 0 stored, {total} to run")
+        return 0
+    planned = iter_plan(iter_expanded(spec, args.file, max_scenarios=cap), args.task)
+    with ResultStore(args.db, read_only=True) as store:
+        total, todo = count_pending(planned, store, retry_failed=args.retry_failed)
+    print(f"{spec.name}: {total} scenarios, {total - todo} stored, {todo} to run")
     return 0

@@ -111,7 +111,7 @@ def build_report(
         )
     json_scores = D.load_reproduction_json(reproduction) if reproduction is not None else None
     json_config = _json_config(reproduction) if reproduction is not None else {}
-    with ResultStore(results) as store:
+    with ResultStore(results, read_only=True) as store:
         rows = store.rows(sweep=sweep)
         split = D.split_rows(rows)
         traces = {r["hash"]: store.traces(r["hash"]) for r in split.episodes}

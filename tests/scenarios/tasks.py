@@ -46,3 +46,31 @@ def heavy_fails(scenario: Scenario) -> dict:
 def returns_array(scenario: Scenario) -> dict:
     """Returns an array outside ``traces``: an invalid result row."""
     return {"force_n": np.zeros(3)}
+
+
+def sleeps_past_limit(scenario: Scenario) -> dict:
+    """:func:`seeded`, but objects heavier than 1 kg sleep a minute (past any test limit)."""
+    mass_kg = scenario.object.mass_kg
+    if mass_kg is not None and mass_kg > 1.0:
+        time.sleep(60)
+    return seeded(scenario)
+
+
+def kills_itself(scenario: Scenario) -> dict:
+    """:func:`seeded`, but objects heavier than 1 kg SIGKILL the process running them."""
+    import os
+    import signal
+
+    mass_kg = scenario.object.mass_kg
+    if mass_kg is not None and mass_kg > 1.0:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return seeded(scenario)
+
+
+def counted(scenario: Scenario) -> dict:
+    """:func:`sleepy`, appending the scenario's seed to ``$GRIPLOOP_TEST_RUNS`` (count runs)."""
+    import os
+
+    with open(os.environ["GRIPLOOP_TEST_RUNS"], "a") as fh:
+        fh.write(f"{scenario.seed}\n")
+    return sleepy(scenario)

@@ -57,7 +57,7 @@ def run_main(capsys, *argv: str) -> tuple[int, str, str]:
     [
         ("base:\n  object: {name: cup\ngrid: [\n", ":3:5: malformed YAML"),
         ("base:\n  objet: {name: cup}\n", ":2: base: unknown key 'objet'"),
-        ("base:\n  object: {friction: 9}\n", ":2: base.object.friction: Input should be"),
+        ("base:\n  object: {friction: 9}\n", ":2: base.object.friction: expected less than"),
         ("base: {}\ngrid:\n  subject.fatigue_per_min: [0.1, 0.9]\n",
          ":3: grid.subject.fatigue_per_min[1]"),
     ],
