@@ -433,7 +433,8 @@ def design_for_object(
     if not designs:
         raise last_error or SpecificationError(f"{kind}: no design on any grid force")
     core = ScheduledController(forces, designs, name=kind,
-                               blend="interpolate" if kind == "pid" else "switch")
+                               blend="interpolate" if kind == "pid" else "switch",
+                               warm={"mpc": "all", "lead_lag": "none"}.get(kind, "neighbours"))
     public_spec = {**spec, "scheduled": bool(scheduled),
                    "design_forces_n": [float(f) for f in forces],
                    "schedule_signal": "measured grip force (attack-release filter)"}

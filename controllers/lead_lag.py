@@ -78,8 +78,36 @@ class LinearController:
                 "LinearController: conditioning anti-windup needs controller zeros inside the "
                 "unit circle, found a zero on or outside it"
             )
+        # Integrator direction: a steady state (x = A x) with unit output, used to
+        # absorb the output change of a bumpless switch (None without one).
+        w, v = np.linalg.eig(self._A) if self._A.size else (np.zeros(0), np.zeros((0, 0)))
+        near_one = np.flatnonzero(np.abs(w - 1.0) < 1e-9)
+        self._integrator_dir = None
+        if near_one.size:
+            direction = np.real(v[:, near_one[0]])
+            gain = float(self._C @ direction)
+            if abs(gain) > 1e-12:
+                self._integrator_dir = direction / gain
         self.report_: DesignReport | None = None
         self.reset()
+
+    def take_state_from(self, other: LinearController, observation: Observation | Mapping[str, Any],
+                        u: float) -> bool:
+        """Bumpless switch from ``other`` (same order): copy its state, let the integrator absorb
+        the output difference so that the command for this error is ``u``.
+
+        Returns False (and changes nothing) when the realizations are not compatible.
+        """
+        if (not isinstance(other, LinearController) or other._A.shape != self._A.shape
+                or self._integrator_dir is None):
+            return False
+        obs = as_observation(observation)
+        e = obs.reference_n - obs.grip_force_n
+        x = other._x.copy()
+        x += (float(u) - float(self._C @ x) - self._D * e) * self._integrator_dir
+        self._x = x
+        self.last_u = float(u)
+        return True
 
     def reset(self, u0: float = 0.0) -> None:
         """Set a steady state whose output for zero error is ``u0`` (clipped)."""

@@ -386,7 +386,9 @@ class MPC:
         self._advance(as_observation(observation), float(np.clip(applied_u, *self.u_limits)))
 
     def _advance(self, obs: Observation, applied_u: float | None) -> float:
-        if self.slip_sensing is not None:
+        if self.slip_sensing is not None and applied_u is None:
+            # only the MPC in charge senses: a bank of designs shares one bound, and the
+            # designs that merely track the applied command must not update it again
             self.slip_sensing.update(obs.grip_force_n, obs.lift_force_n, obs.slip_speed_m_s,
                                      obs.both_sides)
         innovation = obs.grip_force_n - (self.C_ @ self._xp).item()

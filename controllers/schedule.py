@@ -31,9 +31,15 @@ the change of the proportional and derivative terms, :meth:`PID.set_gains`).
 ``"switch"`` (lead-lag, MPC: controllers whose states are not comparable from
 one design to the next): the design whose cell contains the signal is active,
 cells split at the geometric midpoints between grid forces, and a switch
-happens only once the signal is ``hysteresis`` (relative) beyond the cell edge;
-at a switch the new design takes over from the command last applied
-(``handover``), so the command is continuous.
+happens only once the signal is ``hysteresis`` (relative) beyond the cell edge.
+The two neighbours of the active design run beside it in tracking mode: they
+see the same error and are conditioned on the command actually applied
+(``track``), so when one of them takes over its state is the one it would have
+had if it had been in charge, and the command continues without a bump and
+without losing the loop's dynamics (restarting the new design from the last
+command instead gave 50-64 % overshoot on a 5 -> 6 N step, against 3-7 % for
+the fixed designs). A design that was not a neighbour takes over from the
+last command (``handover``).
 
 The controller the loop runs at a force ``F`` is :meth:`controller_at` ``(F)``:
 the interpolated gains, or the design of ``F``'s cell. Margins at ``F`` are
@@ -69,13 +75,21 @@ class ScheduledController:
         Release time constant of the scheduling filter, s.
     hysteresis : float
         Relative distance past a cell edge before a switch (``"switch"``).
+    warm : {"neighbours", "all", "none"}
+        ``"switch"`` only: which inactive designs track the applied command
+        (``"all"`` for designs whose tracking is a state estimator, the MPC's
+        Kalman filter, so that any of them can take over converged; ``"none"``
+        for designs that take the state over from the active one at a switch,
+        ``take_state_from``: the lead-lag compensators, all of one order).
     name : str
         Registered name of the controller family.
     """
 
     def __init__(self, forces_n: Sequence[float], designs: Sequence[Any], *,
                  blend: Literal["interpolate", "switch"] = "switch", release_s: float = 0.2,
-                 hysteresis: float = 0.03, name: str = "controller") -> None:
+                 hysteresis: float = 0.03,
+                 warm: Literal["neighbours", "all", "none"] = "neighbours",
+                 name: str = "controller") -> None:
         forces = [float(f) for f in forces_n]
         if len(forces) != len(designs) or not forces:
             raise ValueError(
@@ -98,6 +112,11 @@ class ScheduledController:
         self.blend = blend
         self.release_s = float(release_s)
         self.hysteresis = float(hysteresis)
+        if warm not in ("neighbours", "all", "none"):
+            raise ValueError(
+                f"ScheduledController: expected warm 'neighbours', 'all' or 'none', found {warm!r}"
+            )
+        self.warm = warm
         self.name = name
         self.dt_s = float(self.designs[0].dt_s)
         self.computation_delay_samples = int(self.designs[0].computation_delay_samples)
@@ -156,7 +175,28 @@ class ScheduledController:
             if new != i:
                 self.index = new
                 self.n_switches += 1
-                self._pending_handover = True
+                self._pending_from = i
+                self._pending_handover = new not in self._warm
+
+    def _neighbours(self) -> tuple[int, ...]:
+        i, n = self.index, len(self.designs)
+        if self.warm == "none":
+            return ()
+        if self.warm == "all":
+            return tuple(j for j in range(n) if j != i)
+        return tuple(j for j in (i - 1, i + 1) if 0 <= j < n)
+
+    def _follow(self, obs: Observation, u: float) -> None:
+        """Neighbours track the applied command; newcomers start from it."""
+        if self.blend != "switch":
+            return
+        warm = self._neighbours()
+        for j in warm:
+            if j in self._warm:
+                self.designs[j].track(obs, u)
+            else:
+                self.designs[j].handover(obs, u)
+        self._warm = frozenset(warm)
 
     # ------------------------------------------------------------------ interface
     def reset(self, u0: float = 0.0) -> None:
@@ -165,6 +205,8 @@ class ScheduledController:
         self.index = 0
         self.n_switches = 0
         self._pending_handover = False
+        self._pending_from: int | None = None
+        self._warm: frozenset[int] = frozenset()
         for d in self.designs:
             d.reset(u0)
         if self.blend == "interpolate":
@@ -178,12 +220,17 @@ class ScheduledController:
         """Update the schedule from the measured force, then let the active design act."""
         obs = as_observation(observation)
         self._update_schedule(obs.grip_force_n, obs.reference_n)
-        if self._pending_handover:
+        if self._pending_handover or self._pending_from is not None:
+            new, old = self.active, self.designs[self._pending_from]
+            copied = hasattr(new, "take_state_from") and new.take_state_from(old, obs, self.last_u)
+            if self._pending_handover and not copied:
+                new.handover(obs, self.last_u)
             self._pending_handover = False
-            self.active.handover(obs, self.last_u)
+            self._pending_from = None
         u = self.active.act(obs)
         self.last_u = u
         self.last_reference_n = float(getattr(self.active, "last_reference_n", obs.reference_n))
+        self._follow(obs, u)
         return u
 
     def track(self, observation: Observation | Mapping[str, Any], applied_u: float) -> None:
@@ -191,9 +238,11 @@ class ScheduledController:
         obs = as_observation(observation)
         self._update_schedule(obs.grip_force_n, obs.reference_n)
         self._pending_handover = False
+        self._pending_from = None
         self.active.track(obs, applied_u)
         self.last_u = float(applied_u)
         self.last_reference_n = float(obs.reference_n)
+        self._follow(obs, float(applied_u))
 
     def handover(self, observation: Observation | Mapping[str, Any], u: float) -> None:
         """Take over at command ``u`` (contact): the schedule jumps to the measured force."""
@@ -204,9 +253,12 @@ class ScheduledController:
             kp, ki, kd = self.gains_at(self.signal_n)
             self._runner.set_gains(kp=kp, ki_per_s=ki, kd_s=kd)
         self._pending_handover = False
+        self._pending_from = None
+        self._warm = frozenset()
         self.active.handover(obs, u)
         self.last_u = float(u)
         self.last_reference_n = float(obs.reference_n)
+        self._follow(obs, float(u))
 
     def loop(self, plant: control.LTI, force_n: float | None = None) -> control.LTI:
         """Open loop at ``force_n`` (default: the present scheduling signal)."""

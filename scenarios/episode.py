@@ -463,8 +463,7 @@ def run_episode(
                               window_dt_s=features.dt_s)
     ratio, both_s = contact_peak_ratio(traces["t_s"], traces["tracked_reference_n"],
                                        traces["grip_force_n"], traces["both_sides"])
-    rise = traces["object_height_m"] - traces["object_height_m"][0]
-    lifted = bool(rise.size and np.max(rise) >= LIFTED_FRACTION * design_lift_height_m())
+    lifted = was_lifted(traces["object_height_m"])
     dropped, crushed = bool(info["dropped"]), bool(info["crushed"])
     held_n, visited_n = operating_forces(traces, design, hold_from_s=episode_s - hold_s,
                                          both_sides_s=both_s)
@@ -485,7 +484,8 @@ def run_episode(
         "lifted": lifted, "dropped": dropped, "crushed": crushed,
         "outcome": outcome_of(lifted=lifted, dropped=dropped, crushed=crushed),
         "contact_peak_ratio": ratio, "both_sides_time_s": both_s,
-        "held_force_n": held_n, "visited_forces_n": visited_n,
+        "held_force_n": held_n,
+        "visited_forces_n": ",".join(f"{f:g}" for f in visited_n),
         **_margin_fields(held),
         **{f"worst_{k}": v for k, v in worst.items()},
         "loop_dt_s": float(control_dt_s),
@@ -527,9 +527,10 @@ def cached_design(obj: ObjectSpec, controller: str, control_dt_s: float,
     return _DESIGNS[key]
 
 
-def design_lift_height_m() -> float:
-    """The wrist's lift height in episodes, m."""
-    return WristSchedule().lift_height_m
+def was_lifted(object_height_m: np.ndarray) -> bool:
+    """Whether the object rose :data:`LIFTED_FRACTION` of the wrist's lift height, at any time."""
+    rise = np.asarray(object_height_m) - object_height_m[0]
+    return bool(rise.size and np.max(rise) >= LIFTED_FRACTION * WristSchedule().lift_height_m)
 
 
 def operating_forces(traces: Mapping[str, np.ndarray], design: ControllerDesign, *,

@@ -78,9 +78,7 @@ def run(args: argparse.Namespace) -> int:
     scenario = scenario_from_args(args)
     result = episode_from_scenario(scenario, record_frames=args.video is not None)
     row, design = result.row, result.design
-    visited = sorted({f for f in (row["held_force_n"],) if f is not None}
-                     | {f for f in design.family.forces_n
-                        if row["held_force_n"] is not None and f in _visited(row)})
+    visited = sorted(_visited(row))
     analyses = [design.analyse(f) for f in visited]
     print(format_table(args.controller, analyses, worst_case(analyses) if analyses else None))
     print(f"episode: {args.estimator} ({args.mode}) -> {args.controller} on {row['object_name']} "
@@ -115,4 +113,5 @@ def run(args: argparse.Namespace) -> int:
 
 def _visited(row: dict[str, Any]) -> set[float]:
     """Grid forces the episode visited (stored in the row by the runner)."""
-    return set(row.get("visited_forces_n") or ())
+    text = row.get("visited_forces_n") or ""
+    return {float(f) for f in text.split(",") if f}

@@ -132,7 +132,7 @@ def build_report(
         _traces_section(split.episodes, traces, max_traces),
         _loop_section(designs, max_designs),
         _outcome_section(split.episodes),
-        _margin_section(designs),
+        _margin_section(designs, split.episodes),
         _frame_section(split.episodes, render_frame),
         _failed_section(split.failed),
         _provenance_section(results, sweep, rows, members, reproduction, json_config, created),
@@ -272,11 +272,19 @@ def _loop_section(designs: Sequence[D.LoopDesign], limit: int) -> Section:
     return Section("loops", title, "\n".join(parts))
 
 
-def _margin_section(designs: Sequence[D.LoopDesign]) -> Section:
+def _margin_section(designs: Sequence[D.LoopDesign], episodes: Sequence[dict] = ()) -> Section:
     title = "5. Margins per controller design"
     if not designs:
         return Section("margins", title, note("No episode rows with an analysed loop: "
                                               "section omitted."), True)
+    parts = []
+    if any(e["result"].get("held_force_n") is not None for e in episodes):
+        parts.append(note("A margin belongs to a loop at an operating point: each episode's "
+                          "margins are those of the controller that ran at the grip force it "
+                          "held in the air, on the plant linearized at that force; the open "
+                          "markers are the worst over the forces it visited."))
+        parts.append(img(F.png_bytes(F.margins_vs_force_figure(list(episodes))),
+                         "margins against held grip force"))
     rows = []
     for d in designs:
         m = d.margins
@@ -294,19 +302,20 @@ def _margin_section(designs: Sequence[D.LoopDesign]) -> Section:
     if bad:
         body += (f'<p class="bad">Stored margins differ from the recomputed ones for '
                  f"{esc(', '.join(bad))}.</p>")
-    return Section("margins", title, body)
+    return Section("margins", title, "\n".join(parts) + body)
 
 
 # ---------------------------------------------------------------- 4. outcome maps
 
 
 def _outcome_section(episodes: Sequence[dict]) -> Section:
-    title = "4. Slip, drop and crush over mass x friction"
+    title = "4. Not lifted, slip, drop and crush over mass x friction"
     if not episodes:
         return Section("outcomes", title, note("No episode rows: section omitted."), True)
     grids = D.outcome_grids(episodes)
     parts = [note("One panel per controller / estimator / mode; each cell averages over its "
-                  "episodes (seeds), n below the value.")]
+                  "episodes (seeds), n below the value. Each episode has one outcome: held, "
+                  "not lifted, dropped or crushed.")]
     for metric, (_, label, _) in F.OUTCOME_METRICS.items():
         parts.append(f"<h3>{esc(label)}</h3>")
         parts.append(img(F.png_bytes(F.outcome_figure(grids, metric)), f"{label} map"))

@@ -296,8 +296,9 @@ class OutcomeGrid:
         Object masses, ascending (shared by every grid of a report).
     friction : ndarray, shape (n_friction,)
         Friction coefficients, ascending (shared).
-    dropped_frac, crushed_frac : ndarray, shape (n_mass, n_friction)
-        Fraction of episodes (over seeds) that dropped / crushed the object;
+    not_lifted_frac, dropped_frac, crushed_frac : ndarray, shape (n_mass, n_friction)
+        Fraction of episodes (over seeds) whose outcome was not lifted / dropped
+        / crushed (one category each: a crushed object counts as crushed only);
         ``nan`` where the cell has no episode.
     slip_events_mean : ndarray, shape (n_mass, n_friction)
         Mean number of slip events per episode; ``nan`` where empty.
@@ -308,10 +309,23 @@ class OutcomeGrid:
     key: tuple[str, str, str]
     mass_kg: np.ndarray
     friction: np.ndarray
+    not_lifted_frac: np.ndarray
     dropped_frac: np.ndarray
     crushed_frac: np.ndarray
     slip_events_mean: np.ndarray
     n_episodes: np.ndarray
+
+
+def episode_outcome(result: Mapping[str, Any]) -> str:
+    """``held``, ``not_lifted``, ``dropped`` or ``crushed`` (rows before the outcome column:
+    from the flags, an object never lifted counting as not lifted)."""
+    if result.get("outcome"):
+        return str(result["outcome"])
+    if result.get("crushed"):
+        return "crushed"
+    if not result.get("lifted", True):
+        return "not_lifted"
+    return "dropped" if result.get("dropped") else "held"
 
 
 def outcome_grids(episodes: Sequence[Mapping[str, Any]]) -> list[OutcomeGrid]:
@@ -328,8 +342,10 @@ def outcome_grids(episodes: Sequence[Mapping[str, Any]]) -> list[OutcomeGrid]:
     masses, i_mass = np.unique(mass, return_inverse=True)
     frictions, i_mu = np.unique(mu, return_inverse=True)
     keys = [group_key(e["result"]) for e in episodes]
-    dropped = np.array([bool(e["result"]["dropped"]) for e in episodes], dtype=float)
-    crushed = np.array([bool(e["result"]["crushed"]) for e in episodes], dtype=float)
+    outcome = [episode_outcome(e["result"]) for e in episodes]
+    not_lifted = np.array([o == "not_lifted" for o in outcome], dtype=float)
+    dropped = np.array([o == "dropped" for o in outcome], dtype=float)
+    crushed = np.array([o == "crushed" for o in outcome], dtype=float)
     slips = np.array([float(e["result"]["slip_events"]) for e in episodes])
     shape = (masses.size, frictions.size)
     grids = []
@@ -344,8 +360,9 @@ def outcome_grids(episodes: Sequence[Mapping[str, Any]]) -> list[OutcomeGrid]:
             with np.errstate(invalid="ignore", divide="ignore"):
                 return np.where(count > 0, total / count, np.nan)
 
-        grids.append(OutcomeGrid(key, masses, frictions, mean(dropped[sel]),
-                                 mean(crushed[sel]), mean(slips[sel]), count))
+        grids.append(OutcomeGrid(key, masses, frictions, mean(not_lifted[sel]),
+                                 mean(dropped[sel]), mean(crushed[sel]), mean(slips[sel]),
+                                 count))
     return grids
 
 

@@ -20,6 +20,7 @@ DPI = 80
 _MODE_COLORS = {"one_step": "C0", "free_run": "C1"}
 #: Outcome maps: metric -> (OutcomeGrid attribute, colour-bar label, fixed colour range or None).
 OUTCOME_METRICS: dict[str, tuple[str, str, tuple[float, float] | None]] = {
+    "not_lifted": ("not_lifted_frac", "fraction not lifted", (0.0, 1.0)),
     "dropped": ("dropped_frac", "fraction dropped", (0.0, 1.0)),
     "crushed": ("crushed_frac", "fraction crushed", (0.0, 1.0)),
     "slip": ("slip_events_mean", "mean slip events", None),
@@ -143,4 +144,41 @@ def outcome_figure(grids: Sequence[OutcomeGrid], metric: str) -> Figure:
     for ax in axes[n:]:
         ax.set_visible(False)
     fig.colorbar(image, ax=axes[:n].tolist(), label=label, shrink=0.9)
+    return fig
+
+
+def margins_vs_force_figure(episodes: list[dict]) -> Figure:
+    """Phase and gain margin at the force each episode held, one colour per controller.
+
+    Each point is one episode: the margins of the loop that ran at the force it
+    held in the air (the scheduled design there, on the plant linearized there);
+    the open marker below it is the worst over the forces the episode visited.
+    """
+    fig = Figure(figsize=(8, 5.5), layout="constrained")
+    ax_pm, ax_gm = fig.subplots(2, 1, sharex=True)
+    kinds = sorted({str(e["result"]["controller"]) for e in episodes})
+    for i, kind in enumerate(kinds):
+        rows = [e["result"] for e in episodes if e["result"]["controller"] == kind
+                and e["result"].get("held_force_n") is not None
+                and e["result"].get("phase_margin_deg") is not None]
+        if not rows:
+            continue
+        f = np.array([r["held_force_n"] for r in rows], float)
+        pm = np.array([r["phase_margin_deg"] for r in rows], float)
+        gm = np.array([np.nan if r.get("gain_margin_db") is None else r["gain_margin_db"]
+                       for r in rows], float)
+        wpm = np.array([np.nan if r.get("worst_phase_margin_deg") is None
+                        else r["worst_phase_margin_deg"] for r in rows], float)
+        color = f"C{i}"
+        ax_pm.plot(f, pm, "o", color=color, label=f"{kind}: at the held force")
+        ax_pm.plot(f, wpm, "v", mfc="none", color=color, label=f"{kind}: worst visited")
+        ax_gm.plot(f, gm, "o", color=color)
+    ax_pm.axhline(45.0, color="0.5", lw=0.8, ls="--")
+    ax_pm.set_ylabel("phase margin (deg)", fontsize=11)
+    ax_gm.set_ylabel("gain margin (dB)", fontsize=11)
+    ax_gm.set_xlabel("grip force held in the air (N)", fontsize=11)
+    ax_pm.legend(fontsize=8, ncols=2)
+    for ax in (ax_pm, ax_gm):
+        ax.set_xscale("log")
+        ax.grid(True, which="both", alpha=0.3)
     return fig

@@ -97,7 +97,7 @@ def test_a_fixed_design_is_analysed_honestly_away_from_its_force() -> None:
     # ... on the soft pads it loses most of its phase margin, while the scheduled one keeps it
     soft_fixed = fixed.analyse(4.0).margins
     soft_sched = scheduled.analyse(4.0).margins
-    assert soft_fixed.crossover_rad_s[0] < 0.5 * 30.0
+    assert soft_fixed.crossover_rad_s[0] < 20.0
     assert soft_sched.phase_margin_deg == pytest.approx(60.0, abs=1.0)
 
 
