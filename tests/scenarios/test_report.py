@@ -338,8 +338,9 @@ def test_report_has_every_section_with_real_content(report):
     assert [s.anchor for s in result.sections] == ["paper", "traces", "loops", "outcomes",
                                                    "margins", "frame", "failed", "provenance"]
     assert not any(s.omitted for s in result.sections), [s.title for s in result.sections]
-    # 2 bar charts + traces + 3 designs x 3 loop figures + 3 outcome maps + frame
-    assert result.n_images == 2 + 1 + 9 + 3 + 1
+    # 2 bar charts + traces + 3 designs x 3 loop figures + 4 outcome maps (not lifted,
+    # dropped, crushed, slip) + frame
+    assert result.n_images == 2 + 1 + 9 + 4 + 1
 
 
 def test_page_is_self_contained(report):
