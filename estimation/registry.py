@@ -11,6 +11,8 @@ lda_qpf       LDA to 1-D + quadratic (both, no force)
 latent_kf     force as latent Kalman state, sEMG as observations (both, no force)
 persistence   yhat(k) = y(k-1) (one_step)
 features_mav  linear fit of the MAV columns (both, no force); also _rms, _wl
+ridge_log     ridge on log+linear features with a past window, smoother (deployable)
+gbt           ridge_log plus boosted trees on its residuals (deployable)
 ============  ==============================================================
 """
 
@@ -19,6 +21,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from estimation.baselines import LDAQPF, MLPBaseline, NARXBaseline, Persistence, SingleFeatureLinear
+from estimation.deployable import BoostedLogRidge, LogRidge
 from estimation.errors import UnknownEstimatorError
 from estimation.latent_kf import LatentKalman
 from estimation.pipeline import ForcePipeline
@@ -35,6 +38,8 @@ _FACTORIES: dict[str, Callable[..., object]] = {
     "features_mav": lambda **kw: SingleFeatureLinear(feature="mav", **kw),
     "features_rms": lambda **kw: SingleFeatureLinear(feature="rms", **kw),
     "features_wl": lambda **kw: SingleFeatureLinear(feature="wl", **kw),
+    "ridge_log": LogRidge,
+    "gbt": BoostedLogRidge,
 }
 
 #: Every registered estimator name, in the JSON contract's order.

@@ -58,6 +58,8 @@ ESTIMATORS = (
     "features_rms",
     "features_wl",
     "oracle",
+    "ridge_log",
+    "gbt",
 )
 OBJECTS = ("ball", "can", "cup", "egg", "block")
 SCENARIO_KINDS = ("reproduction", "calibration", "episode")

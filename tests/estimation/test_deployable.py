@@ -1,0 +1,92 @@
+"""Deployable estimators (ridge_log, gbt), fair baselines (NARX, LDA + QPF), stream checks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from estimation import make_estimator
+from estimation.deployable import StreamingRateError, log_lag_regressors
+from estimation.features import extract_features
+from estimation.protocol import evaluate_subject
+from sim.subjects import make_population
+
+
+@pytest.fixture(scope="module")
+def subject_features():
+    rec = make_population(2, seed=0)[0].paper_session()
+    return extract_features(rec, channels=None)
+
+
+@pytest.mark.parametrize("name", ["ridge_log", "gbt"])
+def test_stream_equals_batch(subject_features, name):
+    fs = subject_features
+    n = fs.n_windows // 2
+    est = make_estimator(name, random_state=0).fit(fs.X[:n], fs.y[:n]) if name == "gbt" \
+        else make_estimator(name).fit(fs.X[:n], fs.y[:n])
+    batch = est.predict(fs.X, mode="free_run")
+    stream = est.streaming("free_run", period_s=fs.dt_s)
+    for _ in range(2):  # reset really forgets the history
+        stream.reset()
+        out = np.array([stream.step(u) for u in fs.X])
+        np.testing.assert_allclose(out, batch, rtol=1e-9, atol=1e-9)
+
+
+def test_gbt_keeps_trees_only_when_they_help_on_validation(subject_features):
+    fs = subject_features
+    n = fs.n_windows // 2
+    est = make_estimator("gbt", normalize=False, max_trees=30)
+    Xn = (fs.X[:n] - fs.X[:n].min(0)) / np.ptp(fs.X[:n], axis=0)
+    est.fit(Xn, fs.y[:n] / fs.y[:n].max())
+    assert 0 <= est.n_trees_ <= 30
+    assert est.smoother_ in est.smoothers and est.alpha_ in est.alphas
+
+
+def test_stream_faster_than_the_window_is_refused(subject_features):
+    fs = subject_features
+    n = fs.n_windows // 2
+    for name in ("gbt", "mlp", "narx"):
+        params = {"dt_s": fs.dt_s} if name == "gbt" else {"dt_s": fs.dt_s, "max_epochs": 5,
+                                                           "random_state": 0}
+        est = make_estimator(name, **params).fit(fs.X[:n], fs.y[:n])
+        mode = "free_run"
+        with pytest.raises(StreamingRateError, match=r"expected one step per window .* found"):
+            est.streaming(mode, period_s=0.01)
+        assert isinstance(StreamingRateError("x"), ValueError)
+        est.streaming(mode, period_s=fs.dt_s)  # at the window rate: fine
+
+
+def test_log_lag_regressors_repeat_the_first_window():
+    U = np.arange(6.0).reshape(3, 2) / 10
+    R = log_lag_regressors(U, 2, 0.02)
+    assert R.shape == (3, 12)
+    np.testing.assert_allclose(R[0, 4:8], R[0, :4])  # before the start: first window
+    np.testing.assert_allclose(R[2, 8:], R[0, :4])
+
+
+def test_deployable_beats_single_feature_and_narx_matches_persistence():
+    # Two default subjects, all 8 channels: a quick check of what the reproduction shows.
+    for subject in make_population(3, seed=0)[:2]:
+        fs = extract_features(subject.paper_session(), channels=None)
+        res = evaluate_subject(fs.X, fs.y, {"ridge_log": {}, "features_mav": {},
+                                            "persistence": {}, "lda_qpf": {},
+                                            "narx": {"random_state": 0}},
+                               dt_s=fs.dt_s, time_steps=False)
+        r2 = {k: v["modes"]["free_run" if "free_run" in v["modes"] else "one_step"]["r2"]
+              for k, v in res.items()}
+        assert r2["ridge_log"] > 0.8
+        assert res["narx"]["modes"]["one_step"]["r2"] >= r2["persistence"] - 0.01
+        assert r2["lda_qpf"] > 0.0  # guarded extrapolation does not fail
+
+
+def test_lda_qpf_extrapolates_monotonically():
+    rng = np.random.default_rng(0)
+    u = np.linspace(0, 1, 200)
+    U = np.column_stack([u, 2 * u]) + 0.01 * rng.standard_normal((200, 2))
+    y = np.sqrt(u)  # concave: the quadratic bends over above the range
+    est = make_estimator("lda_qpf", normalize=False).fit(U, y)
+    Ubig = np.column_stack([np.linspace(1, 3, 20), 2 * np.linspace(1, 3, 20)])
+    out = est.predict(Ubig, mode="free_run")
+    assert np.all(np.diff(out) >= -1e-12)
+    stream = est.streaming("free_run")
+    np.testing.assert_allclose([stream.step(x) for x in Ubig], out, rtol=1e-9, atol=1e-12)
