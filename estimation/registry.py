@@ -11,8 +11,8 @@ lda_qpf       LDA to 1-D + quadratic (both, no force)
 latent_kf     force as latent Kalman state, sEMG as observations (both, no force)
 persistence   yhat(k) = y(k-1) (one_step)
 features_mav  linear fit of the MAV columns (both, no force); also _rms, _wl
-ridge_log     ridge on log+linear features with a past window, smoother (deployable)
-gbt           ridge_log plus boosted trees on its residuals (deployable)
+ridge         ridge on sqrt-compressed features, lags, smoother chosen on validation (deployable)
+gbt           ridge plus boosted trees on its residuals (deployable)
 ============  ==============================================================
 """
 
@@ -38,7 +38,7 @@ _FACTORIES: dict[str, Callable[..., object]] = {
     "features_mav": lambda **kw: SingleFeatureLinear(feature="mav", **kw),
     "features_rms": lambda **kw: SingleFeatureLinear(feature="rms", **kw),
     "features_wl": lambda **kw: SingleFeatureLinear(feature="wl", **kw),
-    "ridge_log": LogRidge,
+    "ridge": LogRidge,
     "gbt": BoostedLogRidge,
 }
 

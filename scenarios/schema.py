@@ -58,7 +58,7 @@ ESTIMATORS = (
     "features_rms",
     "features_wl",
     "oracle",
-    "ridge_log",
+    "ridge",
     "gbt",
 )
 OBJECTS = ("ball", "can", "cup", "egg", "block")

@@ -8,12 +8,13 @@ with ``d`` the SS order (4). Trained series-parallel (measured ``y`` in the
 regressor). ``one_step`` predicts with measured past force; ``free_run`` feeds
 back its own past predictions (parallel / closed-loop NARX, sEMG only).
 
-With ``linear_bypass`` (default) the output is ``y(k-1)`` (the fed-back past
-force) plus the MLP, which learns the change ``y(k) - y(k-1)`` from the same
-regressors; the network is kept only if it beats zero change on the last
-``validation_fraction`` of the identification data. So one-step NARX is never
-worse than persistence on held-out identification data, and early stopping on
-a validation split keeps the network from fitting noise.
+With ``linear_bypass`` (default) each mode gets the network trained for it:
+``one_step`` outputs the measured ``y(k-1)`` plus an MLP that learns the change
+``y(k) - y(k-1)`` from the same regressors (kept only if it beats zero change on
+the last ``validation_fraction`` of the identification data), so one-step NARX
+is not worse than persistence on held-out data; ``free_run`` uses the paper's
+NARX network on the absolute force (``free_run_net_``), since fed-back
+increments would integrate their errors. Both stop early on a validation split.
 """
 
 from __future__ import annotations
@@ -76,7 +77,17 @@ class NARXBaseline(MLPBaseline):
         R = narx_regressors(U, y, self.delays)
         self.lin_coef_ = np.zeros(R.shape[1])
         self.lin_intercept_ = 0.0
-        if self.linear_bypass:  # y(k-1): the network learns the change from it
+        if self.linear_bypass:
+            # free_run: the paper's NARX (absolute force), trained first
+            self._target_offset = np.zeros(U.shape[0])
+            try:
+                super().fit(U, y)
+            finally:
+                del self._target_offset
+            self.free_run_net_ = self.net_
+            self.free_run_epochs_ = self.n_epochs_
+            # one_step: y(k-1) plus a network that learns the change from it
+            self.lin_coef_[(self.delays + 1) * U.shape[1]] = 1.0
             self.lin_coef_[(self.delays + 1) * U.shape[1]] = 1.0
         self._target_offset = R @ self.lin_coef_ + self.lin_intercept_
         try:
@@ -114,14 +125,18 @@ class NARXBaseline(MLPBaseline):
         stream = self.streaming("free_run")
         return np.array([stream.step(u) for u in U])
 
+    def _forward(self, mode: str) -> object:
+        """The network used in ``mode`` (with its linear term in one_step)."""
+        if mode == "free_run" and self.linear_bypass:
+            return MLPForward(self.free_run_net_)
+        return _Bypassed(MLPForward(self.net_), self.lin_coef_, self.lin_intercept_)
+
     def streaming(self, mode: str = "one_step", *, scaling: MinMaxScaling | None = None,
                   period_s: float | None = None) -> object:
         """A stream with preallocated delay lines (``period_s`` >= ``dt_s``)."""
         check_mode(mode, self.modes, "NARXBaseline")
         check_period(period_s, self.dt_s, "NARXBaseline")
-        return scaled(_NARXStream(_Bypassed(MLPForward(self.net_), self.lin_coef_,
-                                               self.lin_intercept_),
-                                      self.n_features_in_, self.delays, mode),
+        return scaled(_NARXStream(self._forward(mode), self.n_features_in_, self.delays, mode),
                       scaling)
 
 

@@ -1,4 +1,4 @@
-"""Deployable estimators (ridge_log, gbt), fair baselines (NARX, LDA + QPF), stream checks."""
+"""Deployable estimators (ridge, gbt), fair baselines (NARX, LDA + QPF), stream checks."""
 
 from __future__ import annotations
 
@@ -18,12 +18,14 @@ def subject_features():
     return extract_features(rec, channels=None)
 
 
-@pytest.mark.parametrize("name", ["ridge_log", "gbt"])
-def test_stream_equals_batch(subject_features, name):
+@pytest.mark.parametrize("name, params", [
+    ("ridge", {}), ("ridge", {"compress": "log", "lags": (2,)}),
+    ("gbt", {"random_state": 0}), ("gbt", {"random_state": 0, "compress": "log", "lags": 1}),
+])
+def test_stream_equals_batch(subject_features, name, params):
     fs = subject_features
     n = fs.n_windows // 2
-    est = make_estimator(name, random_state=0).fit(fs.X[:n], fs.y[:n]) if name == "gbt" \
-        else make_estimator(name).fit(fs.X[:n], fs.y[:n])
+    est = make_estimator(name, **params).fit(fs.X[:n], fs.y[:n])
     batch = est.predict(fs.X, mode="free_run")
     stream = est.streaming("free_run", period_s=fs.dt_s)
     for _ in range(2):  # reset really forgets the history
@@ -42,6 +44,14 @@ def test_gbt_keeps_trees_only_when_they_help_on_validation(subject_features):
     assert est.smoother_ in est.smoothers and est.alpha_ in est.alphas
 
 
+def test_bad_settings_name_what_was_expected(subject_features):
+    fs = subject_features
+    with pytest.raises(ValueError, match="compress: expected one of"):
+        make_estimator("ridge", compress="cube").fit(fs.X, fs.y)
+    with pytest.raises(ValueError, match="expected at least 4 and 2"):
+        make_estimator("ridge").fit(fs.X[:4], fs.y[:4])
+
+
 def test_stream_faster_than_the_window_is_refused(subject_features):
     fs = subject_features
     n = fs.n_windows // 2
@@ -58,7 +68,7 @@ def test_stream_faster_than_the_window_is_refused(subject_features):
 
 def test_log_lag_regressors_repeat_the_first_window():
     U = np.arange(6.0).reshape(3, 2) / 10
-    R = log_lag_regressors(U, 2, 0.02)
+    R = log_lag_regressors(U, 2, 0.02, "log")
     assert R.shape == (3, 12)
     np.testing.assert_allclose(R[0, 4:8], R[0, :4])  # before the start: first window
     np.testing.assert_allclose(R[2, 8:], R[0, :4])
@@ -68,13 +78,13 @@ def test_deployable_beats_single_feature_and_narx_matches_persistence():
     # Two default subjects, all 8 channels: a quick check of what the reproduction shows.
     for subject in make_population(3, seed=0)[:2]:
         fs = extract_features(subject.paper_session(), channels=None)
-        res = evaluate_subject(fs.X, fs.y, {"ridge_log": {}, "features_mav": {},
+        res = evaluate_subject(fs.X, fs.y, {"ridge": {}, "features_mav": {},
                                             "persistence": {}, "lda_qpf": {},
                                             "narx": {"random_state": 0}},
                                dt_s=fs.dt_s, time_steps=False)
         r2 = {k: v["modes"]["free_run" if "free_run" in v["modes"] else "one_step"]["r2"]
               for k, v in res.items()}
-        assert r2["ridge_log"] > 0.8
+        assert r2["ridge"] > 0.8
         assert res["narx"]["modes"]["one_step"]["r2"] >= r2["persistence"] - 0.01
         assert r2["lda_qpf"] > 0.0  # guarded extrapolation does not fail
 
