@@ -106,7 +106,7 @@ class MLPBaseline:
     modes = ("one_step", "free_run")  # the force is never used: both modes coincide
 
     def __init__(self, *, hidden: int = 4, max_epochs: int = 1000, learning_rate: float = 1e-2,
-                 rho: float = 0.9, tol: float = 1e-4, n_iter_no_change: int = 20,
+                 rho: float = 0.9, tol: float = 1e-4, n_iter_no_change: int = 10,
                  validation_fraction: float = 0.2, alpha: float = 1e-4, dt_s: float = 0.125,
                  random_state: np.random.Generator | int | None = None) -> None:
         self.hidden = hidden

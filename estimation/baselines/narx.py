@@ -60,7 +60,7 @@ class NARXBaseline(MLPBaseline):
 
     def __init__(self, *, delays: int = 4, hidden: int = 4, max_epochs: int = 1000,
                  learning_rate: float = 1e-2, rho: float = 0.9, tol: float = 1e-4,
-                 n_iter_no_change: int = 20, validation_fraction: float = 0.2,
+                 n_iter_no_change: int = 10, validation_fraction: float = 0.2,
                  alpha: float = 1e-4, dt_s: float = 0.125, linear_bypass: bool = True,
                  random_state: np.random.Generator | int | None = None) -> None:
         super().__init__(hidden=hidden, max_epochs=max_epochs, learning_rate=learning_rate,

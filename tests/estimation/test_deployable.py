@@ -100,3 +100,17 @@ def test_lda_qpf_extrapolates_monotonically():
     assert np.all(np.diff(out) >= -1e-12)
     stream = est.streaming("free_run")
     np.testing.assert_allclose([stream.step(x) for x in Ubig], out, rtol=1e-9, atol=1e-12)
+
+
+def test_acceptance_on_the_default_population():
+    # Issue 10: the best deployable free_run mean >= the paper's SS + KF one_step mean
+    # (channels 6-8, the paper's setting) on make_population(10, seed=0), noise generator.
+    from estimation.reproduce import run_reproduction
+
+    paper = run_reproduction(10, 0, estimators=["ss_kf", "persistence"], orders=(4,))
+    ours = run_reproduction(10, 0, estimators=["ridge"], orders=(4,), channels="all")
+    ss_one_step = paper["estimators"]["ss_kf"]["one_step"]["r2_mean"]
+    ridge = ours["estimators"]["ridge"]["free_run"]
+    assert ridge["n_ok"] == 10 and ridge["r2_mean"] >= ss_one_step
+    assert ridge["r2_min"] >= 0.8
+    assert ours["config"]["channels"] == "all" and "ridge" in ours["training"]
