@@ -52,8 +52,8 @@ _AMPLITUDE_LSB = {"flexor": (22.0, 34.0), "extensor": (20.0, 35.0), "other": (15
 # Subject-level log-uniform factors: overall sEMG size (all muscles) and extensor
 # co-contraction (extensor amplitudes on top of size). Real recordings (issue 10):
 # active RMS varies about 5x across subjects, flexor/extensor RMS ratio about 1.
-_AMPLITUDE_SCALE = (0.38, 2.6)
-_EXTENSOR_SCALE = (1.6, 3.6)
+_AMPLITUDE_SCALE = (0.45, 2.8)
+_EXTENSOR_SCALE = (1.8, 3.6)
 _CROSSTALK_LENGTH = (0.45, 0.75)  # electrode spacings
 _NOISE_LSB = (1.05, 4.6)  # log-uniform; real rest std 1.0-4.7 LSB
 _MUAP_WIDTH_MS = (1.4, 1.7)
