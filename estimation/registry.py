@@ -13,6 +13,7 @@ persistence   yhat(k) = y(k-1) (one_step)
 features_mav  linear fit of the MAV columns (both, no force); also _rms, _wl
 ridge         ridge on sqrt-compressed features, lags, smoother chosen on validation (deployable)
 gbt           ridge plus boosted trees on its residuals (deployable)
+ss_sim        paper SS structure refined on the free-run simulation error (free_run)
 ============  ==============================================================
 """
 
@@ -25,6 +26,7 @@ from estimation.deployable import BoostedLogRidge, LogRidge
 from estimation.errors import UnknownEstimatorError
 from estimation.latent_kf import LatentKalman
 from estimation.pipeline import ForcePipeline
+from estimation.ss_sim import SimulationErrorSS
 from estimation.state_space import SSEstimator
 
 _FACTORIES: dict[str, Callable[..., object]] = {
@@ -40,6 +42,7 @@ _FACTORIES: dict[str, Callable[..., object]] = {
     "features_wl": lambda **kw: SingleFeatureLinear(feature="wl", **kw),
     "ridge": LogRidge,
     "gbt": BoostedLogRidge,
+    "ss_sim": SimulationErrorSS,
 }
 
 #: Every registered estimator name, in the JSON contract's order.

@@ -33,13 +33,13 @@ from estimation.registry import ESTIMATOR_NAMES
 #: Paper Table 2/3 estimators, in the paper's column order.
 PAPER_ESTIMATORS = ("ss_kf", "mlp", "narx", "lda_qpf")
 #: Estimators that need no force sensor at run time and are built to be deployed.
-DEPLOYABLE_ESTIMATORS = ("ridge", "gbt")
+DEPLOYABLE_ESTIMATORS = ("ridge", "gbt", "ss_sim")
 _LABELS = {"ss_kf": "SS_KF", "mlp": "MLP", "narx": "NARX", "lda_qpf": "LDA_QPF", "ss": "SS",
            "latent_kf": "LATENT_KF", "persistence": "PERSIST", "features_mav": "F_MAV",
-           "features_rms": "F_RMS", "features_wl": "F_WL", "ridge": "RIDGE",
+           "features_rms": "F_RMS", "features_wl": "F_WL", "ridge": "RIDGE", "ss_sim": "SS_SIM",
            "gbt": "GBT"}
 _SEEDED = ("mlp", "narx")
-_TIMED = ("ss_kf", "ss", "mlp", "narx", "ridge", "gbt")  # hyperparameter dt_s
+_TIMED = ("ss_kf", "ss", "mlp", "narx", "ridge", "gbt", "ss_sim")  # hyperparameter dt_s
 
 
 def parse_channels(spec: str | Sequence[int | str] | None) -> list[int | str] | None:

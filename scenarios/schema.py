@@ -60,6 +60,7 @@ ESTIMATORS = (
     "oracle",
     "ridge",
     "gbt",
+    "ss_sim",
 )
 OBJECTS = ("ball", "can", "cup", "egg", "block")
 SCENARIO_KINDS = ("reproduction", "calibration", "episode")

@@ -21,6 +21,7 @@ def subject_features():
 @pytest.mark.parametrize("name, params", [
     ("ridge", {}), ("ridge", {"compress": "log", "lags": (2,)}),
     ("gbt", {"random_state": 0}), ("gbt", {"random_state": 0, "compress": "log", "lags": 1}),
+    ("ss_sim", {}), ("ss_sim", {"compress": "none", "order": 2}),
 ])
 def test_stream_equals_batch(subject_features, name, params):
     fs = subject_features
@@ -44,10 +45,25 @@ def test_gbt_keeps_trees_only_when_they_help_on_validation(subject_features):
     assert est.smoother_ in est.smoothers and est.alpha_ in est.alphas
 
 
+def test_ss_sim_refines_the_paper_model_for_free_running(subject_features):
+    fs = subject_features
+    n = fs.n_windows // 2
+    sim = make_estimator("ss_sim").fit(fs.X[:n], fs.y[:n])
+    assert sim.modes == ("free_run",) and sim.estimator.stable_
+    assert sim.estimator.penalty_ in sim.estimator.penalties
+    paper = make_estimator("ss").fit(fs.X[:n], fs.y[:n])
+    y = fs.y[:n]
+    err_sim = np.mean((sim.predict(fs.X[:n], mode="free_run") - y) ** 2)
+    err_rls = np.mean((paper.predict(fs.X[:n], mode="free_run") - y) ** 2)
+    assert err_sim < err_rls  # it minimizes what RLS does not: the simulation error
+
+
 def test_bad_settings_name_what_was_expected(subject_features):
     fs = subject_features
     with pytest.raises(ValueError, match="compress: expected one of"):
         make_estimator("ridge", compress="cube").fit(fs.X, fs.y)
+    with pytest.raises(ValueError, match="compress: expected 'sqrt' or 'none'"):
+        make_estimator("ss_sim", compress="log").fit(fs.X, fs.y)
     with pytest.raises(ValueError, match="expected at least 4 and 2"):
         make_estimator("ridge").fit(fs.X[:4], fs.y[:4])
 
