@@ -32,11 +32,12 @@ def seed_from(rng: np.random.Generator | int | None) -> int:
 
 def make_mlp(hidden: int, *, max_epochs: int, learning_rate: float, rho: float, tol: float,
              n_iter_no_change: int, rng: np.random.Generator | int | None,
-             validation_fraction: float = 0.2, alpha: float = 1e-4) -> MLPRegressor:
+             validation_fraction: float = 0.2, alpha: float = 1e-4,
+             batch_size: int = 1) -> MLPRegressor:
     """The paper's network as an unfitted :class:`~sklearn.neural_network.MLPRegressor`."""
     return MLPRegressor(
         hidden_layer_sizes=(hidden,), activation="logistic", solver="adam",
-        beta_1=0.0, beta_2=rho, learning_rate_init=learning_rate, batch_size=1,
+        beta_1=0.0, beta_2=rho, learning_rate_init=learning_rate, batch_size=batch_size,
         max_iter=max_epochs, tol=tol, n_iter_no_change=n_iter_no_change, shuffle=True,
         early_stopping=True, validation_fraction=validation_fraction, alpha=alpha,
         random_state=seed_from(rng),
@@ -93,6 +94,8 @@ class MLPBaseline:
         L2 penalty on the weights.
     dt_s : float
         Window increment in seconds; streams refuse a shorter ``period_s``.
+    batch_size : int
+        Mini-batch size (paper: 1).
     random_state : numpy.random.Generator, int or None
         Seeds weight initialization and shuffling.
 
@@ -108,8 +111,10 @@ class MLPBaseline:
     def __init__(self, *, hidden: int = 4, max_epochs: int = 1000, learning_rate: float = 1e-2,
                  rho: float = 0.9, tol: float = 1e-4, n_iter_no_change: int = 10,
                  validation_fraction: float = 0.2, alpha: float = 1e-4, dt_s: float = 0.125,
+                 batch_size: int = 1,
                  random_state: np.random.Generator | int | None = None) -> None:
         self.hidden = hidden
+        self.batch_size = batch_size
         self.validation_fraction = validation_fraction
         self.alpha = alpha
         self.dt_s = dt_s
@@ -135,7 +140,8 @@ class MLPBaseline:
         self.net_ = make_mlp(self.hidden, max_epochs=self.max_epochs,
                              learning_rate=self.learning_rate, rho=self.rho, tol=self.tol,
                              n_iter_no_change=self.n_iter_no_change, rng=self.random_state,
-                             validation_fraction=self.validation_fraction, alpha=self.alpha)
+                             validation_fraction=self.validation_fraction, alpha=self.alpha,
+                             batch_size=self.batch_size)
         self.converged_ = fit_quietly(self.net_, self._regressors(U, y), self._target(y))
         self.n_epochs_ = int(self.net_.n_iter_)
         self.n_features_in_ = U.shape[1]
