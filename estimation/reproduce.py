@@ -356,8 +356,12 @@ def recommendation(result: dict) -> str:
     ref = est.get("ss_kf", {}).get("one_step", {}).get("r2_mean")
     ss_free = est.get("ss_kf", {}).get("free_run", {}).get("r2_mean")
     label = _LABELS.get(best, best)
+    channels = result.get("config", {}).get("channels", result.get("recording", {}).get(
+        "channels"))
+    on = "" if channels is None else (
+        " on all channels" if channels == "all" else f" on channels {','.join(channels)}")
     text = (f"A deployed prosthesis has no force sensor, so it should use {label} in free_run"
-            f": it has the best sEMG-only mean R2 ({b['r2_mean']:.3f}, worst subject "
+            f"{on}: it has the best sEMG-only mean R2 ({b['r2_mean']:.3f}, worst subject "
             f"{b['r2_min']:.3f})")
     if ref is not None:
         verdict = "above" if b["r2_mean"] >= ref else "below"
