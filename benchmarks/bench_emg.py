@@ -150,12 +150,12 @@ def versus_real(population: list) -> str:
     stats = {g: population_statistics([s.paper_session(generator=g) for s in population])
              for g in ("noise", "motor_units")}
     lines = ["\nper-subject statistics vs real recordings (sim.emg_stats; median [min-max]):",
-             f"{'statistic':<24}{'real':>22}{'noise':>22}{'motor_units':>22}"]
+             f"{'statistic':<24}{'real':>28}{'noise':>28}{'motor_units':>28}"]
     for key in STAT_KEYS:
-        row = f"{key:<24}{cell(*REAL_RANGES[key]):>22}"
+        row = f"{key:<24}{cell(*REAL_RANGES[key]):>28}"
         for g in stats:
             v = stats[g][key]
-            row += f"{cell(v['median'], v['min'], v['max']):>22}"
+            row += f"{cell(v['median'], v['min'], v['max']):>28}"
         lines.append(row)
     return "\n".join(lines)
 
