@@ -123,10 +123,13 @@ def test_acceptance_on_the_default_population():
     # (channels 6-8, the paper's setting) on make_population(10, seed=0), noise generator.
     from estimation.reproduce import run_reproduction
 
-    paper = run_reproduction(10, 0, estimators=["ss_kf", "persistence"], orders=(4,))
+    paper = run_reproduction(10, 0, estimators=["ss_kf", "persistence", "narx"], orders=(4,))
     ours = run_reproduction(10, 0, estimators=["ridge"], orders=(4,), channels="all")
     ss_one_step = paper["estimators"]["ss_kf"]["one_step"]["r2_mean"]
     ridge = ours["estimators"]["ridge"]["free_run"]
     assert ridge["n_ok"] == 10 and ridge["r2_mean"] >= ss_one_step
     assert ridge["r2_min"] >= 0.8
     assert ours["config"]["channels"] == "all" and "ridge" in ours["training"]
+    narx = paper["estimators"]["narx"]["one_step"]["r2_mean"]
+    assert narx >= paper["estimators"]["persistence"]["one_step"]["r2_mean"] - 0.01
+    assert paper["training"]["narx"]["batch_size"] == 4  # settings are reported
