@@ -58,3 +58,24 @@ def test_a_channel_the_recording_lacks_is_one_line(recording_file, capsys):
     err = capsys.readouterr().err.strip()
     assert code == 2 and "\n" not in err
     assert "unknown channel 9" in err and "expected 1..8" in err
+
+
+def _entry(values):
+    ok = [v for v in values if v is not None]
+    return {"r2_mean": float(np.mean(ok)), "r2_sd": 0.0, "r2_min": min(ok), "n_ok": len(ok),
+            "per_subject": [{"r2": v, "status": "ok" if v is not None else "unstable"}
+                            for v in values]}
+
+
+def test_recommendation_follows_the_numbers():
+    from estimation.reproduce import recommendation
+
+    result = {"config": {"channels": "all"}, "estimators": {
+        "ss_kf": {"one_step": _entry([0.95, 0.93]), "free_run": _entry([0.5, 0.4])},
+        "ridge": {"free_run": _entry([0.90, 0.88])},
+        "mlp": {"free_run": _entry([0.99, None])},  # not run on every subject: not eligible
+    }}
+    text = recommendation(result)
+    assert "use RIDGE in free_run on all channels" in text and "below" in text
+    result["estimators"]["ridge"]["free_run"] = _entry([0.97, 0.96])
+    assert "above the paper's SS_KF one_step figure (0.940)" in recommendation(result)
