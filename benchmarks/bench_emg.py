@@ -23,6 +23,7 @@ import numpy as np
 from scipy import signal
 
 from estimation.features import extract_features
+from sim.emg_stats import REAL_RANGES, STAT_KEYS, population_statistics
 from sim.protocol import paper_protocol
 from sim.subjects import make_generator, make_population
 
@@ -78,18 +79,18 @@ def calibration(generator: str) -> dict[str, tuple[float, float]]:
 
 
 TARGETS = {
-    "rest std (LSB)": "1-4 (real 1.9)",
+    "rest std (LSB)": "1.0-4.7 (real recordings, issue 10)",
     "rest within +/-1 LSB": "real 0.55",
-    "RMS ch6-8 at medium force (LSB)": "5-30",
+    "RMS ch6-8 at medium force (LSB)": "5-45",
     "median frequency (Hz)": "45-80 (real 64)",
     "power 0-10 Hz": "real 0.05",
     "power 20-50 Hz": "real 0.25",
     "power 50-80 Hz": "real 0.37",
     "power 80-100 Hz": "real 0.26",
-    "r adjacent channels": "0.2-0.6 (real 0.38)",
+    "r adjacent channels": "0.2-0.6 (real abs 0.31-0.71)",
     "r two apart": "real 0.20",
-    "saturated samples": "< 0.01 (real 0.0001)",
-    "SNR ch6-8 (dB)": "8-24",
+    "saturated samples": "< 0.015 (real 9e-5 to 9e-3)",
+    "SNR ch6-8 (dB)": "8-32",
     "R2 mav ch6-8 (validation)": "0.70-0.88 (paper 0.796 +/- 0.061)",
     "R2 rms ch6-8 (validation)": "0.70-0.88",
     "R2 wl ch6-8 (validation)": "0.70-0.88",
@@ -136,7 +137,27 @@ def main(argv: list[str] | None = None) -> int:
             cells = "".join(f"{tables[g][key][0]:>10.3g} +/- {tables[g][key][1]:<5.2g}"
                             for g in tables)
             print(f"{key:<34}{cells}  {target}")
+        print(versus_real(pop))
     return 0
+
+
+def versus_real(population: list) -> str:
+    """Issue 10's table: median [min-max] over subjects, real recordings vs both generators."""
+
+    def cell(median: float, lo: float, hi: float) -> str:
+        return f"{median:.3g} [{lo:.3g}-{hi:.3g}]"
+
+    stats = {g: population_statistics([s.paper_session(generator=g) for s in population])
+             for g in ("noise", "motor_units")}
+    lines = ["\nper-subject statistics vs real recordings (sim.emg_stats; median [min-max]):",
+             f"{'statistic':<24}{'real':>28}{'noise':>28}{'motor_units':>28}"]
+    for key in STAT_KEYS:
+        row = f"{key:<24}{cell(*REAL_RANGES[key]):>28}"
+        for g in stats:
+            v = stats[g][key]
+            row += f"{cell(v['median'], v['min'], v['max']):>28}"
+        lines.append(row)
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":

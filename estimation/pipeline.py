@@ -68,6 +68,10 @@ class ForcePipeline:
         y_hat = self.estimator.predict(self.scaling_.transform_u(U), y, mode=mode)
         return self.scaling_.inverse_y(y_hat)
 
-    def streaming(self, mode: str = "one_step") -> object:
-        """A stream taking raw features and the force in N, returning N."""
-        return self.estimator.streaming(mode, scaling=self.scaling_)
+    def streaming(self, mode: str = "one_step", **options: object) -> object:
+        """A stream taking raw features and the force in N, returning N.
+
+        ``options`` go to the estimator's ``streaming`` (e.g. ``period_s``, the
+        interval between steps in seconds, for estimators that check it).
+        """
+        return self.estimator.streaming(mode, scaling=self.scaling_, **options)

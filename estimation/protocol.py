@@ -175,8 +175,8 @@ def aggregate(per_subject: Sequence[Mapping[str, Mapping]]) -> dict:
     Returns
     -------
     dict
-        ``{"estimators": {name: {mode: {"r2_mean", "r2_sd", "nrmse_mean", "nrmse_sd",
-        "rmse_n_mean", "n_ok", "per_subject": [...]}}},
+        ``{"estimators": {name: {mode: {"r2_mean", "r2_sd", "r2_min", "nrmse_mean",
+        "nrmse_sd", "rmse_n_mean", "n_ok", "per_subject": [...]}}},
         "timing": {name: {"train_ms_median", "step_us_median", ...}}}``.
         Subjects whose model was unstable in a mode (``status`` ``"unstable"``) or
         whose Kalman design failed (``"riccati_failed"``) are listed but excluded
@@ -196,6 +196,7 @@ def aggregate(per_subject: Sequence[Mapping[str, Mapping]]) -> dict:
                                ("volatility_n_per_s", "volatility_n_per_s")):
                 mean, sd = _mean_sd([r[key] for r in ok])
                 entry[f"{label}_mean"], entry[f"{label}_sd"] = mean, sd
+            entry["r2_min"] = min((r["r2"] for r in ok), default=None)
             entry["n_ok"] = len(ok)
             entry["per_subject"] = [
                 {k: v for k, v in r.items() if k != "message"} for r in rows

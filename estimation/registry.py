@@ -11,6 +11,9 @@ lda_qpf       LDA to 1-D + quadratic (both, no force)
 latent_kf     force as latent Kalman state, sEMG as observations (both, no force)
 persistence   yhat(k) = y(k-1) (one_step)
 features_mav  linear fit of the MAV columns (both, no force); also _rms, _wl
+ridge         ridge on sqrt-compressed features, lags, smoother chosen on validation (deployable)
+gbt           ridge plus boosted trees on its residuals (deployable)
+ss_sim        paper SS structure refined on the free-run simulation error (free_run)
 ============  ==============================================================
 """
 
@@ -19,9 +22,11 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from estimation.baselines import LDAQPF, MLPBaseline, NARXBaseline, Persistence, SingleFeatureLinear
+from estimation.deployable import BoostedLogRidge, LogRidge
 from estimation.errors import UnknownEstimatorError
 from estimation.latent_kf import LatentKalman
 from estimation.pipeline import ForcePipeline
+from estimation.ss_sim import SimulationErrorSS
 from estimation.state_space import SSEstimator
 
 _FACTORIES: dict[str, Callable[..., object]] = {
@@ -35,6 +40,9 @@ _FACTORIES: dict[str, Callable[..., object]] = {
     "features_mav": lambda **kw: SingleFeatureLinear(feature="mav", **kw),
     "features_rms": lambda **kw: SingleFeatureLinear(feature="rms", **kw),
     "features_wl": lambda **kw: SingleFeatureLinear(feature="wl", **kw),
+    "ridge": LogRidge,
+    "gbt": BoostedLogRidge,
+    "ss_sim": SimulationErrorSS,
 }
 
 #: Every registered estimator name, in the JSON contract's order.

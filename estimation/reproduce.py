@@ -5,8 +5,9 @@ This module is the only place that depends on the virtual-subject API
 
 ``run_reproduction`` returns the JSON contract::
 
-    {"estimators": {name: {mode: {"r2_mean", "r2_sd", "nrmse_mean", "nrmse_sd",
+    {"estimators": {name: {mode: {"r2_mean", "r2_sd", "r2_min", "nrmse_mean", "nrmse_sd",
                                   "per_subject": [...]}}},
+     "training": {name: {hyperparameter: value}},   # settings of every estimator
      "timing": {name: {"train_ms_median", "step_us_median", ...}},
      "model": {"A", "B", "C", "Gamma", "Q", "R", "predictor_gain", "order", ...},
      "order_selection": {...}, "properties": {...}, "config": {...}}
@@ -31,10 +32,58 @@ from estimation.registry import ESTIMATOR_NAMES
 
 #: Paper Table 2/3 estimators, in the paper's column order.
 PAPER_ESTIMATORS = ("ss_kf", "mlp", "narx", "lda_qpf")
+#: Estimators that need no force sensor at run time and are built to be deployed.
+DEPLOYABLE_ESTIMATORS = ("ridge", "gbt", "ss_sim")
 _LABELS = {"ss_kf": "SS_KF", "mlp": "MLP", "narx": "NARX", "lda_qpf": "LDA_QPF", "ss": "SS",
            "latent_kf": "LATENT_KF", "persistence": "PERSIST", "features_mav": "F_MAV",
-           "features_rms": "F_RMS", "features_wl": "F_WL"}
+           "features_rms": "F_RMS", "features_wl": "F_WL", "ridge": "RIDGE", "ss_sim": "SS_SIM",
+           "gbt": "GBT"}
 _SEEDED = ("mlp", "narx")
+_TIMED = ("ss_kf", "ss", "mlp", "narx", "ridge", "gbt", "ss_sim")  # hyperparameter dt_s
+
+
+def parse_channels(spec: str | Sequence[int | str] | None) -> list[int | str] | None:
+    """Channel set from ``"all"``, ``"6,7,8"``, names, or a sequence; ``None`` = all.
+
+    Raises
+    ------
+    ValueError
+        An empty set, e.g. ``""`` or ``","``.
+    """
+    if spec is None:
+        return None
+    if isinstance(spec, str):
+        if spec.strip().lower() == "all":
+            return None
+        items = [t.strip() for t in spec.split(",") if t.strip()]
+        if not items:
+            raise ValueError(f"channels: expected 'all' or a comma-separated list like "
+                             f"'6,7,8', found {spec!r}")
+        return [int(t) if t.isdigit() else t for t in items]
+    if isinstance(spec, str) or len(spec) == 0:
+        raise ValueError(f"channels: expected at least one channel, found {spec!r}")
+    return list(spec)
+
+
+def channel_label(channels: Sequence[int | str] | None) -> list[str] | str:
+    """JSON form of a channel set: ``"all"`` or the list as strings."""
+    return "all" if channels is None else [str(c) for c in channels]
+
+
+def training_settings(per_subject_params: dict[str, dict], pipelines: dict) -> dict:
+    """Hyperparameters every estimator was trained with (first subject; seeds differ)."""
+    out: dict = {}
+    for name, pipe in pipelines.items():
+        est = getattr(pipe, "estimator", None)
+        settings = {k: v for k, v in vars(est).items()
+                    if not k.startswith("_") and not k.endswith("_")} if est is not None else {}
+        settings.update(per_subject_params.get(name, {}))
+        settings.pop("random_state", None)
+        for attr in ("alpha_", "smoother_", "n_trees_", "network_used_"):
+            if est is not None and hasattr(est, attr):
+                settings[attr.rstrip("_") + "_chosen"] = getattr(est, attr)
+        out[name] = settings
+    return out
 
 
 def to_jsonable(obj: object) -> object:
@@ -77,7 +126,10 @@ def estimator_params(names: Sequence[str], rng: np.random.Generator, order: int,
         p: dict = {}
         if name in ("ss_kf", "ss"):
             p["order"] = order
+        if name in _TIMED:
             p["dt_s"] = dt_s
+        if name == "gbt":
+            p["random_state"] = int(rng.integers(0, 2**31 - 1))
         if name in _SEEDED:
             p["random_state"] = int(rng.integers(0, 2**31 - 1))
             p["hidden"] = order
@@ -97,6 +149,7 @@ def run_reproduction(
     estimators: Sequence[str] = ESTIMATOR_NAMES,
     orders: Sequence[int] = tuple(range(1, 13)),
     nn_params: dict | None = None,
+    channels: str | Sequence[int | str] | None = PAPER_CHANNELS,
 ) -> dict:
     """Run the paper's protocol on ``n_subjects`` virtual subjects.
 
@@ -116,6 +169,8 @@ def run_reproduction(
         Candidate orders for the per-subject AIC curve (paper: 1..12).
     nn_params : dict, optional
         Overrides for the MLP/NARX hyperparameters (e.g. ``{"max_epochs": 50}``).
+    channels : "all", sequence of int (1-based) or str
+        sEMG channels whose MAV, RMS and WL are the inputs (paper: 6, 7, 8).
 
     Returns
     -------
@@ -124,14 +179,17 @@ def run_reproduction(
     """
     from sim.subjects import make_population  # the only dependency on the subject API
 
+    channels = parse_channels(channels)
+
     # Every matrix here is tiny: BLAS threads only add overhead (and noise in timings).
     with threadpool_limits(limits=1, user_api="blas"):
         return _run(make_population, n_subjects, seed, generator, order, estimators, orders,
-                    nn_params)
+                    nn_params, channels)
 
 
 def _run(make_population: object, n_subjects: int, seed: int, generator: str, order: int,
-         estimators: Sequence[str], orders: Sequence[int], nn_params: dict | None) -> dict:
+         estimators: Sequence[str], orders: Sequence[int], nn_params: dict | None,
+         channels: Sequence[int | str] | None) -> dict:
     subjects = make_population(n=n_subjects, seed=seed)
     children = np.random.SeedSequence([seed, 0x5EED]).spawn(n_subjects)
     per_subject, order_curves, features_info = [], [], []
@@ -139,10 +197,13 @@ def _run(make_population: object, n_subjects: int, seed: int, generator: str, or
     for subject, child in zip(subjects, children, strict=True):
         session_ss, est_ss = child.spawn(2)
         rec = subject.paper_session(rng=np.random.default_rng(session_ss), generator=generator)
-        fs = extract_features(rec, channels=PAPER_CHANNELS)
+        fs = extract_features(rec, channels=channels)
         params = estimator_params(estimators, np.random.default_rng(est_ss), order, nn_params,
                                   dt_s=fs.dt_s)
         res = evaluate_subject(fs.X, fs.y, params, dt_s=fs.dt_s)
+        if not per_subject:
+            training = training_settings(params, {n: r["_pipeline"] for n, r in res.items()
+                                                  if "_pipeline" in r})
         per_subject.append(res)
         n_id = split_index(fs.n_windows)
         features_info.append({"subject_id": subject.subject_id, "n_windows": fs.n_windows,
@@ -167,11 +228,12 @@ def _run(make_population: object, n_subjects: int, seed: int, generator: str, or
     result["properties"] = _properties(per_subject)
     result["subjects"] = features_info
     result["config"] = {"n_subjects": n_subjects, "seed": seed, "generator": generator,
-                        "order": order, "channels": list(PAPER_CHANNELS),
+                        "order": order, "channels": channel_label(channels),
                         "identification_fraction": 0.5, "estimators": list(estimators),
                         "nn_params": nn_params or {}}
     result["nn_epochs"] = {name: [s[name]["info"].get("n_epochs") for s in per_subject]
                            for name in estimators if name in _SEEDED}
+    result["training"] = training
     return to_jsonable(result)
 
 
@@ -236,6 +298,7 @@ def format_others(result: dict, mode: str) -> str:
             continue
         e = est[n][mode]
         line = (f"  {_LABELS.get(n, n):10s} R2 {_fmt(e['r2_mean'], 7)} +/- {_fmt(e['r2_sd'], 6)}"
+                f" (min {_fmt(e.get('r2_min'), 6, 3)})"
                 f"  NRMSE {_fmt(e['nrmse_mean'], 7)} +/- {_fmt(e['nrmse_sd'], 6)}"
                 f"  RMSE {_fmt(e['rmse_n_mean'], 6, 2)} N")
         ref = paper_ref.get(n)
@@ -275,7 +338,63 @@ def format_table3(result: dict) -> str:
         )
     epochs = result.get("nn_epochs", {})
     for n, counts in epochs.items():
-        lines.append(f"  {_LABELS[n]} epochs (early stop on training loss): {counts}")
+        lines.append(f"  {_LABELS[n]} epochs (early stop on a validation split of the "
+                     f"identification half): {counts}")
+    return "\n".join(lines)
+
+
+def recommendation(result: dict) -> str:
+    """One sentence: which estimator a deployed prosthesis should use, and why."""
+    est = result["estimators"]
+    free = {n: est[n]["free_run"] for n in est if "free_run" in est[n]
+            and est[n]["free_run"]["r2_mean"] is not None
+            and est[n]["free_run"]["n_ok"] == len(est[n]["free_run"]["per_subject"])}
+    if not free:
+        return "No estimator ran in free_run on every subject; none can be recommended."
+    best = max(free, key=lambda n: free[n]["r2_mean"])
+    b = free[best]
+    ref = est.get("ss_kf", {}).get("one_step", {}).get("r2_mean")
+    ss_free = est.get("ss_kf", {}).get("free_run", {}).get("r2_mean")
+    label = _LABELS.get(best, best)
+    channels = result.get("config", {}).get("channels", result.get("recording", {}).get(
+        "channels"))
+    on = "" if channels is None else (
+        " on all channels" if channels == "all" else f" on channels {','.join(channels)}")
+    text = (f"A deployed prosthesis has no force sensor, so it should use {label} in free_run"
+            f"{on}: it has the best sEMG-only mean R2 ({b['r2_mean']:.3f}, worst subject "
+            f"{b['r2_min']:.3f})")
+    if ref is not None:
+        verdict = "above" if b["r2_mean"] >= ref else "below"
+        text += (f", {verdict} the paper's SS_KF one_step figure ({ref:.3f}), which needs the "
+                 "measured force at k-1 and cannot run on an amputee")
+    if ss_free is not None:
+        text += f"; the paper's SS_KF itself scores {ss_free:.3f} in free_run"
+    return text + "."
+
+
+def format_deployable(result: dict) -> str:
+    """Deployable (sEMG-only) estimators: free_run mean, SD, worst subject, timing, verdict."""
+    est, timing = result["estimators"], result["timing"]
+    lines = ["Deployable estimators (free_run: sEMG only) -- R2 mean +/- SD, worst subject, "
+             "training ms (median), step us (median)"]
+    names = [n for n in est if "free_run" in est[n]]
+    names.sort(key=lambda n: -(est[n]["free_run"]["r2_mean"] or -np.inf))
+    for n in names:
+        e, t = est[n]["free_run"], timing[n]
+        tag = " *" if n in DEPLOYABLE_ESTIMATORS else ""
+        lines.append(f"  {_LABELS.get(n, n) + tag:12s} R2 {_fmt(e['r2_mean'], 7)} +/- "
+                     f"{_fmt(e['r2_sd'], 6)}  min {_fmt(e.get('r2_min'), 7)}  "
+                     f"n_ok {e['n_ok']}/{len(e['per_subject'])}  train "
+                     f"{_fmt(t['train_ms_median'], 8, 1)} ms  step "
+                     f"{_fmt(t['step_us_median'], 6, 1)} us")
+    for n in ("ss_kf", "persistence", "narx"):
+        if n in est and "one_step" in est[n]:
+            e = est[n]["one_step"]
+            lines.append(f"  reference {_LABELS[n]:9s} one_step R2 {_fmt(e['r2_mean'], 7)} "
+                         f"(min {_fmt(e.get('r2_min'), 6, 3)}; needs the measured force)")
+    lines.append("  (* built for deployment: all settings chosen on a validation split of the "
+                 "identification half)")
+    lines.append(recommendation(result))
     return "\n".join(lines)
 
 
@@ -285,6 +404,7 @@ def format_report(result: dict) -> str:
     for mode in ("one_step", "free_run"):
         parts += [format_table2(result, mode), format_others(result, mode)]
     parts.append(format_table3(result))
+    parts.append(format_deployable(result))
     sel = result.get("order_selection", {})
     if sel.get("chosen_orders"):
         parts.append(f"AIC order per subject (1..12): {sel['chosen_orders']}; tables use "
@@ -329,7 +449,7 @@ def write_csv(result: dict, directory: str | Path) -> list[Path]:
 def evaluate_recording(
     recording: object,
     *,
-    channels: Sequence[int | str] = PAPER_CHANNELS,
+    channels: str | Sequence[int | str] | None = PAPER_CHANNELS,
     estimators: Sequence[str] = ESTIMATOR_NAMES,
     order: int = PAPER_ORDER,
     seed: int = 0,
@@ -341,7 +461,7 @@ def evaluate_recording(
     ----------
     recording : sim.Recording
         Must carry the measured force ``force_n``.
-    channels : sequence of int (1-based) or str
+    channels : "all", sequence of int (1-based) or str
         sEMG channels whose MAV, RMS and WL are the inputs.
     estimators, order, nn_params
         As for :func:`run_reproduction`.
@@ -365,17 +485,20 @@ def evaluate_recording(
         raise EstimationInputError(
             f"{recording.source}: no force column; the protocol needs the measured force"
         )
+    channels = parse_channels(channels)
     fs = extract_features(recording, channels=channels)
     params = estimator_params(estimators, np.random.default_rng(seed), order, nn_params,
                               dt_s=fs.dt_s)
     with threadpool_limits(limits=1, user_api="blas"):
         res = evaluate_subject(fs.X, fs.y, params, dt_s=fs.dt_s)
     result = aggregate([res])
+    result["training"] = training_settings(params, {n: r["_pipeline"] for n, r in res.items()
+                                                    if "_pipeline" in r})
     if "ss_kf" in res and "_pipeline" in res["ss_kf"]:
         result["model"] = model_summary(res["ss_kf"]["_pipeline"].estimator)
     result["properties"] = _properties([res])
     result["recording"] = {"source": recording.source, "fs_hz": recording.fs_hz,
-                           "channels": [str(c) for c in channels], "n_windows": fs.n_windows,
+                           "channels": channel_label(channels), "n_windows": fs.n_windows,
                            "n_identification": split_index(fs.n_windows), "dt_s": fs.dt_s}
     return to_jsonable(result)
 

@@ -60,6 +60,9 @@ ESTIMATORS = (
     "features_rms",
     "features_wl",
     "oracle",
+    "ridge",
+    "gbt",
+    "ss_sim",
 )
 OBJECTS = ("ball", "can", "cup", "egg", "block")
 SCENARIO_KINDS = ("reproduction", "calibration", "episode")

@@ -46,9 +46,17 @@ from sim.recording import Recording
 GENERATORS = ("noise", "motor_units")
 
 # Per-role uniform ranges of the sampled muscle parameters: (low, high).
-_SYNERGY = {"flexor": (0.80, 1.00), "extensor": (0.35, 0.65), "other": (0.10, 0.30)}
+_SYNERGY = {"flexor": (0.80, 1.00), "extensor": (0.50, 0.78), "other": (0.10, 0.30)}
 _EXPONENT = {"flexor": (0.85, 1.15), "extensor": (1.00, 1.80), "other": (1.00, 2.00)}
 _AMPLITUDE_LSB = {"flexor": (22.0, 34.0), "extensor": (20.0, 35.0), "other": (15.0, 30.0)}
+# Subject-level log-uniform factors: overall sEMG size (all muscles) and extensor
+# co-contraction (extensor amplitudes on top of size). Real recordings (issue 10):
+# active RMS varies about 5x across subjects, flexor/extensor RMS ratio about 1.
+_AMPLITUDE_SCALE = (0.45, 2.8)
+_EXTENSOR_SCALE = (1.8, 3.6)
+_CROSSTALK_LENGTH = (0.45, 0.75)  # electrode spacings
+_NOISE_LSB = (1.05, 4.6)  # log-uniform; real rest std 1.0-4.7 LSB
+_MUAP_WIDTH_MS = (1.4, 1.7)
 # Motor-unit MUAP-size exponent gamma that gives, with the default pool, about
 # the same log-log sEMG-force slope over 3-100 % MVC as ``amplitude_exponent``
 # p in the noise generator (measured: p = 0.16 + 0.77 gamma for gamma in 0.3..1.6).
@@ -129,17 +137,24 @@ class VirtualSubject:
             return tuple(float(rng.uniform(*table[role])) for role in MUSCLE_ROLES)
 
         flexor = np.array([role == "flexor" for role in MUSCLE_ROLES])
+        extensor = np.array([role == "extensor" for role in MUSCLE_ROLES])
         share = np.where(flexor, rng.uniform(0.7, 1.3, N_MUSCLES), 0.0)
         synergy = per_role(_SYNERGY)
         exponent = per_role(_EXPONENT)
+        # Subject-level factors that make people differ (real recordings, issue 10):
+        # overall sEMG size (skin, fat, forearm girth) and extensor co-contraction.
+        size = float(np.exp(rng.uniform(*np.log(_AMPLITUDE_SCALE))))
+        cocontraction = float(np.exp(rng.uniform(*np.log(_EXTENSOR_SCALE))))
+        amplitude = np.array(per_role(_AMPLITUDE_LSB)) * size
+        amplitude[extensor] *= cocontraction
         muscles = MuscleParams(
             synergy=synergy,
             grip_share=tuple(float(v) for v in share),
             amplitude_exponent=exponent,
-            amplitude_lsb=per_role(_AMPLITUDE_LSB),
+            amplitude_lsb=tuple(float(v) for v in amplitude),
             emd_s=tuple(float(v) for v in rng.uniform(0.04, 0.14, N_MUSCLES)),
             activation_cutoff_hz=(float(rng.uniform(2.5, 3.5)),) * N_MUSCLES,
-            muap_width_ms=tuple(float(v) for v in rng.uniform(1.3, 1.7, N_MUSCLES)),
+            muap_width_ms=tuple(float(v) for v in rng.uniform(*_MUAP_WIDTH_MS, N_MUSCLES)),
             muap_exponent=tuple((p - _MUAP_EXPONENT_FIT[0]) / _MUAP_EXPONENT_FIT[1]
                                 for p in exponent),
             fluctuation_std=tuple(float(v) for v in rng.uniform(0.05, 0.12, N_MUSCLES)),
@@ -149,8 +164,8 @@ class VirtualSubject:
             anatomy_seed=int(rng.integers(2**31)),
         )
         armband = Armband(
-            crosstalk_length=float(rng.uniform(0.45, 0.65)),
-            noise_lsb=float(rng.uniform(1.5, 2.3)),
+            crosstalk_length=float(rng.uniform(*_CROSSTALK_LENGTH)),
+            noise_lsb=float(np.exp(rng.uniform(*np.log(_NOISE_LSB)))),
             channel_gain=tuple(float(v) for v in np.exp(0.1 * rng.standard_normal(N_MUSCLES))),
         )
         return cls(

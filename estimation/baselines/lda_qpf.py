@@ -3,6 +3,13 @@
 LDA (scikit-learn) projects the features to one dimension, trained to separate
 discretized force levels; a quadratic ``yhat = c2 z^2 + c1 z + c0`` maps the
 projection ``z`` to force by least squares.
+
+Guarded extrapolation: the quadratic is used inside the projections seen in
+identification, ``[z_lo, z_hi]``; outside, it continues along its tangent at the
+nearer end (never turning back: a slope of the wrong sign, against the overall
+force trend, is replaced by 0). A raw quadratic bends over above the
+identification range and gave negative R^2 on virtual subjects whose strongest
+squeeze lies in the validation half.
 """
 
 from __future__ import annotations
@@ -56,8 +63,22 @@ class LDAQPF:
         self.projection_ = self.lda_.scalings_[:, 0].copy()
         z = self._project(U)
         self.poly_ = np.polyfit(z, y, self.degree)
+        self.z_range_ = (float(z.min()), float(z.max()))
+        trend = float(np.sign(np.polyfit(z, y, 1)[0])) or 1.0
+        deriv = np.polyder(self.poly_)
+        self.edges_ = tuple(
+            (zb, float(np.polyval(self.poly_, zb)),
+             float(np.polyval(deriv, zb)) if np.polyval(deriv, zb) * trend > 0 else 0.0)
+            for zb in self.z_range_)
         self.n_features_in_ = U.shape[1]
         return self
+
+    def _map(self, z: np.ndarray) -> np.ndarray:
+        """Guarded polynomial: quadratic inside the identification range, tangent outside."""
+        (z_lo, y_lo, s_lo), (z_hi, y_hi, s_hi) = self.edges_
+        out = np.polyval(self.poly_, np.clip(z, z_lo, z_hi))
+        out = np.where(z < z_lo, y_lo + s_lo * (z - z_lo), out)
+        return np.where(z > z_hi, y_hi + s_hi * (z - z_hi), out)
 
     def _project(self, U: np.ndarray) -> np.ndarray:
         return (U - self.lda_.xbar_) @ self.projection_
@@ -67,7 +88,7 @@ class LDAQPF:
         """Force estimate, shape (n_samples,); ``y`` is ignored."""
         check_mode(mode, self.modes, "LDAQPF")
         U = check_features(U, n_inputs=self.n_features_in_)
-        return np.polyval(self.poly_, self._project(U))
+        return self._map(self._project(U))
 
     def streaming(self, mode: str = "free_run", *,
                   scaling: MinMaxScaling | None = None) -> object:
@@ -84,6 +105,7 @@ class _LDAQPFStream:
         self._dot = est.projection_.dot
         self._z0 = float(est.lda_.xbar_ @ est.projection_)
         self._poly = [float(c) for c in est.poly_]
+        (self._z_lo, self._y_lo, self._s_lo), (self._z_hi, self._y_hi, self._s_hi) = est.edges_
 
     def reset(self) -> None:
         """Stateless: nothing to reset."""
@@ -91,6 +113,10 @@ class _LDAQPFStream:
     def step(self, u: np.ndarray, y_prev: float | None = None) -> float:
         """Force estimate for features ``u(k)`` (normalized)."""
         z = float(self._dot(u)) - self._z0
+        if z < self._z_lo:
+            return self._y_lo + self._s_lo * (z - self._z_lo)
+        if z > self._z_hi:
+            return self._y_hi + self._s_hi * (z - self._z_hi)
         acc = 0.0
         for c in self._poly:  # Horner
             acc = acc * z + c

@@ -3,8 +3,11 @@
 Three layers, logistic hidden units (as many as the SS order, 4), linear output,
 MSE loss, mini-batch 1, at most 1000 epochs. scikit-learn has no RMSprop; Adam
 with ``beta_1 = 0`` is RMSprop (decay ``beta_2``) with bias correction, so that
-is used. Training stops early when the training loss has not improved by
-``tol`` for ``n_iter_no_change`` epochs; ``n_epochs_`` records the real count.
+is used. Training stops early when the score on a validation split held out of
+the identification data (``validation_fraction``, scikit-learn's
+``early_stopping``) has not improved by ``tol`` for ``n_iter_no_change``
+epochs, and the weights of the best validation epoch are kept; never on the
+training loss. ``n_epochs_`` records the real count.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from scipy.special import expit
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.neural_network import MLPRegressor
 
+from estimation.deployable import check_period
 from estimation.errors import check_features, check_mode, check_target
 from estimation.normalize import MinMaxScaling
 from estimation.streaming import scaled
@@ -27,13 +31,16 @@ def seed_from(rng: np.random.Generator | int | None) -> int:
 
 
 def make_mlp(hidden: int, *, max_epochs: int, learning_rate: float, rho: float, tol: float,
-             n_iter_no_change: int, rng: np.random.Generator | int | None) -> MLPRegressor:
+             n_iter_no_change: int, rng: np.random.Generator | int | None,
+             validation_fraction: float = 0.2, alpha: float = 1e-4,
+             batch_size: int = 1) -> MLPRegressor:
     """The paper's network as an unfitted :class:`~sklearn.neural_network.MLPRegressor`."""
     return MLPRegressor(
         hidden_layer_sizes=(hidden,), activation="logistic", solver="adam",
-        beta_1=0.0, beta_2=rho, learning_rate_init=learning_rate, batch_size=1,
+        beta_1=0.0, beta_2=rho, learning_rate_init=learning_rate, batch_size=batch_size,
         max_iter=max_epochs, tol=tol, n_iter_no_change=n_iter_no_change, shuffle=True,
-        early_stopping=False, random_state=seed_from(rng),
+        early_stopping=True, validation_fraction=validation_fraction, alpha=alpha,
+        random_state=seed_from(rng),
     )
 
 
@@ -80,7 +87,15 @@ class MLPBaseline:
     rho : float
         RMSprop decay of the squared-gradient average (Adam's ``beta_2``).
     tol, n_iter_no_change :
-        Early stop on the training loss.
+        Early stop on the validation-split score.
+    validation_fraction : float
+        Share of the identification data held out for early stopping.
+    alpha : float
+        L2 penalty on the weights.
+    dt_s : float
+        Window increment in seconds; streams refuse a shorter ``period_s``.
+    batch_size : int
+        Mini-batch size (paper: 1).
     random_state : numpy.random.Generator, int or None
         Seeds weight initialization and shuffling.
 
@@ -95,8 +110,14 @@ class MLPBaseline:
 
     def __init__(self, *, hidden: int = 4, max_epochs: int = 1000, learning_rate: float = 1e-2,
                  rho: float = 0.9, tol: float = 1e-4, n_iter_no_change: int = 10,
+                 validation_fraction: float = 0.2, alpha: float = 1e-4, dt_s: float = 0.125,
+                 batch_size: int = 1,
                  random_state: np.random.Generator | int | None = None) -> None:
         self.hidden = hidden
+        self.batch_size = batch_size
+        self.validation_fraction = validation_fraction
+        self.alpha = alpha
+        self.dt_s = dt_s
         self.max_epochs = max_epochs
         self.learning_rate = learning_rate
         self.rho = rho
@@ -108,14 +129,20 @@ class MLPBaseline:
         """Network inputs for training: the features themselves (NARX adds delays)."""
         return U
 
+    def _target(self, y: np.ndarray) -> np.ndarray:
+        """Network training target (NARX subtracts its linear term)."""
+        return y
+
     def fit(self, U: np.ndarray, y: np.ndarray) -> MLPBaseline:
         """Train on normalized features ``U`` (n_samples, n_inputs) and force ``y``."""
         U = check_features(U)
         y = check_target(y, U.shape[0])
         self.net_ = make_mlp(self.hidden, max_epochs=self.max_epochs,
                              learning_rate=self.learning_rate, rho=self.rho, tol=self.tol,
-                             n_iter_no_change=self.n_iter_no_change, rng=self.random_state)
-        self.converged_ = fit_quietly(self.net_, self._regressors(U, y), y)
+                             n_iter_no_change=self.n_iter_no_change, rng=self.random_state,
+                             validation_fraction=self.validation_fraction, alpha=self.alpha,
+                             batch_size=self.batch_size)
+        self.converged_ = fit_quietly(self.net_, self._regressors(U, y), self._target(y))
         self.n_epochs_ = int(self.net_.n_iter_)
         self.n_features_in_ = U.shape[1]
         return self
@@ -126,10 +153,11 @@ class MLPBaseline:
         check_mode(mode, self.modes, "MLPBaseline")
         return self.net_.predict(check_features(U, n_inputs=self.n_features_in_))
 
-    def streaming(self, mode: str = "free_run", *,
-                  scaling: MinMaxScaling | None = None) -> object:
-        """A stream running the forward pass per window."""
+    def streaming(self, mode: str = "free_run", *, scaling: MinMaxScaling | None = None,
+                  period_s: float | None = None) -> object:
+        """A stream running the forward pass per window (``period_s`` >= ``dt_s``)."""
         check_mode(mode, self.modes, "MLPBaseline")
+        check_period(period_s, self.dt_s, "MLPBaseline")
         return scaled(_MLPStream(MLPForward(self.net_), mode), scaling)
 
 

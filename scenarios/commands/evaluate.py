@@ -7,14 +7,8 @@ import json
 from pathlib import Path
 
 from estimation.registry import ESTIMATOR_NAMES
-from estimation.reproduce import evaluate_recording, format_summary
+from estimation.reproduce import evaluate_recording, format_summary, parse_channels
 from sim.recording import load_recording
-
-
-def _channels(text: str) -> list[int | str]:
-    """``"6,7,8"`` -> ``[6, 7, 8]``; non-numeric entries stay channel names."""
-    items = [t.strip() for t in text.split(",") if t.strip()]
-    return [int(t) if t.isdigit() else t for t in items]
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -30,8 +24,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--recording", required=True, metavar="FILE",
                         help="recording (.npz or .csv) with sEMG and measured force")
     parser.add_argument("--channels", default="6,7,8",
-                        help="comma-separated channels, 1-based numbers or names "
-                        "(default: 6,7,8)")
+                        help="'all', or comma-separated channels as 1-based numbers or "
+                        "names (default: 6,7,8)")
     parser.add_argument("--estimators", default=",".join(ESTIMATOR_NAMES),
                         help="comma-separated estimator names (default: all)")
     parser.add_argument("--order", type=int, default=4, help="state-space order (default: 4)")
@@ -44,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
     recording = load_recording(args.recording)
     names = [t.strip() for t in args.estimators.split(",") if t.strip()]
-    result = evaluate_recording(recording, channels=_channels(args.channels), estimators=names,
+    result = evaluate_recording(recording, channels=parse_channels(args.channels), estimators=names,
                                 order=args.order, seed=args.seed)
     print(format_summary(result))
     if args.json:

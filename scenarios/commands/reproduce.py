@@ -7,7 +7,7 @@ import json
 import time
 from pathlib import Path
 
-from estimation.reproduce import format_report, run_reproduction, write_csv
+from estimation.reproduce import format_report, parse_channels, run_reproduction, write_csv
 
 
 def _positive_int(text: str) -> int:
@@ -36,6 +36,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="state-space order used for the tables (default: 4, the paper's)")
     parser.add_argument("--max-epochs", type=_positive_int, default=1000,
                         help="MLP/NARX epoch limit (default: 1000, the paper's)")
+    parser.add_argument("--channels", default="6,7,8",
+                        help="sEMG channels: 'all' or comma-separated 1-based numbers "
+                        "(default: 6,7,8, the paper's)")
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     parser.add_argument("--csv", metavar="DIR", help="write the tables as CSV files")
     parser.set_defaults(func=run)
@@ -45,7 +48,8 @@ def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
     t0 = time.perf_counter()
     result = run_reproduction(args.subjects, args.seed, generator=args.generator,
-                              order=args.order, nn_params={"max_epochs": args.max_epochs})
+                              order=args.order, nn_params={"max_epochs": args.max_epochs},
+                              channels=parse_channels(args.channels))
     result["config"]["wall_time_s"] = time.perf_counter() - t0
     print(format_report(result))
     if args.json:

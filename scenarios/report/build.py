@@ -167,6 +167,7 @@ def _paper_section(sources: Sequence[tuple[str, D.ScoreTable]]) -> Section:
         for mode in scores:
             parts.append(_summary_table(scores[mode], mode))
             parts.append(_per_subject_table(scores[mode], mode))
+        parts.append(note(_deployment_sentence(scores)))
         parts.append(_timing_table(scores))
         parts.append(img(F.png_bytes(F.score_bars_figure(scores, f"Scores ({label})")),
                          f"R2 and NRMSE bars per estimator and mode, {label}"))
@@ -175,17 +176,37 @@ def _paper_section(sources: Sequence[tuple[str, D.ScoreTable]]) -> Section:
 
 def _summary_table(scores: Mapping[str, D.EstimatorScores], mode: str) -> str:
     with_paper = mode == "one_step"
-    headers = ["estimator", "n", "R² mean ± SD", "NRMSE mean ± SD"]
+    headers = ["estimator", "n", "R² mean ± SD", "NRMSE mean ± SD", "worst subject R²"]
     if with_paper:
         headers += ["paper R² mean ± SD", "paper NRMSE mean ± SD"]
     rows = []
     for name, s in scores.items():
-        row = [name, s.n, pm(s.r2_mean, s.r2_sd), pm(s.nrmse_mean, s.nrmse_sd)]
+        worst = min((r2 for r2, _ in s.per_subject.values()), default=None)
+        row = [name, s.n, pm(s.r2_mean, s.r2_sd), pm(s.nrmse_mean, s.nrmse_sd), fmt(worst, 3)]
         if with_paper:
             ref = F.paper_reference(name)
             row += [pm(ref[0], ref[1]), pm(ref[2], ref[3])] if ref else ["-", "-"]
         rows.append(row)
     return table(headers, rows, f"Summary, mode {mode}")
+
+
+def _deployment_sentence(scores: D.ScoreTable) -> str:
+    """Which estimator a deployed prosthesis (no force sensor) should use, from the numbers."""
+    free = scores.get("free_run", {})
+    full = {n: e for n, e in free.items() if e.per_subject and e.n == len(e.per_subject)}
+    if not full:
+        return "No estimator ran in free_run on every subject: none can be recommended."
+    best = max(full, key=lambda n: full[n].r2_mean)
+    b = full[best]
+    text = (f"A deployed prosthesis has no force sensor, so it should use {best} in free_run: "
+            f"best sEMG-only mean R² {b.r2_mean:.3f} (worst subject "
+            f"{min(r for r, _ in b.per_subject.values()):.3f})")
+    ref = scores.get("one_step", {}).get("ss_kf")
+    if ref is not None:
+        verdict = "at or above" if b.r2_mean >= ref.r2_mean else "below"
+        text += (f", {verdict} the paper's ss_kf one_step figure ({ref.r2_mean:.3f}), which "
+                 "needs the measured force")
+    return text + "."
 
 
 def _per_subject_table(scores: Mapping[str, D.EstimatorScores], mode: str) -> str:

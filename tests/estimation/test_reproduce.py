@@ -20,7 +20,8 @@ def test_json_contract(result: dict) -> None:
     json.dumps(result)
     assert set(result["estimators"]) == set(ESTIMATOR_NAMES)
     for name, modes in result["estimators"].items():
-        expected = {"one_step"} if name == "persistence" else {"one_step", "free_run"}
+        expected = {"one_step"} if name == "persistence" else \
+            {"free_run"} if name == "ss_sim" else {"one_step", "free_run"}
         assert set(modes) == expected, name
         for entry in modes.values():
             assert {"r2_mean", "r2_sd", "nrmse_mean", "nrmse_sd", "per_subject"} <= set(entry)

@@ -33,9 +33,9 @@ def active_mask(rec) -> np.ndarray:
 def test_rest_noise_matches_the_myo(sessions):
     for rec in sessions:
         rest = rec.emg[rest_mask(rec)].astype(float)
-        assert 1.0 <= rest.std() <= 4.0
-        within = np.mean(np.abs(rest) <= 1.0)
-        assert 0.40 <= within <= 0.75  # real: 55 %
+        assert 1.0 <= rest.std() <= 4.7  # real recordings: 1.0-4.7 LSB (issue 10)
+    within = [np.mean(np.abs(rec.emg[rest_mask(rec)]) <= 1) for rec in sessions]
+    assert 0.30 <= np.median(within) <= 0.75  # one real MYO at 1.9 LSB: 55 %
 
 
 def test_active_rms_at_medium_force_on_flexor_channels(sessions):
@@ -46,9 +46,10 @@ def test_active_rms_at_medium_force_on_flexor_channels(sessions):
         rms = np.sqrt(np.mean(rec.emg[hold][:, FLEXORS].astype(float) ** 2, axis=0))
         per_channel.append(rms)
     per_channel = np.array(per_channel)
-    assert np.all(per_channel.mean(axis=1) >= 5.0) and np.all(per_channel.mean(axis=1) <= 30.0)
-    assert np.median(per_channel) <= 25.0 and per_channel.min() >= 5.0
-    assert per_channel.max() <= 35.0
+    # subjects differ about 5x in sEMG size (real active RMS 11.5-63 LSB, issue 10)
+    assert np.all(per_channel.mean(axis=1) >= 5.0) and np.all(per_channel.mean(axis=1) <= 45.0)
+    assert np.median(per_channel) <= 30.0 and per_channel.min() >= 4.0
+    assert per_channel.max() <= 60.0
 
 
 def test_spectrum_after_aliasing(sessions):
@@ -69,12 +70,12 @@ def test_spectrum_after_aliasing(sessions):
 def test_saturation_and_snr(sessions):
     for rec in sessions:
         at_rail = int(np.count_nonzero((rec.emg == 127) | (rec.emg == -128)))
-        assert at_rail / rec.emg.size < 0.01  # real MYO: about 0.01 %
+        assert at_rail / rec.emg.size < 0.015  # real recordings: 9e-5 to 9e-3
         assert rec.metadata["n_saturated"] <= at_rail  # clipped samples sit on a rail
         active = rec.emg[active_mask(rec)][:, FLEXORS].astype(float)
         rest = rec.emg[rest_mask(rec)][:, FLEXORS].astype(float)
         snr_db = 10 * np.log10(np.mean(active**2) / np.mean(rest**2))
-        assert 8.0 <= snr_db <= 24.0
+        assert 8.0 <= snr_db <= 32.0  # real active RMS 11.5-63 LSB over rest 1.0-4.7 LSB
 
 
 def test_crosstalk_correlation_between_channels(sessions):
