@@ -40,7 +40,8 @@ class ContactGate:
     4. *Force control*: once both sides touch (``Observation.both_sides``) and
        the grip reaches ``handover_fraction`` of the reference (a light touch of
        a soft object is not yet a grasp: the force controller would race the
-       slack out of the foam and overshoot), the force controller takes over from the feedforward command
+       slack out of the foam and overshoot),
+       the force controller takes over from the feedforward command
        ``feedforward(r)`` (``handover``), and the reference it sees rises from
        the grip at the hand-over to the user's reference at no more than
        ``force_rate_n_s`` (it falls at once), so the loop never faces the

@@ -96,7 +96,8 @@ class SensedSlipBound:
 
     with ``load_n`` the carried (upward) load, while both sides touch and it
     exceeds ``min_load_n`` (``-inf`` otherwise: on the table nothing is
-    carried, and the digits may even press the object down), with the friction estimate ``mu_hat`` starting at the
+    carried, and the digits may even press the object down),
+    with the friction estimate ``mu_hat`` starting at the
     conservative ``friction_prior`` and lowered whenever a slip is sensed at
     grip ``G`` under load ``L``: a two-sided grasp slips only if
     ``L > 2 mu G``, so ``mu_hat <- max(friction_floor, min(mu_hat, L / (2 G)))``.

@@ -1,4 +1,4 @@
-"""Force controllers for a grasped object: designed over the grip-force range, analysed where they run.
+"""Force controllers for an object: designed over the grip-force range, analysed where they run.
 
 :func:`design_for_object` builds the object's plant family
 (:func:`controllers.design_plant.plant_family`), designs the controller to its

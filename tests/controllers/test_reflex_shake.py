@@ -5,8 +5,8 @@ constant 3.5 N reference (1.2 times its slip force), lifted gently (no slip on
 the lift), then shaken vertically at 4 Hz with 10 mm amplitude (peak
 acceleration 6.3 m/s^2: it needs about 4.8 N). The same PI force loop (the library's
 design scheduled over force, 60 deg at 10 rad/s, behind its contact gate) runs
-with and without the reflex; the can's user force limit is 9 N. The peak force is checked after the lift, where the
-reflex acts.
+with and without the reflex; the can's user force limit is 9 N. The peak force
+is checked after the lift, where the reflex acts.
 """
 
 import numpy as np
@@ -16,7 +16,6 @@ from controllers.base import observation_from_info
 from controllers.design import design_for_object
 from sim.grasp_env import GraspEnv, WristSchedule
 from sim.objects import make_object
-
 
 REFERENCE_N = 3.5
 BREAK_N = 9.0
