@@ -57,8 +57,9 @@ def compare_references(
     dict
         ``rows``: one flat row per (subject, estimator) with ``status`` ok/failed
         and ``error``; ``summary``: per estimator, the mean of each column in
-        :data:`COLUMNS` over the successful episodes (``dropped``/``crushed`` as
-        fractions), ``n_ok`` and ``n_failed``.
+        :data:`COLUMNS` over the successful episodes (``not_lifted``, ``dropped``
+        and ``crushed`` as fractions of the outcome categories: each episode has
+        one), ``n_ok`` and ``n_failed``.
     """
     rows: list[dict[str, Any]] = []
     for sid in subject_ids:
@@ -72,8 +73,12 @@ def compare_references(
             except (DivergedError, UnsupportedScenarioError) as exc:
                 rows.append({**base, "status": "failed", "error": str(exc)})
                 continue
+            row = result.row
             rows.append({**base, "status": "ok", "error": None,
-                         **{k: result.row[k] for k in COLUMNS}})
+                         **{k: row[k] for k in COLUMNS},
+                         "not_lifted": row["outcome"] == "not_lifted",
+                         "dropped": row["outcome"] == "dropped",
+                         "crushed": row["outcome"] == "crushed"})
     summary = {}
     for name in estimators:
         ok = [r for r in rows if r["estimator"] == name and r["status"] == "ok"]
@@ -81,7 +86,7 @@ def compare_references(
                                  "n_ok": len(ok), "n_failed": sum(
                                      r["estimator"] == name and r["status"] == "failed"
                                      for r in rows)}
-        for col in COLUMNS:
+        for col in (*COLUMNS, "not_lifted"):
             values = [float(r[col]) for r in ok if r[col] is not None]
             entry[col] = float(np.mean(values)) if values else None
         summary[name] = entry
@@ -94,7 +99,8 @@ def compare_references(
 def format_comparison(result: dict[str, Any]) -> str:
     """A plain-text table of :func:`compare_references`'s summary."""
     head = (f"{'reference':<14}{'mode':<10}{'volatility N/s':>15}{'est. RMSE N':>12}"
-            f"{'track RMSE N':>13}{'slip ev.':>9}{'slip mm':>8}{'drop %':>7}{'crush %':>8}"
+            f"{'track RMSE N':>13}{'slip ev.':>9}{'slip mm':>8}{'not lifted %':>13}"
+            f"{'drop %':>7}{'crush %':>8}"
             f"{'peak N':>8}{'ok/fail':>9}")
     lines = [head]
 
@@ -106,6 +112,7 @@ def format_comparison(result: dict[str, Any]) -> str:
             f"{name:<14}{s['mode']:<10}{f(s['reference_volatility_n_per_s']):>15}"
             f"{f(s['estimation_rmse_n']):>12}{f(s['tracking_rmse_n']):>13}"
             f"{f(s['slip_events'], fmt='.1f'):>9}{f(s['slip_distance_m'], 1e3, '.1f'):>8}"
+            f"{f(s['not_lifted'], 100, '.0f'):>13}"
             f"{f(s['dropped'], 100, '.0f'):>7}{f(s['crushed'], 100, '.0f'):>8}"
             f"{f(s['peak_force_n'], fmt='.1f'):>8}{s['n_ok']:>5}/{s['n_failed']}"
         )
