@@ -891,7 +891,8 @@ def _time_checks(t: np.ndarray, name: str, path: Path, time_unit: str,
         row = int(np.argmax(dt < 0)) + 2
         raise RecordingError(
             f"{path}: column {name!r} is not strictly increasing at data row {row} (goes back "
-            f"from {t[row - 2]:.6g} to {t[row - 1]:.6g} s); sort or split the file"
+            f"from {t[row - 2]:.6g} to {t[row - 1]:.6g} s after the first stamp); sort or "
+            "split the file"
         )
     positive = dt[dt > 0]
     if positive.size == 0:
@@ -951,7 +952,8 @@ def _resample(t: np.ndarray, data: np.ndarray, step: float, resample_hz: float,
         t_u, values = uniq, sums / count[:, None]
     if t_u.size < 2:
         raise RecordingError(f"{path}: needs at least 2 distinct time stamps to resample")
-    n_out = int(np.floor((t_u[-1] - t_u[0]) * resample_hz + 1e-9)) + 1
+    span = float(t_u[-1] - t_u[0]) * resample_hz
+    n_out = int(np.floor(span + 1e-9)) + 1 if np.isfinite(span) and span < 2**53 else 2**53
     if n_out < 2 or n_out * data.shape[1] * 8 > max_bytes:
         raise RecordingError(
             f"{path}: --resample {resample_hz:g} over {t_u[-1] - t_u[0]:.6g} s gives {n_out} "
@@ -1067,7 +1069,12 @@ def _load_csv(path: Path, emg_unit: str | None, max_bytes: int, columns: ColumnM
             raise RecordingError(f"{path}: --resample needs a time column (found none)")
     else:
         tname = header[t_idx]
-        t = data[:, pos[t_idx]] * _TIME_UNITS[time_unit]
+        raw_t = data[:, pos[t_idx]]
+        # relative to the first stamp before scaling: exact for integer epoch stamps
+        with np.errstate(over="ignore", invalid="ignore"):
+            t = (raw_t - raw_t[0]) * _TIME_UNITS[time_unit]
+        if not np.all(np.isfinite(t)):
+            raise RecordingError(f"{path}: column {tname!r} spans more than a float can hold")
         step = _time_checks(t, tname, path, time_unit, resample_hz is not None)
         if resample_hz is not None:
             rate = _positive_rate(resample_hz, str(path), "--resample")
