@@ -818,12 +818,12 @@ def _resolve_columns(
     if columns.time is not None:
         if columns.time in counts:
             t_idx = unique(columns.time, "--time-column")
-        elif fs_hz is None:
+        elif fs_hz is None or columns.time != "t":
             guess = _suggest(header, r"^(time|timestamp|t_|.*_t$|.*time)")
-            hint = (f"pass --time-column {guess}" if guess else "pass --time-column NAME")
+            hint = (f"pass --time-column {guess[:40]}" if guess else "pass --time-column NAME")
             raise RecordingError(
-                f"{path}: no time column {columns.time!r} (columns: {_shown(header)}); "
-                f"{hint}, or --fs-hz HZ if the file has no time column"
+                f"{path}: no time column {columns.time[:40]!r} (columns: {_shown(header)}); "
+                f"{hint}, or --time-column none --fs-hz HZ if the file has no time column"
             )
     elif fs_hz is None:
         raise RecordingError(f"{path}: no time column and no sampling rate; pass --fs-hz HZ")
