@@ -1063,6 +1063,16 @@ def _load_csv(path: Path, emg_unit: str | None, max_bytes: int, columns: ColumnM
             f"(found {emg.min():.6g}..{emg.max():.6g}): pass --emg-unit uV (or mV, a.u.)"
         )
     metadata = meta.get("metadata", {})
+    ignored = [header[j] for j in range(len(header)) if j not in pos]
+    if isinstance(metadata, dict) and (ignored or not columns.is_default):
+        metadata = dict(metadata)
+        metadata["csv_layout"] = {
+            "time": None if t_idx is None else header[t_idx],
+            "time_unit": time_unit,
+            "emg": [header[j] for j in emg_idx],
+            "force": None if f_idx is None else header[f_idx],
+            "ignored": ignored,
+        }
     if t_idx is None:
         rate = _positive_rate(fs_hz, str(path), "--fs-hz")
         if resample_hz is not None:

@@ -9,7 +9,7 @@ from pathlib import Path
 from estimation.registry import ESTIMATOR_NAMES
 from estimation.reproduce import evaluate_recording, format_summary, parse_channels
 from scenarios.recording_options import add_recording_options, recording_kwargs
-from sim.recording import load_recording
+from sim.recording import RecordingError, load_recording
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -41,6 +41,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
     recording = load_recording(args.recording, **recording_kwargs(args))
+    layout = recording.metadata.get("csv_layout", {})
+    ignored = layout.get("ignored", []) if isinstance(layout, dict) else []
+    if recording.force_n is None:
+        unused = f" (unused columns: {', '.join(map(repr, ignored[:8]))})" if ignored else ""
+        raise RecordingError(
+            f"{recording.source}: no force column; the protocol needs the measured force: "
+            f"pass --force-column NAME{unused}"
+        )
+    if ignored:
+        print(f"{recording.source}: ignored columns {', '.join(map(repr, ignored[:12]))}"
+              + (" ..." if len(ignored) > 12 else ""))
     names = [t.strip() for t in args.estimators.split(",") if t.strip()]
     result = evaluate_recording(recording, channels=parse_channels(args.channels), estimators=names,
                                 order=args.order, seed=args.seed)

@@ -91,7 +91,18 @@ def test_json_is_optional(tmp_path, capsys) -> None:
     path = write_pandas_style(tmp_path / "pandas.csv")
     code = main(["evaluate", "--recording", str(path), "--time-column", "time_s",
                  "--emg-columns", "emg_*", "--force-column", "force_n", "--estimators", "ridge"])
-    assert code == 0 and "ridge" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert code == 0 and "ridge" in out
+    assert f"{path}: ignored columns '', 'label'" in out
+
+
+def test_missing_force_names_the_option(tmp_path, capsys) -> None:
+    path = write_pandas_style(tmp_path / "pandas.csv")
+    code = main(["evaluate", "--recording", str(path), "--time-column", "time_s",
+                 "--emg-columns", "emg_*", "--force-column", "none", "--estimators", "ridge"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert err[0].endswith("pass --force-column NAME (unused columns: '', 'force_n', 'label')")
 
 
 def test_bad_column_map_is_one_line(tmp_path, capsys) -> None:

@@ -90,6 +90,9 @@ def test_pandas_style_file_with_a_column_map(tmp_path, index_name) -> None:
     assert rec.channel_names == [f"emg_{k}" for k in range(8)]
     np.testing.assert_array_equal(rec.emg, emg)
     np.testing.assert_allclose(rec.force_n, force)
+    assert rec.metadata["csv_layout"] == {
+        "time": "time_s", "time_unit": "s", "emg": rec.channel_names, "force": "force_n",
+        "ignored": [index_name, "label"]}
     same = load_recording(path, columns=ColumnMap(time="time_s", emg="emg_0..emg_7",
                                                   force="force_n"))
     np.testing.assert_array_equal(same.emg, rec.emg)
