@@ -112,3 +112,11 @@ def test_bad_column_map_is_one_line(tmp_path, capsys) -> None:
     assert main(["evaluate", "--recording", str(path), "--columns", str(layout)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "unknown key 'time'" in err[0] and str(layout) in err[0]
+
+
+def test_plot_recording_takes_the_same_options(tmp_path, capsys) -> None:
+    path, _, _ = write_myo_dump(tmp_path / "myo.csv")
+    png = tmp_path / "myo.png"
+    assert main(["plot-recording", str(path), "--out", str(png), "--time-column", "timestamp",
+                 "--time-unit", "ms", "--resample", "200", "--duplicates", "spread"]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
