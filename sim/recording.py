@@ -5,22 +5,30 @@ multichannel sEMG of shape ``(n_samples, n_channels)`` sampled at ``fs_hz``, the
 measured grip force in newtons (optional), and, for simulated subjects, the
 ground-truth intent (normalized force, 0..1) that produced them.
 
-CSV layout (one row per sample)::
+CSV layout written by griploop (one header line, one row per sample)::
 
     t,emg1,emg2,...,emg8,force
-    0.000,3,-1,...,0,0.512
+    0.000000,3,-1,...,0,0.512
 
-``t`` is in seconds and must be strictly increasing at a regular interval;
-channel columns are named ``emg1..emgN`` (1-based, as on the MYO); ``force`` is
-in newtons. Optional extra columns ``intent`` and ``intent_force_n`` carry the
-simulated ground truth. Any other column is rejected, never silently dropped.
+``t`` is in seconds; channel columns are named ``emg1..emgN`` (1-based, as on the
+MYO); ``force`` is in newtons; optional ``intent`` and ``intent_force_n`` carry the
+simulated ground truth. Metadata (rate, sEMG unit, channel names, provenance) go to
+the JSON sidecar ``FILE.csv.json``. The older form with a ``# griploop {json}``
+first line is still read.
+
+Other tools' CSV files are read through a :class:`ColumnMap` (which columns hold
+time, sEMG and force), a time unit or a sampling rate, and an optional resampling
+onto a uniform grid; columns the map does not use are ignored. ``docs/FORMAT.md``
+documents the formats and options.
 """
 
 from __future__ import annotations
 
+import fnmatch
 import json
 import re
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -30,6 +38,16 @@ import numpy as np
 EMG_UNITS = ("int8", "uV", "mV", "a.u.")
 _OPTIONAL_COLUMNS = ("intent", "intent_force_n")
 _EMG_COLUMN = re.compile(r"^emg(\d+)$")
+_EMG_RANGE = re.compile(r"^(.*?)(\d+)\.\.(.*?)(\d+)$")
+TIME_UNITS = ("s", "ms", "us")
+_TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
+DUPLICATES = ("average", "spread")
+MIN_FS_HZ = 10.0
+"""Lowest sampling rate a CSV time column may imply, Hz (lower means a wrong time unit)."""
+MAX_GAP_STEPS = 20
+"""Largest gap resampling bridges, in median time steps (longer gaps are refused)."""
+MAX_SIDECAR_BYTES = 16 * 2**20
+"""Largest JSON sidecar or column-map file, bytes."""
 # Relative tolerance on sample-interval regularity of the time column.
 _TIME_RTOL = 1e-3
 # Relative tolerance between a metadata sampling rate and the time column's.
@@ -56,6 +74,135 @@ class RecordingError(ValueError):
     The message names the source (file or argument), the column or field and
     what was expected versus what was found.
     """
+
+
+@dataclass(frozen=True)
+class ColumnMap:
+    """Which CSV columns hold time, sEMG and force.
+
+    Columns the map does not use are ignored (pandas' index column, labels,
+    IMU data...). The default is griploop's own layout.
+
+    Parameters
+    ----------
+    time : str or None
+        Name of the time column (default ``"t"``); ``None`` when the file has
+        none (then ``load_recording(..., fs_hz=...)`` gives the rate).
+    emg : str, sequence of str, or None
+        The sEMG columns, in channel order: a list of names, one string of
+        comma-separated names, a glob (``"emg_*"``, file order) or a range of
+        numbered names (``"emg_0..emg_7"`` or ``"emg_0..7"``). ``None``:
+        griploop's ``emg1..emgN``. Named columns become the channel names.
+    force : str or None
+        Name of the measured-force column in newtons (default ``"force"``,
+        optional when absent); ``None`` to load without force.
+    """
+
+    time: str | None = "t"
+    emg: str | Sequence[str] | None = None
+    force: str | None = "force"
+
+    @property
+    def is_default(self) -> bool:
+        """Whether this is griploop's own layout."""
+        return self == ColumnMap()
+
+
+_LAYOUT_KEYS = ("time_column", "emg_columns", "force_column", "time_unit", "fs_hz",
+                "emg_unit", "resample_hz", "duplicates")
+
+
+def read_column_file(path: str | Path) -> dict[str, Any]:
+    """Read a column-map file (YAML or JSON) into keyword arguments of :func:`load_recording`.
+
+    The file is a mapping with any of the keys ``time_column``, ``emg_columns``,
+    ``force_column`` (``null`` or ``"none"`` for no such column), ``time_unit``,
+    ``fs_hz``, ``emg_unit``, ``resample_hz`` and ``duplicates``, named as the
+    ``griploop evaluate`` options::
+
+        time_column: timestamp
+        time_unit: ms
+        emg_columns: "emg_*"
+        force_column: force_n
+        resample_hz: 200
+
+    Returns
+    -------
+    dict
+        ``{"columns": ColumnMap, ...}`` with the file's other keys, ready for
+        ``load_recording(path, **kwargs)``.
+
+    Raises
+    ------
+    RecordingError
+        Unreadable file, not a mapping, unknown key or a value of the wrong type.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise RecordingError(f"{path}: no such column-map file")
+    text = _read_text(path, MAX_SIDECAR_BYTES, "column-map file")
+    if path.suffix.lower() == ".json":
+        data: Any = _json_object(text, str(path), "column map")
+    else:
+        import yaml
+
+        try:
+            data = yaml.safe_load(text)
+        except (yaml.YAMLError, RecursionError) as exc:
+            reason = " ".join(str(exc).split())[:160]
+            raise RecordingError(f"{path}: not valid YAML ({reason})") from None
+    if not isinstance(data, dict):
+        raise RecordingError(
+            f"{path}: expected a mapping of {', '.join(_LAYOUT_KEYS)}, found {_describe(data)}"
+        )
+    unknown = sorted(str(k) for k in data if k not in _LAYOUT_KEYS)
+    if unknown:
+        raise RecordingError(
+            f"{path}: unknown key {unknown[0][:40]!r}; expected some of {', '.join(_LAYOUT_KEYS)}"
+        )
+    mapping: dict[str, Any] = {}
+    for key, attr in (("time_column", "time"), ("force_column", "force")):
+        if key in data:
+            value = data[key]
+            if value is not None and not isinstance(value, str):
+                raise RecordingError(f"{path}: {key}: expected a column name, found "
+                                     f"{_describe(value)}")
+            mapping[attr] = None if value is None or value.lower() == "none" else value
+    if "emg_columns" in data:
+        value = data["emg_columns"]
+        if isinstance(value, list) and all(isinstance(v, str) for v in value):
+            value = tuple(value)
+        elif not isinstance(value, str):
+            raise RecordingError(f"{path}: emg_columns: expected names, a glob or a range, "
+                                 f"found {_describe(value)}")
+        mapping["emg"] = value
+    kwargs: dict[str, Any] = {"columns": ColumnMap(**mapping)}
+    for key in ("time_unit", "emg_unit", "duplicates"):
+        if key in data:
+            kwargs[key] = data[key]
+    if "fs_hz" in data:
+        kwargs["fs_hz"] = _positive_rate(data["fs_hz"], str(path), "fs_hz")
+    if "resample_hz" in data:
+        kwargs["resample_hz"] = _positive_rate(data["resample_hz"], str(path), "resample_hz")
+    _check_options(str(path), kwargs.get("time_unit", "s"), kwargs.get("emg_unit"),
+                   kwargs.get("duplicates", "average"))
+    return kwargs
+
+
+def _check_options(src: str, time_unit: Any, emg_unit: Any, duplicates: Any) -> None:
+    for label, value, allowed in (("time_unit", time_unit, TIME_UNITS),
+                                  ("emg_unit", emg_unit, (None, *EMG_UNITS)),
+                                  ("duplicates", duplicates, DUPLICATES)):
+        if not isinstance(value, (str, type(None))) or value not in allowed:
+            shown = ", ".join(str(a) for a in allowed if a is not None)
+            raise RecordingError(f"{src}: {label}: expected one of {shown}, found "
+                                 f"{_describe(value)}")
+
+
+def sidecar_path(csv_path: str | Path) -> Path:
+    """The JSON sidecar of a CSV recording: ``FILE.csv`` -> ``FILE.csv.json``."""
+    csv_path = Path(csv_path)
+    return csv_path.with_name(csv_path.name + ".json")
 
 
 @dataclass
@@ -258,45 +405,46 @@ class Recording:
         return path
 
     def save_csv(self, path: str | Path) -> Path:
-        """Save as CSV: ``t,emg1..emgN,force[,intent,intent_force_n]``.
+        """Save as plain CSV ``t,emg1..emgN[,force,intent,intent_force_n]`` plus a JSON sidecar.
 
-        Metadata, the sEMG unit and channel names go into ``#`` comment lines
-        at the top so that a round trip keeps them.
+        The CSV has one header line and one row per sample (``t`` in seconds,
+        sEMG in ``emg_unit``, forces in newtons), so ``pandas.read_csv``,
+        ``numpy.loadtxt(f, delimiter=",", skiprows=1)`` and spreadsheets read
+        it. The sampling rate, sEMG unit, channel names and metadata go to
+        ``FILE.csv.json`` (see :func:`sidecar_path`), which :func:`load_recording`
+        reads back.
         """
         path = Path(path)
         header = ["t"] + [f"emg{i + 1}" for i in range(self.n_channels)]
         columns = [self.t_s[:, None], self.emg.astype(float)]
         formats = ["%.6f"] + (["%d"] if self.emg.dtype.kind in "iu" else ["%.6g"]) * self.n_channels
+        units = {"t": "s", **{name: self.emg_unit for name in header[1:]}}
         if self.force_n is not None:
             header.append("force")
             columns.append(self.force_n[:, None])
             formats.append("%.6g")
+            units["force"] = "N"
         for name in _OPTIONAL_COLUMNS:
             value = getattr(self, name)
             if value is not None:
                 header.append(name)
                 columns.append(value[:, None])
                 formats.append("%.6g")
+                units[name] = "1 (0..1 of MVC)" if name == "intent" else "N"
+        np.savetxt(path, np.hstack(columns), fmt=formats, delimiter=",",
+                   header=",".join(header), comments="")
         meta = {
+            "format": "griploop recording CSV sidecar",
+            "version": 1,
+            "csv": path.name,
+            "columns": header,
+            "units": units,
             "fs_hz": self.fs_hz,
             "emg_unit": self.emg_unit,
             "channel_names": self.channel_names,
             "metadata": self.metadata,
         }
-        comment = "griploop " + json.dumps(meta, sort_keys=True)
-        np.savetxt(
-            path,
-            np.hstack(columns),
-            fmt=formats,
-            delimiter=",",
-            header=comment + "\n" + ",".join(header),
-            comments="# ",
-        )
-        # np.savetxt prefixes every header line with the comment marker; the
-        # column header must be a plain line, so rewrite the second line.
-        lines = path.read_text().splitlines(keepends=True)
-        lines[1] = lines[1][2:]
-        path.write_text("".join(lines))
+        sidecar_path(path).write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
         return path
 
 
@@ -328,34 +476,67 @@ def _describe(value: Any) -> str:
 
 
 def load_recording(
-    path: str | Path, *, emg_unit: str | None = None, max_bytes: int = MAX_FILE_BYTES
+    path: str | Path,
+    *,
+    columns: ColumnMap | None = None,
+    time_unit: str = "s",
+    fs_hz: float | None = None,
+    resample_hz: float | None = None,
+    duplicates: str = "average",
+    emg_unit: str | None = None,
+    max_bytes: int = MAX_FILE_BYTES,
 ) -> Recording:
     """Load a recording from ``.npz`` or ``.csv``.
 
     Parameters
     ----------
     path : str or Path
-        The file. CSV files written by other tools need only the header
-        ``t,emg1..emgN[,force]``; the sampling rate is derived from ``t``.
+        The file. A CSV needs a header line; by default its columns are
+        griploop's ``t,emg1..emgN[,force]`` and other columns are ignored.
+        Metadata come from ``FILE.csv.json`` or an old ``# griploop {json}``
+        first line (which wins) when present.
+    columns : ColumnMap, optional
+        Which CSV columns hold time, sEMG and force (CSV only).
+    time_unit : {"s", "ms", "us"}
+        Unit of the CSV time column.
+    fs_hz : float, optional
+        Sampling rate, Hz, for a CSV without a time column
+        (``ColumnMap(time=None)``, or the default ``t`` absent). With a time
+        column it must agree with it within 1 %.
+    resample_hz : float, optional
+        Interpolate sEMG and force linearly (``numpy.interp``) onto a uniform
+        grid at this rate starting at the first time stamp: for jittered or
+        duplicated time stamps. No anti-alias filter is applied, so choose a
+        rate at or above the device's. Gaps longer than ``MAX_GAP_STEPS``
+        median steps are refused. int8 sEMG is rounded back to counts.
+    duplicates : {"average", "spread"}
+        With ``resample_hz``: rows sharing a time stamp are averaged into one
+        sample (default), or spread evenly up to the next stamp (MYO dumps,
+        where one packet stamp covers several consecutive samples).
     emg_unit : str, optional
-        Unit of the sEMG columns for CSV files without griploop metadata.
-        Default: ``"int8"`` when every value is an integer within -128..127,
-        otherwise ``"uV"``.
+        Unit of the CSV sEMG columns; wins over the metadata. Default: the
+        metadata's, else ``"int8"`` when every value is an integer within
+        -128..127, otherwise ``"uV"``.
     max_bytes : int
-        Largest CSV file, or largest total of an NPZ file's arrays
-        uncompressed (as their zip headers declare, checked before anything
-        is decompressed), bytes.
+        Largest CSV file (and resampled data), or largest total of an NPZ
+        file's arrays uncompressed (as their zip headers declare, checked
+        before anything is decompressed), bytes.
 
     Raises
     ------
     RecordingError
         The only exception: missing or unreadable file, unknown format,
         oversized file or array, NaN/inf, values outside the unit's range,
-        missing or extra columns, non-monotonic or irregular time, a metadata
-        sampling rate contradicting the time column. The message names the
-        file and the field.
+        missing columns, decreasing, duplicated or irregular time without
+        ``resample_hz``, an implausible time unit, a metadata sampling rate
+        contradicting the time column. The message names the file, the field
+        and, where one exists, the ``griploop evaluate`` option that fixes it.
     """
     path = Path(path)
+    columns = ColumnMap() if columns is None else columns
+    if not isinstance(columns, ColumnMap):
+        raise RecordingError(f"{path}: columns: expected a ColumnMap, found {_describe(columns)}")
+    _check_options(str(path), time_unit, emg_unit, duplicates)
     if not path.exists():
         raise RecordingError(f"{path}: no such file")
     if not path.is_file():
@@ -364,10 +545,25 @@ def load_recording(
         raise RecordingError(
             f"{path}: unknown recording format {path.suffix!r}; expected .npz or .csv"
         )
+    if path.suffix == ".npz":
+        given = [name for name, value, default in (
+            ("--time-column/--emg-columns/--force-column", columns, ColumnMap()),
+            ("--time-unit", time_unit, "s"), ("--fs-hz", fs_hz, None),
+            ("--resample", resample_hz, None)) if value != default]
+        if given:
+            raise RecordingError(
+                f"{path}: {given[0]} applies to CSV files only (an NPZ recording carries "
+                "its own layout and rate)"
+            )
+    if fs_hz is not None:
+        fs_hz = _positive_rate(fs_hz, str(path), "--fs-hz")
+    if resample_hz is not None:
+        resample_hz = _positive_rate(resample_hz, str(path), "--resample")
     try:
         if path.suffix == ".npz":
             return _load_npz(path, max_bytes)
-        return _load_csv(path, emg_unit, max_bytes)
+        return _load_csv(path, emg_unit, max_bytes, columns, time_unit, fs_hz, resample_hz,
+                         duplicates)
     except RecordingError:
         raise
     except MemoryError:
@@ -497,13 +693,11 @@ def _npz_metadata(value: np.ndarray, path: Path) -> dict[str, Any]:
     return meta
 
 
-def _load_csv(path: Path, emg_unit: str | None, max_bytes: int) -> Recording:
-    import io
-
+def _read_text(path: Path, max_bytes: int, what: str = "file") -> str:
     size = path.stat().st_size
     if size > max_bytes:
         raise RecordingError(
-            f"{path}: file of {size} bytes (expected at most {max_bytes}); "
+            f"{path}: {what} of {size} bytes (expected at most {max_bytes}); "
             "raise max_bytes to load it"
         )
     raw = path.read_bytes()
@@ -514,28 +708,295 @@ def _load_csv(path: Path, emg_unit: str | None, max_bytes: int) -> Recording:
             f"{path}: not UTF-8 text (byte {exc.start}: {exc.reason})"
         ) from None
     if "\0" in text:
-        raise RecordingError(f"{path}: contains NUL bytes (expected CSV text)")
+        raise RecordingError(f"{path}: contains NUL bytes (expected {what} text)")
+    return text
+
+
+def _json_object(text: str, src: str, field: str) -> dict[str, Any]:
+    try:
+        meta = json.loads(text)
+    except (json.JSONDecodeError, RecursionError):
+        raise RecordingError(f"{src}: corrupt {field} (not valid JSON)") from None
+    if not isinstance(meta, dict):
+        raise RecordingError(
+            f"{src}: {field}: expected a JSON object, found {type(meta).__name__}"
+        )
+    return meta
+
+
+def _read_sidecar(path: Path, max_bytes: int) -> dict[str, Any]:
+    """The JSON sidecar ``FILE.csv.json`` of a CSV recording, or ``{}`` when there is none."""
+    side = sidecar_path(path)
+    if not side.is_file():
+        return {}
+    text = _read_text(side, min(max_bytes, MAX_SIDECAR_BYTES), "sidecar")
+    return _json_object(text, str(side), "griploop metadata")
+
+
+def _suggest(names: list[str], pattern: str) -> str | None:
+    """The first column whose lower-cased name matches ``pattern``, if any."""
+    rx = re.compile(pattern)
+    return next((n for n in names if rx.search(n.lower())), None)
+
+
+def _shown(header: list[str]) -> str:
+    text = ", ".join(repr(h[:20]) for h in header[:12])
+    return text + (", ..." if len(header) > 12 else "")
+
+
+def _emg_spec_columns(spec: Any, header: list[str], path: Path) -> list[int]:
+    """Header positions of the sEMG columns named by ``spec`` (names, glob or range)."""
+    where: dict[str, int] = {}
+    for j, name in enumerate(header):
+        where.setdefault(name, j)
+    if isinstance(spec, str):
+        text = spec.strip()
+        if "," in text:
+            names = [s.strip() for s in text.split(",") if s.strip()]
+        elif any(ch in text for ch in "*?["):
+            found = [j for j, name in enumerate(header) if fnmatch.fnmatchcase(name, text)]
+            if not found:
+                raise RecordingError(
+                    f"{path}: --emg-columns {text!r} matches no column (columns: "
+                    f"{_shown(header)})"
+                )
+            return found
+        elif ".." in text:
+            m = _EMG_RANGE.match(text)
+            if not m or (m.group(3) and m.group(3) != m.group(1)):
+                raise RecordingError(
+                    f"{path}: --emg-columns {text!r}: expected a range like 'emg_0..emg_7' "
+                    "or 'emg_0..7'"
+                )
+            lo, hi = int(m.group(2)), int(m.group(4))
+            if hi < lo or hi - lo >= MAX_CSV_COLUMNS:
+                raise RecordingError(
+                    f"{path}: --emg-columns {text!r}: expected first <= last and at most "
+                    f"{MAX_CSV_COLUMNS} channels"
+                )
+            width = len(m.group(2)) if m.group(2).startswith("0") and len(m.group(2)) > 1 else 0
+            names = [f"{m.group(1)}{k:0{width}d}" for k in range(lo, hi + 1)]
+        else:
+            names = [text] if text else []
+    elif isinstance(spec, (list, tuple)) and all(isinstance(s, str) for s in spec):
+        names = list(spec)
+    else:
+        raise RecordingError(
+            f"{path}: emg columns: expected names, a glob or a range, found {_describe(spec)}"
+        )
+    if not names:
+        raise RecordingError(f"{path}: --emg-columns names no column")
+    missing = [n for n in names if n not in where]
+    if missing:
+        raise RecordingError(
+            f"{path}: sEMG column {missing[0][:40]!r} (from --emg-columns) not in the header "
+            f"(columns: {_shown(header)})"
+        )
+    if len(set(names)) != len(names):
+        raise RecordingError(f"{path}: --emg-columns names a column twice")
+    return [where[n] for n in names]
+
+
+def _resolve_columns(
+    header: list[str], columns: ColumnMap, path: Path, fs_hz: float | None
+) -> tuple[int | None, list[int], int | None, dict[str, int]]:
+    """Positions of the time, sEMG, force and ground-truth columns in ``header``."""
+    counts: dict[str, int] = {}
+    for name in header:
+        counts[name] = counts.get(name, 0) + 1
+
+    def unique(name: str, option: str) -> int:
+        if counts[name] > 1:
+            raise RecordingError(
+                f"{path}: column {name[:40]!r} appears {counts[name]} times; "
+                f"rename it or choose another with {option}"
+            )
+        return header.index(name)
+
+    # time
+    t_idx: int | None = None
+    if columns.time is not None:
+        if columns.time in counts:
+            t_idx = unique(columns.time, "--time-column")
+        elif fs_hz is None or columns.time != "t":
+            guess = _suggest(header, r"^(time|timestamp|t_|.*_t$|.*time)")
+            hint = (f"pass --time-column {guess[:40]}" if guess else "pass --time-column NAME")
+            raise RecordingError(
+                f"{path}: no time column {columns.time[:40]!r} (columns: {_shown(header)}); "
+                f"{hint}, or --time-column none --fs-hz HZ if the file has no time column"
+            )
+    elif fs_hz is None:
+        raise RecordingError(f"{path}: no time column and no sampling rate; pass --fs-hz HZ")
+    # sEMG
+    if columns.emg is None:
+        emg_cols: list[tuple[int, int]] = []
+        for j, name in enumerate(header):
+            m = _EMG_COLUMN.match(name)
+            if m:
+                emg_cols.append((int(m.group(1)), j))
+        if not emg_cols:
+            guess = _suggest(header, r"emg|ch(an(nel)?)?[ _]?\d")
+            hint = ""
+            if guess:
+                stem = re.sub(r"\d+$", "", guess)
+                hint = f" (e.g. --emg-columns '{stem}*')" if stem else ""
+            raise RecordingError(
+                f"{path}: no sEMG columns emg1..emgN (columns: {_shown(header)}); "
+                f"pass --emg-columns NAMES, a glob or a range{hint}"
+            )
+        numbers = sorted(k for k, _ in emg_cols)
+        if numbers != list(range(1, len(numbers) + 1)):
+            raise RecordingError(
+                f"{path}: sEMG columns must be emg1..emg{len(numbers)} without gaps or repeats, "
+                f"found {[f'emg{k}' for k in numbers][:10]}; or pass --emg-columns"
+            )
+        emg_idx = [j for _, j in sorted(emg_cols)]
+    else:
+        emg_idx = _emg_spec_columns(columns.emg, header, path)
+    if t_idx is not None and t_idx in emg_idx:
+        raise RecordingError(f"{path}: column {header[t_idx]!r} is both time and sEMG")
+    # force
+    f_idx: int | None = None
+    if columns.force is not None:
+        if columns.force in counts:
+            f_idx = unique(columns.force, "--force-column")
+        elif columns.force == "force":
+            guess = _suggest([h for j, h in enumerate(header) if j not in emg_idx], r"force|fsr")
+            if guess is not None:
+                raise RecordingError(
+                    f"{path}: no column 'force' but found {guess[:40]!r}: pass --force-column "
+                    f"{guess[:40]} (or --force-column none to load without force)"
+                )
+        else:
+            raise RecordingError(
+                f"{path}: no force column {columns.force[:40]!r} (from --force-column; columns: "
+                f"{_shown(header)})"
+            )
+        if f_idx is not None and (f_idx in emg_idx or f_idx == t_idx):
+            raise RecordingError(f"{path}: column {columns.force!r} is used twice")
+    # simulated ground truth, by griploop's names, when otherwise unused
+    used = set(emg_idx) | {t_idx, f_idx}
+    extra: dict[str, int] = {}
+    for name in _OPTIONAL_COLUMNS:
+        if name in counts and header.index(name) not in used:
+            extra[name] = unique(name, "a column map")
+    return t_idx, emg_idx, f_idx, extra
+
+
+def _time_checks(t: np.ndarray, name: str, path: Path, time_unit: str,
+                 resample: bool) -> float:
+    """Check the time column (seconds); return the median positive step in seconds."""
+    dt = np.diff(t)
+    if np.any(dt < 0):
+        row = int(np.argmax(dt < 0)) + 2
+        raise RecordingError(
+            f"{path}: column {name!r} is not strictly increasing at data row {row} (goes back "
+            f"from {t[row - 2]:.6g} to {t[row - 1]:.6g} s after the first stamp); sort or "
+            "split the file"
+        )
+    positive = dt[dt > 0]
+    if positive.size == 0:
+        raise RecordingError(f"{path}: column {name!r} holds one time stamp for every row")
+    step = float(np.median(positive))
+    rate = 1.0 / step
+    if rate < MIN_FS_HZ or rate > MAX_FS_HZ:
+        scale = _TIME_UNITS[time_unit]
+        raw = step / scale
+        better = [u for u, s in _TIME_UNITS.items()
+                  if u != time_unit and MIN_FS_HZ <= 1.0 / (raw * s) <= MAX_FS_HZ]
+        hint = f"pass --time-unit {better[0]}" if better else "pass --fs-hz HZ"
+        raise RecordingError(
+            f"{path}: time column {name!r} in {better[0] if better else 'other units'}? "
+            f"found steps of {raw:.6g} {time_unit} ({rate:.6g} Hz, expected "
+            f"{MIN_FS_HZ:g}..{MAX_FS_HZ:g} Hz): {hint}"
+        )
+    if resample:
+        return step
+    n_dup = int(np.count_nonzero(dt == 0))
+    if n_dup:
+        row = int(np.argmax(dt == 0)) + 2
+        raise RecordingError(
+            f"{path}: time stamps in column {name!r} not strictly increasing ({n_dup} "
+            f"duplicates, first at data row {row}): pass --resample HZ"
+        )
+    irregular = np.abs(dt - step) > _TIME_RTOL * step + 2e-6
+    if np.any(irregular):
+        row = int(np.argmax(irregular)) + 2
+        raise RecordingError(
+            f"{path}: column {name!r} is irregular at data row {row} (step {dt[row - 2]:.6g} s, "
+            f"expected {step:.6g} s): pass --resample HZ"
+        )
+    return step
+
+
+def _resample(t: np.ndarray, data: np.ndarray, step: float, resample_hz: float,
+              duplicates: str, path: Path, name: str, max_bytes: int) -> np.ndarray:
+    """``data`` (rows at times ``t``) linearly interpolated onto a uniform grid from ``t[0]``."""
+    gaps = np.diff(t) > MAX_GAP_STEPS * step
+    if np.any(gaps):
+        row = int(np.argmax(gaps)) + 2
+        raise RecordingError(
+            f"{path}: column {name!r} jumps by {t[row - 1] - t[row - 2]:.6g} s at data row "
+            f"{row} ({MAX_GAP_STEPS}x its median step {step:.6g} s); resampling would invent "
+            "the missing data: split the file there"
+        )
+    uniq, start, count = np.unique(t, return_index=True, return_counts=True)
+    if duplicates == "spread":
+        # k rows sharing a stamp are spread evenly up to the next stamp (MYO packets)
+        nxt = np.append(uniq[1:], uniq[-1] + step)
+        within = np.arange(t.size) - np.repeat(start, count)
+        t = t + within * np.repeat((nxt - uniq) / count, count)
+        t_u, values = t, data
+    else:  # average
+        sums = np.add.reduceat(data, start, axis=0)
+        t_u, values = uniq, sums / count[:, None]
+    if t_u.size < 2:
+        raise RecordingError(f"{path}: needs at least 2 distinct time stamps to resample")
+    span = float(t_u[-1] - t_u[0]) * resample_hz
+    n_out = int(np.floor(span + 1e-9)) + 1 if np.isfinite(span) and span < 2**53 else 2**53
+    if n_out < 2 or n_out * data.shape[1] * 8 > max_bytes:
+        raise RecordingError(
+            f"{path}: --resample {resample_hz:g} over {t_u[-1] - t_u[0]:.6g} s gives {n_out} "
+            f"samples (expected 2..{max(2, max_bytes // (8 * data.shape[1]))}); choose another HZ"
+        )
+    grid = t_u[0] + np.arange(n_out) / resample_hz
+    out = np.empty((n_out, data.shape[1]))
+    for j in range(data.shape[1]):
+        out[:, j] = np.interp(grid, t_u, values[:, j])
+    return out
+
+
+def _data_rows(lines: list[str]) -> list[str]:
+    return [ln for ln in lines if ln.strip() and not ln.lstrip().startswith("#")]
+
+
+def _load_csv(path: Path, emg_unit: str | None, max_bytes: int, columns: ColumnMap,
+              time_unit: str, fs_hz: float | None, resample_hz: float | None,
+              duplicates: str) -> Recording:
+    import csv
+    import io
+
+    text = _read_text(path, max_bytes)
     meta: dict[str, Any] = {}
     header: list[str] | None = None
     lines = text.splitlines()
     n_comment = 0
+    in_file_meta = False
     for line in lines:
         n_comment += 1
         stripped = line.strip()
         if stripped.startswith("#"):
             body = stripped.lstrip("#").strip()
             if body.startswith("griploop "):
-                try:
-                    meta = json.loads(body[len("griploop "):])
-                except (json.JSONDecodeError, RecursionError):
-                    raise RecordingError(f"{path}: corrupt griploop metadata line") from None
-                if not isinstance(meta, dict):
-                    raise RecordingError(
-                        f"{path}: griploop metadata: expected a JSON object, "
-                        f"found {type(meta).__name__}"
-                    )
+                meta = _json_object(body[len("griploop "):], str(path), "griploop metadata line")
+                in_file_meta = True
             continue
-        header = [h.strip() for h in stripped.split(",")]
+        if not stripped:
+            continue
+        try:
+            header = [h.strip() for h in next(csv.reader([stripped]))]
+        except (csv.Error, StopIteration):
+            header = [h.strip() for h in stripped.split(",")]
         break
     if not header or header == [""]:
         raise RecordingError(f"{path}: no header line; expected 't,emg1,...,emgN[,force]'")
@@ -544,110 +1005,138 @@ def _load_csv(path: Path, emg_unit: str | None, max_bytes: int) -> Recording:
             f"{path}: {len(header)} columns (expected at most {MAX_CSV_COLUMNS}: "
             "t, emg1..emg256, force, intent, intent_force_n)"
         )
-    if header[0] != "t":
-        raise RecordingError(f"{path}: first column must be 't' (seconds), found {header[0]!r}")
-    emg_cols: list[tuple[int, int]] = []
-    other: dict[str, int] = {}
-    for j, name in enumerate(header[1:], start=1):
-        m = _EMG_COLUMN.match(name)
-        if m:
-            emg_cols.append((int(m.group(1)), j))
-        elif name == "force" or name in _OPTIONAL_COLUMNS:
-            if name in other:
-                raise RecordingError(f"{path}: column {name!r} appears twice")
-            other[name] = j
-        else:
-            raise RecordingError(
-                f"{path}: unknown column {name[:40]!r}; expected t, emg1..emgN, force, "
-                f"{', '.join(_OPTIONAL_COLUMNS)}"
-            )
-    if not emg_cols:
-        raise RecordingError(f"{path}: no sEMG columns; expected emg1, emg2, ...")
-    numbers = sorted(k for k, _ in emg_cols)
-    if numbers != list(range(1, len(numbers) + 1)):
+    if not in_file_meta:
+        meta = _read_sidecar(path, max_bytes)
+    if len(header) == 1 and ";" in header[0]:
         raise RecordingError(
-            f"{path}: sEMG columns must be emg1..emg{len(numbers)} without gaps or repeats, "
-            f"found {[f'emg{k}' for k in numbers][:10]}"
+            f"{path}: one column {header[0][:40]!r}: the file looks ';'-separated; "
+            "expected ',' as the delimiter"
         )
-    body = "\n".join(lines[n_comment:])
+    t_idx, emg_idx, f_idx, extra = _resolve_columns(header, columns, path, fs_hz)
+    rows = _data_rows(lines[n_comment:])
+    if len(rows) < 2:
+        raise RecordingError(f"{path}: needs at least 2 rows to define the sampling rate")
+    body = "\n".join(rows)
+    if '"' not in body:
+        widths = np.fromiter((r.count(",") + 1 for r in rows), dtype=np.int64, count=len(rows))
+        bad = np.flatnonzero(widths != len(header))
+        if bad.size:
+            raise RecordingError(
+                f"{path}: data row {int(bad[0]) + 1}: {int(widths[bad[0]])} values per row but "
+                f"{len(header)} header columns"
+            )
+    used = ([t_idx] if t_idx is not None else []) + emg_idx
+    used += ([f_idx] if f_idx is not None else []) + list(extra.values())
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # "input contained no data"
-            data = np.loadtxt(io.StringIO(body), delimiter=",", ndmin=2, dtype=float)
+            data = np.loadtxt(io.StringIO(body), delimiter=",", ndmin=2, dtype=float,
+                              usecols=used, quotechar='"')
     except ValueError as exc:
         reason = " ".join(str(exc).split())[:160]
         raise RecordingError(f"{path}: unparsable numeric data ({reason})") from None
-    if data.shape[1] != len(header) and data.size:
+    if data.shape[1] != len(used):
         raise RecordingError(
-            f"{path}: {data.shape[1]} values per row but {len(header)} header columns"
+            f"{path}: {data.shape[1]} values per row but {len(used)} columns used"
         )
-    if data.shape[0] < 2:
-        raise RecordingError(f"{path}: needs at least 2 rows to define the sampling rate")
-    for j, name in enumerate(header):
-        col = data[:, j]
+    pos = {j: k for k, j in enumerate(used)}
+    for j in used:
+        col = data[:, pos[j]]
         if not np.all(np.isfinite(col)):
             row = int(np.argwhere(~np.isfinite(col))[0][0]) + 1
             raise RecordingError(
-                f"{path}: column {name!r} has NaN or inf at data row {row}; expected finite numbers"
+                f"{path}: column {header[j][:40]!r} has NaN or inf at data row {row}; "
+                "expected finite numbers"
             )
-    t = data[:, 0]
-    dt = np.diff(t)
-    if np.any(dt <= 0):
-        row = int(np.argmax(dt <= 0)) + 2
-        raise RecordingError(f"{path}: column 't' is not strictly increasing at data row {row}")
-    dt_med = float(np.median(dt))
-    irregular = np.abs(dt - dt_med) > _TIME_RTOL * dt_med + 2e-6
-    if np.any(irregular):
-        row = int(np.argmax(irregular)) + 2
-        raise RecordingError(
-            f"{path}: column 't' is irregular at data row {row} (step {dt[row - 2]:.6g} s, "
-            f"expected {dt_med:.6g} s); resample before loading"
-        )
-    fs_time = _positive_rate(1.0 / dt_med, str(path), "column 't' (1 / step)")
-    if "fs_hz" in meta:
-        fs_hz = _positive_rate(meta["fs_hz"], str(path), "metadata fs_hz")
-        if abs(fs_hz - fs_time) > _RATE_RTOL * fs_time:
-            raise RecordingError(
-                f"{path}: metadata fs_hz {fs_hz:g} Hz contradicts column 't' "
-                f"({fs_time:.6g} Hz from its {dt_med:.6g} s step); expected them to agree "
-                f"within {_RATE_RTOL:.0%}"
-            )
-    else:
-        fs_hz = fs_time
-    order = [j for _, j in sorted(emg_cols)]
-    emg = data[:, order]
-    unit = meta.get("emg_unit", emg_unit)
+    emg = data[:, [pos[j] for j in emg_idx]]
+    unit = emg_unit if emg_unit is not None else meta.get("emg_unit")
     if unit is None:
         integral = np.all(emg == np.round(emg))
         unit = "int8" if integral and emg.min() >= -128 and emg.max() <= 127 else "uV"
     if not isinstance(unit, str) or unit not in EMG_UNITS:
         raise RecordingError(f"{path}: emg_unit must be one of {EMG_UNITS}, found {unit!r}")
+    if unit == "int8" and (
+        emg.min() < -128 or emg.max() > 127 or not np.array_equal(emg, np.round(emg))
+    ):
+        raise RecordingError(
+            f"{path}: emg_unit int8 but values are not integers in -128..127 "
+            f"(found {emg.min():.6g}..{emg.max():.6g}): pass --emg-unit uV (or mV, a.u.)"
+        )
+    metadata = meta.get("metadata", {})
+    ignored = [header[j] for j in range(len(header)) if j not in pos]
+    if isinstance(metadata, dict) and (ignored or not columns.is_default):
+        metadata = dict(metadata)
+        metadata["csv_layout"] = {
+            "time": None if t_idx is None else header[t_idx],
+            "time_unit": time_unit,
+            "emg": [header[j] for j in emg_idx],
+            "force": None if f_idx is None else header[f_idx],
+            "ignored": ignored,
+        }
+    if t_idx is None:
+        rate = _positive_rate(fs_hz, str(path), "--fs-hz")
+        if resample_hz is not None:
+            raise RecordingError(f"{path}: --resample needs a time column (found none)")
+    else:
+        tname = header[t_idx]
+        raw_t = data[:, pos[t_idx]]
+        # relative to the first stamp before scaling: exact for integer epoch stamps
+        with np.errstate(over="ignore", invalid="ignore"):
+            t = (raw_t - raw_t[0]) * _TIME_UNITS[time_unit]
+        if not np.all(np.isfinite(t)):
+            raise RecordingError(f"{path}: column {tname!r} spans more than a float can hold")
+        step = _time_checks(t, tname, path, time_unit, resample_hz is not None)
+        if resample_hz is not None:
+            rate = _positive_rate(resample_hz, str(path), "--resample")
+            n_in = data.shape[0]
+            data = _resample(t, data, step, rate, duplicates, path, tname, max_bytes)
+            emg = data[:, [pos[j] for j in emg_idx]]
+            if unit == "int8":
+                emg = np.clip(np.round(emg), -128, 127)
+            if isinstance(metadata, dict):
+                metadata = dict(metadata)
+                metadata["resampled"] = {
+                    "fs_hz": rate, "from_rows": n_in, "median_step_s": step,
+                    "duplicates": duplicates, "method": "linear (numpy.interp)",
+                }
+        else:
+            time_rate = _positive_rate(1.0 / step, str(path), f"column {tname!r} (1 / step)")
+            rate = time_rate
+            # a stated rate that agrees with the time column is the exact one
+            for label, value in (("metadata fs_hz", meta.get("fs_hz")), ("--fs-hz", fs_hz)):
+                if value is None:
+                    continue
+                claimed = _positive_rate(value, str(path), label)
+                if abs(claimed - time_rate) > _RATE_RTOL * time_rate:
+                    raise RecordingError(
+                        f"{path}: {label} {claimed:g} Hz contradicts column {tname!r} "
+                        f"({time_rate:.6g} Hz from its {step:.6g} s step); expected them to "
+                        f"agree within {_RATE_RTOL:.0%}"
+                    )
+                rate = claimed
     if unit == "int8":
-        if emg.min() < -128 or emg.max() > 127 or not np.array_equal(emg, np.round(emg)):
-            raise RecordingError(
-                f"{path}: emg_unit int8 but values are not integers in -128..127 "
-                f"(found {emg.min():.6g}..{emg.max():.6g})"
-            )
         emg = emg.astype(np.int8)
     names = meta.get("channel_names")
-    if names is not None and (
+    if columns.emg is not None:
+        names = [header[j] for j in emg_idx]
+    elif names is not None and (
         not isinstance(names, list) or not all(isinstance(x, str) for x in names)
     ):
         raise RecordingError(
             f"{path}: metadata channel_names: expected a list of strings, found {_describe(names)}"
         )
 
-    def col(name: str) -> np.ndarray | None:
-        return data[:, other[name]] if name in other else None
+    def col(j: int | None) -> np.ndarray | None:
+        return None if j is None else data[:, pos[j]]
 
     return Recording(
         emg=emg,
-        fs_hz=fs_hz,
-        force_n=col("force"),
+        fs_hz=rate,
+        force_n=col(f_idx),
         channel_names=names,
         emg_unit=unit,
-        intent=col("intent"),
-        intent_force_n=col("intent_force_n"),
-        metadata=meta.get("metadata", {}),
+        intent=col(extra.get("intent")),
+        intent_force_n=col(extra.get("intent_force_n")),
+        metadata=metadata,
         source=str(path),
     )

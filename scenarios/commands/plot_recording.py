@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from scenarios.recording_options import add_recording_options, recording_kwargs
 from sim.recording import Recording, load_recording
 
 
@@ -18,6 +19,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "protocol when the recording's metadata has them. Writes a PNG.",
     )
     parser.add_argument("file", metavar="FILE", help="recording (.npz or .csv)")
+    add_recording_options(parser)
     parser.add_argument("--out", required=True, metavar="PNG", help="image file to write")
     parser.add_argument(
         "--dpi", type=int, default=120, help="resolution in dots per inch (default: 120)"
@@ -27,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
-    rec = load_recording(args.file)
+    rec = load_recording(args.file, **recording_kwargs(args))
     out = plot_recording(rec, args.out, dpi=args.dpi)
     print(out)
     return 0

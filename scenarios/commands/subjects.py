@@ -17,7 +17,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="simulate the paper's squeeze session for a virtual population",
         description="Draw a seeded population of virtual subjects and record one paper-protocol "
         "calibration session each (8-channel int8 sEMG at the MYO rate plus FSR force). Writes "
-        "DIR/subjectNN.npz and DIR/subjectNN.csv and prints one summary line per subject.",
+        "DIR/subjectNN.npz and DIR/subjectNN.csv (with its JSON sidecar subjectNN.csv.json; "
+        "docs/FORMAT.md) and prints one summary line per subject.",
     )
     parser.add_argument("--n", type=int, default=10, help="number of subjects (default: 10)")
     parser.add_argument("--seed", type=int, default=0, help="population seed (default: 0)")

@@ -23,12 +23,17 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from sim.recording import (
+    DUPLICATES,
     EMG_UNITS,
     MAX_FORCE_N,
     MAX_FS_HZ,
+    TIME_UNITS,
+    ColumnMap,
     Recording,
     RecordingError,
     load_recording,
+    read_column_file,
+    sidecar_path,
 )
 
 FUZZ = settings(
@@ -57,9 +62,9 @@ def _check_invariants(rec: Recording) -> None:
     assert isinstance(rec.metadata, dict)
 
 
-def _load(path: Path) -> None:
+def _load(path: Path, **kwargs) -> None:
     try:
-        rec = load_recording(path)
+        rec = load_recording(path, **kwargs)
     except RecordingError as exc:
         message = str(exc)
         assert str(path) in message, message
@@ -133,6 +138,56 @@ def test_csv_fuzz_only_recording_error_escapes(data: bytes) -> None:
         path = Path(tmp) / "fuzz.csv"
         path.write_bytes(data)
         _load(path)
+
+
+_NAMES = st.sampled_from(["t", "time", "emg1", "emg2", "force", "intent", "", "x"])
+_OPTIONS = st.fixed_dictionaries(
+    {},
+    optional={
+        "columns": st.builds(
+            ColumnMap,
+            time=st.one_of(st.none(), _NAMES),
+            emg=st.one_of(st.none(), _NAMES, st.sampled_from(
+                ["emg*", "*", "emg1..emg3", "emg1..3", "emg3..emg1", "emg1,emg2", "e[", "t,t",
+                 "x0..x99999999999"]), st.lists(_NAMES, max_size=3)),
+            force=st.one_of(st.none(), _NAMES),
+        ),
+        "time_unit": st.sampled_from(TIME_UNITS),
+        "fs_hz": st.sampled_from([200.0, 1e6, 1e-3, 5.0]),
+        "resample_hz": st.sampled_from([200.0, 1e6, 0.5, 1e-300]),
+        "duplicates": st.sampled_from(DUPLICATES),
+        "emg_unit": st.sampled_from(EMG_UNITS),
+        "max_bytes": st.sampled_from([10**3, 10**5]),
+    },
+)
+
+
+@FUZZ
+@given(data=csv_bytes(), options=_OPTIONS, sidecar=st.one_of(st.none(), _META))
+def test_csv_fuzz_with_layout_options(data: bytes, options: dict, sidecar) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "fuzz.csv"
+        path.write_bytes(data)
+        if sidecar is not None:
+            sidecar_path(path).write_text(json.dumps(sidecar, allow_nan=True))
+        _load(path, **options)
+
+
+@FUZZ
+@given(text=st.one_of(st.text(max_size=80), st.dictionaries(
+    st.sampled_from(["time_column", "emg_columns", "force_column", "time_unit", "fs_hz",
+                     "emg_unit", "resample_hz", "duplicates", "other"]),
+    _JSON, max_size=4).map(json.dumps)), suffix=st.sampled_from([".yaml", ".json"]))
+def test_column_map_fuzz_only_recording_error_escapes(text: str, suffix: str) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"layout{suffix}"
+        path.write_text(text, encoding="utf-8", errors="surrogatepass")
+        try:
+            kwargs = read_column_file(path)
+        except RecordingError as exc:
+            assert str(path) in str(exc) and "\n" not in str(exc)
+            return
+        assert isinstance(kwargs["columns"], ColumnMap)
 
 
 # ---------------------------------------------------------------- NPZ

@@ -1,0 +1,122 @@
+"""``griploop evaluate`` on recordings as pandas, a MYO dump and a 1000 Hz logger write them."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+from scenarios.cli import main
+
+
+def _writers():
+    """The file writers of tests/sim/test_recording_layouts.py (tests are not a package)."""
+    path = Path(__file__).resolve().parents[1] / "sim" / "test_recording_layouts.py"
+    spec = importlib.util.spec_from_file_location("_recording_layout_writers", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+_W = _writers()
+write_logger, write_myo_dump, write_pandas_style = (
+    _W.write_logger, _W.write_myo_dump, _W.write_pandas_style)
+
+ESTIMATORS = "ridge,persistence"
+
+
+def _evaluate(argv, tmp_path, capsys):
+    out = tmp_path / "eval.json"
+    code = main(["evaluate", *argv, "--channels", "all", "--estimators", ESTIMATORS,
+                 "--json", str(out)])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "ridge" in captured.out  # the table is printed
+    return json.loads(out.read_text())
+
+
+def test_pandas_file_through_options(tmp_path, capsys) -> None:
+    path = write_pandas_style(tmp_path / "pandas.csv")
+    result = _evaluate(["--recording", str(path), "--time-column", "time_s",
+                        "--emg-columns", "emg_*", "--force-column", "force_n"], tmp_path, capsys)
+    assert result["recording"]["fs_hz"] == pytest.approx(200.0)
+    assert result["estimators"]["ridge"]["free_run"]["r2_mean"] > 0.5
+
+
+def test_pandas_file_through_a_column_map(tmp_path, capsys) -> None:
+    path = write_pandas_style(tmp_path / "pandas.csv", index_name="Unnamed: 0")
+    layout = tmp_path / "layout.yaml"
+    layout.write_text("time_column: time_s\nemg_columns: emg_0..emg_7\nforce_column: force_n\n")
+    result = _evaluate(["--recording", str(path), "--columns", str(layout)], tmp_path, capsys)
+    assert result["estimators"]["ridge"]["free_run"]["r2_mean"] > 0.5
+
+
+def test_myo_dump_through_options(tmp_path, capsys) -> None:
+    path, _, _ = write_myo_dump(tmp_path / "myo.csv")
+    assert main(["evaluate", "--recording", str(path), "--time-column", "timestamp",
+                 "--estimators", "ridge"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].endswith("pass --time-unit ms")
+    assert main(["evaluate", "--recording", str(path), "--time-column", "timestamp",
+                 "--time-unit", "ms", "--estimators", "ridge"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].endswith("pass --resample HZ")
+    result = _evaluate(["--recording", str(path), "--time-column", "timestamp", "--time-unit",
+                        "ms", "--resample", "200", "--duplicates", "spread"], tmp_path, capsys)
+    assert result["recording"]["fs_hz"] == 200.0
+    assert result["estimators"]["ridge"]["free_run"]["r2_mean"] > 0.5
+
+
+def test_logger_in_microvolts_through_options(tmp_path, capsys) -> None:
+    path = write_logger(tmp_path / "logger.csv", with_time=False)
+    result = _evaluate(["--recording", str(path), "--fs-hz", "1000", "--emg-columns",
+                        "ch01..ch08", "--force-column", "grip_N", "--emg-unit", "uV"],
+                       tmp_path, capsys)
+    assert result["recording"]["fs_hz"] == 1000.0
+    assert result["estimators"]["ridge"]["free_run"]["r2_mean"] > 0.5
+
+
+def test_jittered_logger_through_resampling(tmp_path, capsys) -> None:
+    path = write_logger(tmp_path / "jitter.csv", with_time=True, jitter_s=0.15e-3)
+    layout = tmp_path / "layout.json"
+    layout.write_text(json.dumps({"time_column": "time", "emg_columns": "ch*",
+                                  "force_column": "grip_N", "resample_hz": 1000}))
+    result = _evaluate(["--recording", str(path), "--columns", str(layout)], tmp_path, capsys)
+    assert result["estimators"]["ridge"]["free_run"]["r2_mean"] > 0.5
+
+
+def test_json_is_optional(tmp_path, capsys) -> None:
+    path = write_pandas_style(tmp_path / "pandas.csv")
+    code = main(["evaluate", "--recording", str(path), "--time-column", "time_s",
+                 "--emg-columns", "emg_*", "--force-column", "force_n", "--estimators", "ridge"])
+    out = capsys.readouterr().out
+    assert code == 0 and "ridge" in out
+    assert f"{path}: ignored columns '', 'label'" in out
+
+
+def test_missing_force_names_the_option(tmp_path, capsys) -> None:
+    path = write_pandas_style(tmp_path / "pandas.csv")
+    code = main(["evaluate", "--recording", str(path), "--time-column", "time_s",
+                 "--emg-columns", "emg_*", "--force-column", "none", "--estimators", "ridge"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert err[0].endswith("pass --force-column NAME (unused columns: '', 'force_n', 'label')")
+
+
+def test_bad_column_map_is_one_line(tmp_path, capsys) -> None:
+    path = write_pandas_style(tmp_path / "pandas.csv")
+    layout = tmp_path / "layout.yaml"
+    layout.write_text("time: time_s\n")
+    assert main(["evaluate", "--recording", str(path), "--columns", str(layout)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "unknown key 'time'" in err[0] and str(layout) in err[0]
+
+
+def test_plot_recording_takes_the_same_options(tmp_path, capsys) -> None:
+    path, _, _ = write_myo_dump(tmp_path / "myo.csv")
+    png = tmp_path / "myo.png"
+    assert main(["plot-recording", str(path), "--out", str(png), "--time-column", "timestamp",
+                 "--time-unit", "ms", "--resample", "200", "--duplicates", "spread"]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
