@@ -35,6 +35,7 @@ from __future__ import annotations
 import numpy as np
 from sklearn.ensemble import HistGradientBoostingRegressor
 
+from estimation.base import ForceEstimator, resolve_mode
 from estimation.errors import EstimationInputError, check_features, check_mode, check_target
 from estimation.normalize import MinMaxScaling
 
@@ -123,7 +124,7 @@ def _mse(y: np.ndarray, yhat: np.ndarray) -> float:
     return float(np.mean((y - yhat) ** 2))
 
 
-class LogRidge:
+class LogRidge(ForceEstimator):
     """Ridge regression on log and linear features of every channel with past windows.
 
     Parameters
@@ -231,9 +232,9 @@ class LogRidge:
 
     # -------------------------------------------------------------- predict
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
-                mode: str = "free_run") -> np.ndarray:
+                mode: str | None = None) -> np.ndarray:
         """Force estimate, shape (n_samples,); ``y`` is ignored (sEMG only)."""
-        check_mode(mode, self.modes, self.name)
+        resolve_mode(mode, self.modes, y, self.name)
         U = check_features(U, n_inputs=self.n_features_in_)
         R = log_lag_regressors(U, self.lags_, self.floor, self.compress)
         return smooth(R @ self.coef_ + self.intercept_ + self._residual(R), self.smoother_)
@@ -261,7 +262,7 @@ class BoostedLogRidge(LogRidge):
         ``HistGradientBoostingRegressor`` settings.
     random_state : numpy.random.Generator, int or None
         Seeds scikit-learn (the trees are deterministic without subsampling).
-    **kwargs
+    lags, compress, alphas, smoothers, floor, validation_fraction, dt_s
         As :class:`LogRidge`.
 
     Attributes
@@ -274,8 +275,14 @@ class BoostedLogRidge(LogRidge):
 
     def __init__(self, *, max_trees: int = 60, max_depth: int = 3, learning_rate: float = 0.1,
                  min_samples_leaf: int = 10, l2_regularization: float = 1.0,
-                 random_state: np.random.Generator | int | None = None, **kwargs: object) -> None:
-        super().__init__(**kwargs)
+                 random_state: np.random.Generator | int | None = None,
+                 lags: tuple[int, ...] = (0, 1), compress: str = "sqrt",
+                 alphas: tuple[float, ...] = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0),
+                 smoothers: tuple[float, ...] = (0.0, 0.2, 0.4, 0.6), floor: float = 0.02,
+                 validation_fraction: float = 0.3, dt_s: float = 0.125) -> None:
+        # explicit (no **kwargs): scikit-learn's get_params reads the signature
+        super().__init__(lags=lags, compress=compress, alphas=alphas, smoothers=smoothers,
+                         floor=floor, validation_fraction=validation_fraction, dt_s=dt_s)
         self.max_trees = max_trees
         self.max_depth = max_depth
         self.learning_rate = learning_rate

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from estimation.base import ForceEstimator
 from estimation.errors import (
     InsufficientDataError,
     check_features,
@@ -28,7 +29,7 @@ from estimation.normalize import MinMaxScaling
 from estimation.streaming import DirectLTIStream, direct_response
 
 
-class LatentKalman:
+class LatentKalman(ForceEstimator):
     """Latent-force Kalman decoder.
 
     Parameters
@@ -94,9 +95,9 @@ class LatentKalman:
                 "g": -(K @ self.z_mean_), "d0": self.x_mean_}
 
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
-                mode: str = "free_run") -> np.ndarray:
+                mode: str | None = None) -> np.ndarray:
         """Filtered force ``xhat(k|k) + x_mean_``, shape (n_samples,); ``y`` is ignored."""
-        check_mode(mode, self.modes, "LatentKalman")
+        self._mode(mode, y)
         U = check_features(U, n_inputs=self.n_features_in_)
         s = self._system()
         return direct_response(s["F"], s["G"], s["h"], s["d"], U, g=s["g"], d0=s["d0"])

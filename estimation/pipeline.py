@@ -16,12 +16,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from estimation.base import ForceEstimator, resolve_mode
 from estimation.errors import check_features, check_target
 from estimation.normalize import MinMaxScaling
 
 
-class ForcePipeline:
+class ForcePipeline(ForceEstimator):
     """Min-max normalization around a normalized-unit estimator.
+
+    A scikit-learn meta-estimator: ``get_params(deep=True)`` lists the wrapped
+    estimator's hyperparameters as ``estimator__<name>``, and ``clone`` copies
+    it unfitted. ``fit`` fits ``estimator`` itself (kept for the callers that
+    read ``pipe.estimator.A_``); ``estimator_`` is the same fitted object.
 
     Parameters
     ----------
@@ -32,6 +38,8 @@ class ForcePipeline:
     ----------
     scaling_ : MinMaxScaling
         Feature and force ranges of the calibration data.
+    estimator_ : object
+        The fitted wrapped estimator (``estimator`` itself).
     modes : tuple of str
         The wrapped estimator's supported modes.
     """
@@ -58,11 +66,18 @@ class ForcePipeline:
         y_n = check_target(y_n, U.shape[0], name="y_n")
         self.scaling_ = MinMaxScaling.fit(U, y_n)
         self.estimator.fit(self.scaling_.transform_u(U), self.scaling_.transform_y(y_n))
+        self.estimator_ = self.estimator
+        self.n_features_in_ = U.shape[1]
         return self
 
     def predict(self, U: np.ndarray, y_n: np.ndarray | None = None, *,
-                mode: str = "one_step") -> np.ndarray:
-        """Force estimate in newtons, shape (n_samples,). ``y_n`` (N) for ``one_step``."""
+                mode: str | None = None) -> np.ndarray:
+        """Force estimate in newtons, shape (n_samples,). ``y_n`` (N) for ``one_step``.
+
+        Without ``mode``: ``one_step`` when ``y_n`` is given (and supported), else
+        the deployable ``free_run`` (see :func:`estimation.base.resolve_mode`).
+        """
+        mode = resolve_mode(mode, self.modes, y_n, type(self.estimator).__name__)
         U = check_features(U)
         y = None if y_n is None else self.scaling_.transform_y(check_target(y_n, U.shape[0]))
         y_hat = self.estimator.predict(self.scaling_.transform_u(U), y, mode=mode)

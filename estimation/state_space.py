@@ -26,6 +26,7 @@ import control
 import numpy as np
 from sklearn.exceptions import NotFittedError
 
+from estimation.base import ForceEstimator
 from estimation.errors import (
     InsufficientDataError,
     UnstableModelError,
@@ -61,7 +62,7 @@ def identification_rows(
     return Phi, states[order:]
 
 
-class SSEstimator:
+class SSEstimator(ForceEstimator):
     """RLS-identified state-space model of grip force, optionally with a Kalman filter.
 
     Parameters
@@ -235,7 +236,7 @@ class SSEstimator:
         return out
 
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
-                mode: str = "one_step") -> np.ndarray:
+                mode: str | None = None) -> np.ndarray:
         """Force estimate ``yhat(k)`` for every row of ``U``, shape (n_samples,).
 
         Parameters
@@ -245,8 +246,10 @@ class SSEstimator:
         y : ndarray, shape (n_samples,), optional
             Normalized measured force; required for ``one_step`` (only
             ``y[:k]`` enters ``yhat[k]``), ignored in ``free_run``.
-        mode : {"one_step", "free_run"}
+        mode : {"one_step", "free_run"}, optional
+            Default: ``one_step`` when ``y`` is given, else ``free_run``.
         """
+        mode = self._mode(mode, y)
         F, Gu, Gy, h = self.lti(mode)
         U = check_features(U, n_inputs=self.n_features_in_)
         if Gy is None:
