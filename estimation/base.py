@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.metrics import r2_score as _sk_r2_score
+from sklearn.utils.validation import check_is_fitted
 
 from estimation.errors import ModeError, check_mode
 
@@ -78,6 +79,8 @@ class ForceEstimator(RegressorMixin, BaseEstimator):
     modes: tuple[str, ...] = ("one_step", "free_run")
 
     def _mode(self, mode: str | None, y: object) -> str:
+        """Raise ``NotFittedError`` before ``fit``; else the mode ``predict`` uses."""
+        check_is_fitted(self)
         return resolve_mode(mode, tuple(self.modes), y, type(self).__name__)
 
     def score(self, X: np.ndarray, y: np.ndarray, sample_weight: np.ndarray | None = None,

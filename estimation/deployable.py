@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 from sklearn.ensemble import HistGradientBoostingRegressor
 
-from estimation.base import ForceEstimator, resolve_mode
+from estimation.base import ForceEstimator
 from estimation.errors import EstimationInputError, check_features, check_mode, check_target
 from estimation.normalize import MinMaxScaling
 
@@ -180,12 +180,13 @@ class LogRidge(ForceEstimator):
         coef = w / sd
         return coef, b - float(mu @ coef)
 
-    def _split(self, n: int) -> int:
+    def _split(self, n: int, n_features: int) -> int:
         n_tr = int(round((1.0 - self.validation_fraction) * n))
         if n_tr < 4 or n - n_tr < 2:
             raise EstimationInputError(
                 f"{self.name}: {n} identification windows leave {n_tr}/{n - n_tr} for "
-                "training/validation; expected at least 4 and 2"
+                "training/validation; expected at least 4 and 2 "
+                f"(found n_samples = {n}, n_features = {n_features})"
             )
         return n_tr
 
@@ -208,7 +209,7 @@ class LogRidge(ForceEstimator):
         lag_set = (self.lags,) if isinstance(self.lags, (int, np.integer)) else tuple(self.lags)
         if not lag_set or min(lag_set) < 0:
             raise ValueError(f"lags: expected non-negative counts, found {self.lags!r}")
-        n_tr = self._split(U.shape[0])
+        n_tr = self._split(U.shape[0], U.shape[1])
         best = None
         for lags in lag_set:
             Rl = log_lag_regressors(U, int(lags), self.floor, self.compress)
@@ -234,8 +235,9 @@ class LogRidge(ForceEstimator):
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
                 mode: str | None = None) -> np.ndarray:
         """Force estimate, shape (n_samples,); ``y`` is ignored (sEMG only)."""
-        resolve_mode(mode, self.modes, y, self.name)
-        U = check_features(U, n_inputs=self.n_features_in_)
+        self._mode(mode, y)
+        U = check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__)
         R = log_lag_regressors(U, self.lags_, self.floor, self.compress)
         return smooth(R @ self.coef_ + self.intercept_ + self._residual(R), self.smoother_)
 

@@ -69,7 +69,8 @@ class LatentKalman(ForceEstimator):
         n, m = U.shape
         if n < m + 3:
             raise InsufficientDataError(
-                f"latent Kalman decoder with {m} inputs needs at least {m + 3} samples, found {n}"
+                f"latent Kalman decoder with {m} inputs needs at least {m + 3} samples, "
+                f"found n_samples = {n} (n_features = {m})"
             )
         check_not_constant(U, y)
         self.x_mean_ = float(y.mean())
@@ -80,7 +81,7 @@ class LatentKalman(ForceEstimator):
         self.W_ = float(np.var(x[1:] - self.a_ * x[:-1]))
         self.H_ = (Z.T @ x / (x @ x))[:, None]
         resid = Z - x[:, None] * self.H_[:, 0]
-        Qz = np.cov(resid, rowvar=False, bias=True)
+        Qz = np.atleast_2d(np.cov(resid, rowvar=False, bias=True))  # (1, 1) for one input
         self.Qz_ = Qz + self.ridge * np.trace(Qz) / m * np.eye(m)
         kf = design_kalman(np.array([[self.a_]]), self.H_, np.array([[self.W_]]), self.Qz_)
         self.filter_gain_ = kf.filter_gain
@@ -98,7 +99,8 @@ class LatentKalman(ForceEstimator):
                 mode: str | None = None) -> np.ndarray:
         """Filtered force ``xhat(k|k) + x_mean_``, shape (n_samples,); ``y`` is ignored."""
         self._mode(mode, y)
-        U = check_features(U, n_inputs=self.n_features_in_)
+        U = check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__)
         s = self._system()
         return direct_response(s["F"], s["G"], s["h"], s["d"], U, g=s["g"], d0=s["d0"])
 

@@ -15,6 +15,7 @@ Normalization (min-max to 0..1, the paper's preprocessing) is learned in
 from __future__ import annotations
 
 import numpy as np
+from sklearn.utils.validation import check_is_fitted
 
 from estimation.base import ForceEstimator, resolve_mode
 from estimation.errors import check_features, check_target
@@ -52,35 +53,36 @@ class ForcePipeline(ForceEstimator):
         """Modes the wrapped estimator supports."""
         return tuple(self.estimator.modes)
 
-    def fit(self, U: np.ndarray, y_n: np.ndarray) -> ForcePipeline:
+    def fit(self, U: np.ndarray, y: np.ndarray) -> ForcePipeline:
         """Learn the scaling and fit the estimator.
 
         Parameters
         ----------
         U : ndarray, shape (n_samples, n_inputs)
             Raw features.
-        y_n : ndarray, shape (n_samples,)
+        y : ndarray, shape (n_samples,)
             Measured force in newtons.
         """
         U = check_features(U)
-        y_n = check_target(y_n, U.shape[0], name="y_n")
-        self.scaling_ = MinMaxScaling.fit(U, y_n)
-        self.estimator.fit(self.scaling_.transform_u(U), self.scaling_.transform_y(y_n))
+        y = check_target(y, U.shape[0])
+        self.scaling_ = MinMaxScaling.fit(U, y)
+        self.estimator.fit(self.scaling_.transform_u(U), self.scaling_.transform_y(y))
         self.estimator_ = self.estimator
         self.n_features_in_ = U.shape[1]
         return self
 
-    def predict(self, U: np.ndarray, y_n: np.ndarray | None = None, *,
+    def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
                 mode: str | None = None) -> np.ndarray:
-        """Force estimate in newtons, shape (n_samples,). ``y_n`` (N) for ``one_step``.
+        """Force estimate in newtons, shape (n_samples,). ``y`` (N) for ``one_step``.
 
-        Without ``mode``: ``one_step`` when ``y_n`` is given (and supported), else
+        Without ``mode``: ``one_step`` when ``y`` is given (and supported), else
         the deployable ``free_run`` (see :func:`estimation.base.resolve_mode`).
         """
-        mode = resolve_mode(mode, self.modes, y_n, type(self.estimator).__name__)
-        U = check_features(U)
-        y = None if y_n is None else self.scaling_.transform_y(check_target(y_n, U.shape[0]))
-        y_hat = self.estimator.predict(self.scaling_.transform_u(U), y, mode=mode)
+        check_is_fitted(self)
+        U = check_features(U, n_inputs=self.n_features_in_, who="ForcePipeline")
+        mode = resolve_mode(mode, self.modes, y, type(self.estimator).__name__)
+        y_norm = None if y is None else self.scaling_.transform_y(check_target(y, U.shape[0]))
+        y_hat = self.estimator.predict(self.scaling_.transform_u(U), y_norm, mode=mode)
         return self.scaling_.inverse_y(y_hat)
 
     def streaming(self, mode: str = "one_step", **options: object) -> object:

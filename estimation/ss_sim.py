@@ -145,7 +145,8 @@ class SimulationErrorSS(SSEstimator):
                 mode: str | None = None) -> np.ndarray:
         """Free-run estimate, shape (n_samples,); ``y`` is ignored (sEMG only)."""
         self._mode(mode, y)
-        U = self._compress(check_features(U, n_inputs=self.n_features_in_))
+        U = self._compress(check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__))
         B = np.hstack([self.B_, self.offset_[:, None]])
         return delayed_response(self.A_, B, self.C_[0], _with_ones(U))
 

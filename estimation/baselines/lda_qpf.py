@@ -51,7 +51,7 @@ class LDAQPF(ForceEstimator):
 
     def fit(self, U: np.ndarray, y: np.ndarray) -> LDAQPF:
         """Fit on normalized features ``U`` (n_samples, n_inputs) and force ``y`` (n_samples,)."""
-        U = check_features(U)
+        U = check_features(U, who="LDAQPF", min_samples=2)
         y = check_target(y, U.shape[0])
         span = np.ptp(y)
         if span == 0:
@@ -88,7 +88,8 @@ class LDAQPF(ForceEstimator):
                 mode: str | None = None) -> np.ndarray:
         """Force estimate, shape (n_samples,); ``y`` is ignored."""
         self._mode(mode, y)
-        U = check_features(U, n_inputs=self.n_features_in_)
+        U = check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__)
         return self._map(self._project(U))
 
     def streaming(self, mode: str = "free_run", *,

@@ -152,7 +152,8 @@ class MLPBaseline(ForceEstimator):
                 mode: str | None = None) -> np.ndarray:
         """Force estimate, shape (n_samples,); ``y`` is ignored."""
         self._mode(mode, y)
-        return self.net_.predict(check_features(U, n_inputs=self.n_features_in_))
+        return self.net_.predict(check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__))
 
     def streaming(self, mode: str = "free_run", *, scaling: MinMaxScaling | None = None,
                   period_s: float | None = None) -> object:

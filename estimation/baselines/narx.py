@@ -120,7 +120,8 @@ class NARXBaseline(MLPBaseline):
                 mode: str | None = None) -> np.ndarray:
         """Force estimate, shape (n_samples,); ``one_step`` needs the measured ``y``."""
         mode = self._mode(mode, y)
-        U = check_features(U, n_inputs=self.n_features_in_)
+        U = check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__)
         if mode == "one_step":
             y = check_target(require_force(y, mode, "NARXBaseline"), U.shape[0])
             R = narx_regressors(U, y, self.delays)

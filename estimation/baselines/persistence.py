@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from sklearn.utils.validation import check_is_fitted
 
 from estimation.base import ForceEstimator
 from estimation.errors import check_features, check_mode, check_target, require_force
@@ -28,8 +29,10 @@ class Persistence(ForceEstimator):
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
                 mode: str | None = None) -> np.ndarray:
         """``[0, y(0), ..., y(n-2)]``, shape (n_samples,)."""
+        check_is_fitted(self)
+        U = check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__)
         mode = self._mode(mode, y)
-        U = check_features(U, n_inputs=self.n_features_in_)
         y = check_target(require_force(y, mode, "Persistence"), U.shape[0])
         return np.concatenate([[0.0], y[:-1]])
 

@@ -63,7 +63,8 @@ class SingleFeatureLinear(ForceEstimator):
                 mode: str | None = None) -> np.ndarray:
         """``intercept_ + U @ coef_``, shape (n_samples,); ``y`` is ignored."""
         self._mode(mode, y)
-        U = check_features(U, n_inputs=self.n_features_in_)
+        U = check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__)
         return U @ self.coef_ + self.intercept_
 
     def streaming(self, mode: str = "free_run", *,
