@@ -21,6 +21,7 @@ __all__ = [
 ]
 
 # Force estimation (issue 3): identification, filters, baselines, metrics, protocol.
+from estimation.base import ForceEstimator  # noqa: E402
 from estimation.errors import (  # noqa: E402
     ConstantInputError,
     EstimationInputError,
@@ -42,6 +43,7 @@ __all__ += [
     "ESTIMATOR_NAMES",
     "ConstantInputError",
     "EstimationInputError",
+    "ForceEstimator",
     "ForcePipeline",
     "InsufficientDataError",
     "ModeError",

@@ -35,6 +35,7 @@ from __future__ import annotations
 import numpy as np
 from sklearn.ensemble import HistGradientBoostingRegressor
 
+from estimation.base import ForceEstimator
 from estimation.errors import EstimationInputError, check_features, check_mode, check_target
 from estimation.normalize import MinMaxScaling
 
@@ -123,7 +124,7 @@ def _mse(y: np.ndarray, yhat: np.ndarray) -> float:
     return float(np.mean((y - yhat) ** 2))
 
 
-class LogRidge:
+class LogRidge(ForceEstimator):
     """Ridge regression on log and linear features of every channel with past windows.
 
     Parameters
@@ -179,12 +180,13 @@ class LogRidge:
         coef = w / sd
         return coef, b - float(mu @ coef)
 
-    def _split(self, n: int) -> int:
+    def _split(self, n: int, n_features: int) -> int:
         n_tr = int(round((1.0 - self.validation_fraction) * n))
         if n_tr < 4 or n - n_tr < 2:
             raise EstimationInputError(
                 f"{self.name}: {n} identification windows leave {n_tr}/{n - n_tr} for "
-                "training/validation; expected at least 4 and 2"
+                "training/validation; expected at least 4 and 2 "
+                f"(found n_samples = {n}, n_features = {n_features})"
             )
         return n_tr
 
@@ -207,7 +209,7 @@ class LogRidge:
         lag_set = (self.lags,) if isinstance(self.lags, (int, np.integer)) else tuple(self.lags)
         if not lag_set or min(lag_set) < 0:
             raise ValueError(f"lags: expected non-negative counts, found {self.lags!r}")
-        n_tr = self._split(U.shape[0])
+        n_tr = self._split(U.shape[0], U.shape[1])
         best = None
         for lags in lag_set:
             Rl = log_lag_regressors(U, int(lags), self.floor, self.compress)
@@ -231,10 +233,11 @@ class LogRidge:
 
     # -------------------------------------------------------------- predict
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
-                mode: str = "free_run") -> np.ndarray:
+                mode: str | None = None) -> np.ndarray:
         """Force estimate, shape (n_samples,); ``y`` is ignored (sEMG only)."""
-        check_mode(mode, self.modes, self.name)
-        U = check_features(U, n_inputs=self.n_features_in_)
+        self._mode(mode, y)
+        U = check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__)
         R = log_lag_regressors(U, self.lags_, self.floor, self.compress)
         return smooth(R @ self.coef_ + self.intercept_ + self._residual(R), self.smoother_)
 
@@ -261,7 +264,7 @@ class BoostedLogRidge(LogRidge):
         ``HistGradientBoostingRegressor`` settings.
     random_state : numpy.random.Generator, int or None
         Seeds scikit-learn (the trees are deterministic without subsampling).
-    **kwargs
+    lags, compress, alphas, smoothers, floor, validation_fraction, dt_s
         As :class:`LogRidge`.
 
     Attributes
@@ -274,8 +277,14 @@ class BoostedLogRidge(LogRidge):
 
     def __init__(self, *, max_trees: int = 60, max_depth: int = 3, learning_rate: float = 0.1,
                  min_samples_leaf: int = 10, l2_regularization: float = 1.0,
-                 random_state: np.random.Generator | int | None = None, **kwargs: object) -> None:
-        super().__init__(**kwargs)
+                 random_state: np.random.Generator | int | None = None,
+                 lags: tuple[int, ...] = (0, 1), compress: str = "sqrt",
+                 alphas: tuple[float, ...] = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0),
+                 smoothers: tuple[float, ...] = (0.0, 0.2, 0.4, 0.6), floor: float = 0.02,
+                 validation_fraction: float = 0.3, dt_s: float = 0.125) -> None:
+        # explicit (no **kwargs): scikit-learn's get_params reads the signature
+        super().__init__(lags=lags, compress=compress, alphas=alphas, smoothers=smoothers,
+                         floor=floor, validation_fraction=validation_fraction, dt_s=dt_s)
         self.max_trees = max_trees
         self.max_depth = max_depth
         self.learning_rate = learning_rate

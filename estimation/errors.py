@@ -6,7 +6,11 @@ CLI prints it as one line; each message says what was expected and what was foun
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
+import scipy.sparse
+from sklearn.exceptions import DataConversionWarning
 
 
 class EstimationInputError(ValueError):
@@ -54,8 +58,18 @@ def require_force(y: np.ndarray | None, mode: str, who: str) -> np.ndarray:
     return y
 
 
-def check_features(U: np.ndarray, *, name: str = "U", n_inputs: int | None = None) -> np.ndarray:
+def _bad_value(value: float) -> str:
+    """``NaN`` or ``inf`` / ``-inf`` as scikit-learn spells them in messages."""
+    return "NaN" if np.isnan(value) else str(value)
+
+
+def check_features(U: np.ndarray, *, name: str = "U", n_inputs: int | None = None,
+                   who: str = "the estimator", min_samples: int = 1) -> np.ndarray:
     """Validate a feature matrix and return it as float64.
+
+    Messages carry scikit-learn's phrases (``Reshape your data``, ``X has 3
+    features, but ... is expecting 4 features as input``, ``Complex data not
+    supported``, ``sparse``) so that its estimator checks recognize them.
 
     Parameters
     ----------
@@ -64,25 +78,47 @@ def check_features(U: np.ndarray, *, name: str = "U", n_inputs: int | None = Non
         Argument name used in messages.
     n_inputs : int, optional
         Required number of columns (a fitted estimator's input count).
+    who : str
+        Estimator name used in messages.
+    min_samples : int
+        Fewest rows accepted.
 
     Raises
     ------
     EstimationInputError
-        Not 2-D, wrong column count, empty, or NaN/inf present.
+        Sparse, complex, not 2-D, wrong column count, too few rows, or NaN/inf present.
     """
-    arr = np.asarray(U, dtype=np.float64)
-    if arr.ndim != 2 or arr.shape[0] == 0 or arr.shape[1] == 0:
+    if scipy.sparse.issparse(U):
         raise EstimationInputError(
-            f"{name} must be a non-empty 2-D array (n_samples, n_inputs), found shape {arr.shape}"
+            f"{name} is a sparse matrix; sparse input is not supported, pass a dense array")
+    arr = np.asarray(U)
+    if np.iscomplexobj(arr):
+        raise EstimationInputError(f"Complex data not supported; {name} must be real")
+    arr = np.asarray(arr, dtype=np.float64)
+    if arr.ndim != 2:
+        raise EstimationInputError(
+            f"{name} must be a non-empty 2-D array (n_samples, n_inputs), found shape {arr.shape}; "
+            "Reshape your data with .reshape(-1, 1) for a single input or .reshape(1, -1) "
+            "for a single sample"
+        )
+    if arr.shape[0] == 0 or arr.shape[1] == 0:
+        what = "0 sample(s)" if arr.shape[0] == 0 else "0 feature(s)"
+        raise EstimationInputError(
+            f"{name} must be a non-empty 2-D array (n_samples, n_inputs), found "
+            f"{what} (shape={arr.shape}) while a minimum of 1 is required."
         )
     if n_inputs is not None and arr.shape[1] != n_inputs:
         raise EstimationInputError(
-            f"{name} must have {n_inputs} columns as during fit, found {arr.shape[1]}"
+            f"X has {arr.shape[1]} features, but {who} is expecting {n_inputs} features as "
+            f"input ({name} must have {n_inputs} columns as during fit)"
         )
+    if arr.shape[0] < min_samples:
+        raise InsufficientDataError(
+            f"{who} needs at least {min_samples} samples, found n_samples = {arr.shape[0]}")
     if not np.all(np.isfinite(arr)):
         row, col = np.argwhere(~np.isfinite(arr))[0]
         raise EstimationInputError(
-            f"{name} must be finite; found {arr[row, col]} at row {row}, column {col}"
+            f"{name} must be finite; found {_bad_value(arr[row, col])} at row {row}, column {col}"
         )
     return arr
 
@@ -90,19 +126,32 @@ def check_features(U: np.ndarray, *, name: str = "U", n_inputs: int | None = Non
 def check_target(y: np.ndarray, n_samples: int, *, name: str = "y") -> np.ndarray:
     """Validate a force vector of length ``n_samples`` and return it as float64.
 
+    A column vector (n_samples, 1) is accepted with scikit-learn's
+    :class:`~sklearn.exceptions.DataConversionWarning`.
+
     Raises
     ------
     EstimationInputError
-        Wrong shape or NaN/inf present.
+        ``None``, wrong shape or NaN/inf present.
     """
-    arr = np.asarray(y, dtype=np.float64)
+    if y is None:
+        raise EstimationInputError(
+            f"{name} is None: the estimator requires y to be passed, but the target y is None")
+    arr = np.asarray(y)
+    if np.iscomplexobj(arr):
+        raise EstimationInputError(f"Complex data not supported; {name} must be real")
+    arr = np.asarray(arr, dtype=np.float64)
     if arr.ndim == 2 and arr.shape[1] == 1:
+        warnings.warn(
+            f"A column-vector {name} was passed when a 1d array was expected; "
+            "use y.ravel() (shape (n_samples,))", DataConversionWarning, stacklevel=3)
         arr = arr[:, 0]
     if arr.shape != (n_samples,):
         raise EstimationInputError(f"{name} must have shape ({n_samples},), found {arr.shape}")
     if not np.all(np.isfinite(arr)):
         idx = int(np.argwhere(~np.isfinite(arr))[0][0])
-        raise EstimationInputError(f"{name} must be finite; found {arr[idx]} at index {idx}")
+        raise EstimationInputError(
+            f"{name} must be finite; found {_bad_value(arr[idx])} at index {idx}")
     return arr
 
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from estimation.base import ForceEstimator
 from estimation.errors import (
     InsufficientDataError,
     check_features,
@@ -28,7 +29,7 @@ from estimation.normalize import MinMaxScaling
 from estimation.streaming import DirectLTIStream, direct_response
 
 
-class LatentKalman:
+class LatentKalman(ForceEstimator):
     """Latent-force Kalman decoder.
 
     Parameters
@@ -68,7 +69,8 @@ class LatentKalman:
         n, m = U.shape
         if n < m + 3:
             raise InsufficientDataError(
-                f"latent Kalman decoder with {m} inputs needs at least {m + 3} samples, found {n}"
+                f"latent Kalman decoder with {m} inputs needs at least {m + 3} samples, "
+                f"found n_samples = {n} (n_features = {m})"
             )
         check_not_constant(U, y)
         self.x_mean_ = float(y.mean())
@@ -79,7 +81,7 @@ class LatentKalman:
         self.W_ = float(np.var(x[1:] - self.a_ * x[:-1]))
         self.H_ = (Z.T @ x / (x @ x))[:, None]
         resid = Z - x[:, None] * self.H_[:, 0]
-        Qz = np.cov(resid, rowvar=False, bias=True)
+        Qz = np.atleast_2d(np.cov(resid, rowvar=False, bias=True))  # (1, 1) for one input
         self.Qz_ = Qz + self.ridge * np.trace(Qz) / m * np.eye(m)
         kf = design_kalman(np.array([[self.a_]]), self.H_, np.array([[self.W_]]), self.Qz_)
         self.filter_gain_ = kf.filter_gain
@@ -94,10 +96,11 @@ class LatentKalman:
                 "g": -(K @ self.z_mean_), "d0": self.x_mean_}
 
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
-                mode: str = "free_run") -> np.ndarray:
+                mode: str | None = None) -> np.ndarray:
         """Filtered force ``xhat(k|k) + x_mean_``, shape (n_samples,); ``y`` is ignored."""
-        check_mode(mode, self.modes, "LatentKalman")
-        U = check_features(U, n_inputs=self.n_features_in_)
+        self._mode(mode, y)
+        U = check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__)
         s = self._system()
         return direct_response(s["F"], s["G"], s["h"], s["d"], U, g=s["g"], d0=s["d0"])
 

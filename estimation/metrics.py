@@ -9,11 +9,18 @@ so that ``NRMSE = 1 - sqrt(1 - R^2)`` whenever both use the same mean ``ybar``
 (1 is a perfect fit; both can be negative for estimates worse than the mean).
 Both are invariant to an affine rescaling of ``y`` and ``yhat`` together, so they
 are identical in newtons and in normalized units.
+
+``r2_score`` and ``rmse`` are computed by scikit-learn (``sklearn.metrics.r2_score``,
+``root_mean_squared_error``) after this module's input checks; ``nrmse_fit`` (the
+paper's fit, not in scikit-learn), ``r2_score(..., y_mean=...)`` (R^2 about a
+given mean, which scikit-learn does not offer) and ``total_variation_rate`` are
+computed here.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import sklearn.metrics
 
 from estimation.errors import EstimationInputError
 
@@ -50,7 +57,10 @@ def r2_score(y: np.ndarray, y_hat: np.ndarray, *, y_mean: float | None = None) -
     y_mean : float, optional
         The mean ``ybar``; default the mean of ``y``.
     """
-    sse, sst = _sse_sst(y, y_hat, y_mean)
+    y, y_hat = _pair(y, y_hat)
+    sse, sst = _sse_sst(y, y_hat, y_mean)  # also refuses a constant y (R^2 undefined)
+    if y_mean is None:
+        return float(sklearn.metrics.r2_score(y, y_hat))
     return 1.0 - sse / sst
 
 
@@ -63,7 +73,7 @@ def nrmse_fit(y: np.ndarray, y_hat: np.ndarray, *, y_mean: float | None = None) 
 def rmse(y: np.ndarray, y_hat: np.ndarray) -> float:
     """Root-mean-square error in the unit of ``y`` (newtons for forces)."""
     y, y_hat = _pair(y, y_hat)
-    return float(np.sqrt(np.mean((y - y_hat) ** 2)))
+    return float(sklearn.metrics.root_mean_squared_error(y, y_hat))
 
 
 def total_variation_rate(signal: np.ndarray, dt_s: float) -> float:

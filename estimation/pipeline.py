@@ -15,13 +15,20 @@ Normalization (min-max to 0..1, the paper's preprocessing) is learned in
 from __future__ import annotations
 
 import numpy as np
+from sklearn.utils.validation import check_is_fitted
 
+from estimation.base import ForceEstimator, resolve_mode
 from estimation.errors import check_features, check_target
 from estimation.normalize import MinMaxScaling
 
 
-class ForcePipeline:
+class ForcePipeline(ForceEstimator):
     """Min-max normalization around a normalized-unit estimator.
+
+    A scikit-learn meta-estimator: ``get_params(deep=True)`` lists the wrapped
+    estimator's hyperparameters as ``estimator__<name>``, and ``clone`` copies
+    it unfitted. ``fit`` fits ``estimator`` itself (kept for the callers that
+    read ``pipe.estimator.A_``); ``estimator_`` is the same fitted object.
 
     Parameters
     ----------
@@ -32,6 +39,8 @@ class ForcePipeline:
     ----------
     scaling_ : MinMaxScaling
         Feature and force ranges of the calibration data.
+    estimator_ : object
+        The fitted wrapped estimator (``estimator`` itself).
     modes : tuple of str
         The wrapped estimator's supported modes.
     """
@@ -44,28 +53,36 @@ class ForcePipeline:
         """Modes the wrapped estimator supports."""
         return tuple(self.estimator.modes)
 
-    def fit(self, U: np.ndarray, y_n: np.ndarray) -> ForcePipeline:
+    def fit(self, U: np.ndarray, y: np.ndarray) -> ForcePipeline:
         """Learn the scaling and fit the estimator.
 
         Parameters
         ----------
         U : ndarray, shape (n_samples, n_inputs)
             Raw features.
-        y_n : ndarray, shape (n_samples,)
+        y : ndarray, shape (n_samples,)
             Measured force in newtons.
         """
         U = check_features(U)
-        y_n = check_target(y_n, U.shape[0], name="y_n")
-        self.scaling_ = MinMaxScaling.fit(U, y_n)
-        self.estimator.fit(self.scaling_.transform_u(U), self.scaling_.transform_y(y_n))
+        y = check_target(y, U.shape[0])
+        self.scaling_ = MinMaxScaling.fit(U, y)
+        self.estimator.fit(self.scaling_.transform_u(U), self.scaling_.transform_y(y))
+        self.estimator_ = self.estimator
+        self.n_features_in_ = U.shape[1]
         return self
 
-    def predict(self, U: np.ndarray, y_n: np.ndarray | None = None, *,
-                mode: str = "one_step") -> np.ndarray:
-        """Force estimate in newtons, shape (n_samples,). ``y_n`` (N) for ``one_step``."""
-        U = check_features(U)
-        y = None if y_n is None else self.scaling_.transform_y(check_target(y_n, U.shape[0]))
-        y_hat = self.estimator.predict(self.scaling_.transform_u(U), y, mode=mode)
+    def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
+                mode: str | None = None) -> np.ndarray:
+        """Force estimate in newtons, shape (n_samples,). ``y`` (N) for ``one_step``.
+
+        Without ``mode``: ``one_step`` when ``y`` is given (and supported), else
+        the deployable ``free_run`` (see :func:`estimation.base.resolve_mode`).
+        """
+        check_is_fitted(self)
+        U = check_features(U, n_inputs=self.n_features_in_, who="ForcePipeline")
+        mode = resolve_mode(mode, self.modes, y, type(self.estimator).__name__)
+        y_norm = None if y is None else self.scaling_.transform_y(check_target(y, U.shape[0]))
+        y_hat = self.estimator.predict(self.scaling_.transform_u(U), y_norm, mode=mode)
         return self.scaling_.inverse_y(y_hat)
 
     def streaming(self, mode: str = "one_step", **options: object) -> object:

@@ -15,6 +15,12 @@ ridge         ridge on sqrt-compressed features, lags, smoother chosen on valida
 gbt           ridge plus boosted trees on its residuals (deployable)
 ss_sim        paper SS structure refined on the free-run simulation error (free_run)
 ============  ==============================================================
+
+Every estimator is a scikit-learn regressor (:class:`estimation.base.ForceEstimator`):
+``clone``, ``get_params`` / ``set_params``, ``score`` and ``cross_val_score`` work on
+the bare estimators and on the :class:`~estimation.pipeline.ForcePipeline` that
+``make_estimator`` returns (its parameters are ``estimator__<name>``). A new
+estimator subclasses ``ForceEstimator`` and is added to ``_FACTORIES``.
 """
 
 from __future__ import annotations

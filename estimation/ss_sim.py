@@ -65,12 +65,21 @@ class SimulationErrorSS(SSEstimator):
     """
 
     modes = ("free_run",)
+    # Fixed settings of the RLS start (SSEstimator's hyperparameters, not this
+    # estimator's: class attributes so get_params/clone see only the ones below).
+    kalman = False
+    forgetting = 1.0
+    theta0 = 0.3
+    p0 = 1000.0
+    noise_regressor = True
+    kalman_method = "scipy"
 
     def __init__(self, *, order: int = 4,
                  penalties: tuple[float, ...] = (1e-4, 1e-3, 1e-2, 1e-1, 1.0),
                  max_pole: float = 0.995, validation_fraction: float = 0.3,
                  compress: str = "sqrt", dt_s: float = 0.125) -> None:
-        super().__init__(order=order, kalman=False, dt_s=dt_s)
+        self.order = order
+        self.dt_s = dt_s
         self.compress = compress
         self.penalties = penalties
         self.max_pole = max_pole
@@ -133,10 +142,11 @@ class SimulationErrorSS(SSEstimator):
         return np.sqrt(np.maximum(U, 0.0)) if self.compress == "sqrt" else U
 
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
-                mode: str = "free_run") -> np.ndarray:
+                mode: str | None = None) -> np.ndarray:
         """Free-run estimate, shape (n_samples,); ``y`` is ignored (sEMG only)."""
-        check_mode(mode, self.modes, type(self).__name__)
-        U = self._compress(check_features(U, n_inputs=self.n_features_in_))
+        self._mode(mode, y)
+        U = self._compress(check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__))
         B = np.hstack([self.B_, self.offset_[:, None]])
         return delayed_response(self.A_, B, self.C_[0], _with_ones(U))
 

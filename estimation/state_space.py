@@ -26,6 +26,7 @@ import control
 import numpy as np
 from sklearn.exceptions import NotFittedError
 
+from estimation.base import ForceEstimator
 from estimation.errors import (
     InsufficientDataError,
     UnstableModelError,
@@ -61,7 +62,7 @@ def identification_rows(
     return Phi, states[order:]
 
 
-class SSEstimator:
+class SSEstimator(ForceEstimator):
     """RLS-identified state-space model of grip force, optionally with a Kalman filter.
 
     Parameters
@@ -96,7 +97,8 @@ class SSEstimator:
     Q_, R_ : ndarray
         ``Gamma diag(sigma_w^2) Gamma^T`` (n, n) and ``[[sigma_v^2]]`` (1, 1).
     model_ : control.StateSpace
-        ``(A_, B_, C_, 0)`` with ``dt = dt_s``.
+        ``(A_, B_, C_, 0)`` with ``dt = dt_s``, built from the fitted matrices on
+        access (``control.StateSpace`` does not pickle; the estimator does).
     poles_ : ndarray, shape (n,)
     stable_, controllable_, observable_ : bool
         Paper Table 3 columns.
@@ -154,7 +156,8 @@ class SSEstimator:
         if n_rows < n_reg + 2:
             raise InsufficientDataError(
                 f"order {n} with {n_inputs} inputs needs at least {n + n_reg + 2} samples "
-                f"({n_reg} parameters per state plus burn-in), found {U.shape[0]}"
+                f"({n_reg} parameters per state plus burn-in), "
+                f"found n_samples = {U.shape[0]} (n_features = {n_inputs})"
             )
         check_not_constant(U, y)
         Phi, X = identification_rows(U, y, n, self.dt_s)
@@ -172,7 +175,6 @@ class SSEstimator:
         self.sigma_v2_ = float(np.var(res.prior_errors[n_reg:, 0]))
         self.Q_ = process_noise_covariance(self.Gamma_, self.sigma_w2_)
         self.R_ = np.array([[self.sigma_v2_]])
-        self.model_ = control.ss(self.A_, self.B_, self.C_, np.zeros((1, n_inputs)), self.dt_s)
         self.poles_ = np.linalg.eigvals(self.A_)
         self.stable_ = bool(np.max(np.abs(self.poles_)) < 1.0)
         self.controllable_ = bool(np.linalg.matrix_rank(control.ctrb(self.A_, self.B_)) == n)
@@ -188,6 +190,13 @@ class SSEstimator:
             self.kalman_poles_ = kf.poles
         self._lti_cache: dict[str, tuple[np.ndarray, ...]] = {}
         return self
+
+    @property
+    def model_(self) -> control.StateSpace:
+        """``control.StateSpace(A_, B_, C_, 0, dt_s)`` of the fitted model."""
+        self._check_fitted()
+        return control.ss(self.A_, self.B_, self.C_, np.zeros((1, self.n_features_in_)),
+                          self.dt_s)
 
     # -------------------------------------------------------------- predict
     def _check_fitted(self) -> None:
@@ -235,7 +244,7 @@ class SSEstimator:
         return out
 
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
-                mode: str = "one_step") -> np.ndarray:
+                mode: str | None = None) -> np.ndarray:
         """Force estimate ``yhat(k)`` for every row of ``U``, shape (n_samples,).
 
         Parameters
@@ -245,10 +254,13 @@ class SSEstimator:
         y : ndarray, shape (n_samples,), optional
             Normalized measured force; required for ``one_step`` (only
             ``y[:k]`` enters ``yhat[k]``), ignored in ``free_run``.
-        mode : {"one_step", "free_run"}
+        mode : {"one_step", "free_run"}, optional
+            Default: ``one_step`` when ``y`` is given, else ``free_run``.
         """
+        mode = self._mode(mode, y)
         F, Gu, Gy, h = self.lti(mode)
-        U = check_features(U, n_inputs=self.n_features_in_)
+        U = check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__)
         if Gy is None:
             return delayed_response(F, Gu, h, U)
         y = check_target(require_force(y, mode, type(self).__name__), U.shape[0])

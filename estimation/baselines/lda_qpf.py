@@ -17,12 +17,13 @@ from __future__ import annotations
 import numpy as np
 from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
 
+from estimation.base import ForceEstimator
 from estimation.errors import ConstantInputError, check_features, check_mode, check_target
 from estimation.normalize import MinMaxScaling
 from estimation.streaming import scaled
 
 
-class LDAQPF:
+class LDAQPF(ForceEstimator):
     """LDA to one dimension on force levels, then a quadratic to force.
 
     Parameters
@@ -50,7 +51,7 @@ class LDAQPF:
 
     def fit(self, U: np.ndarray, y: np.ndarray) -> LDAQPF:
         """Fit on normalized features ``U`` (n_samples, n_inputs) and force ``y`` (n_samples,)."""
-        U = check_features(U)
+        U = check_features(U, who="LDAQPF", min_samples=2)
         y = check_target(y, U.shape[0])
         span = np.ptp(y)
         if span == 0:
@@ -84,10 +85,11 @@ class LDAQPF:
         return (U - self.lda_.xbar_) @ self.projection_
 
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
-                mode: str = "free_run") -> np.ndarray:
+                mode: str | None = None) -> np.ndarray:
         """Force estimate, shape (n_samples,); ``y`` is ignored."""
-        check_mode(mode, self.modes, "LDAQPF")
-        U = check_features(U, n_inputs=self.n_features_in_)
+        self._mode(mode, y)
+        U = check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__)
         return self._map(self._project(U))
 
     def streaming(self, mode: str = "free_run", *,

@@ -19,6 +19,7 @@ from scipy.special import expit
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.neural_network import MLPRegressor
 
+from estimation.base import ForceEstimator
 from estimation.deployable import check_period
 from estimation.errors import check_features, check_mode, check_target
 from estimation.normalize import MinMaxScaling
@@ -73,7 +74,7 @@ class MLPForward:
         return float(self._odot(h)) + self._b2
 
 
-class MLPBaseline:
+class MLPBaseline(ForceEstimator):
     """Static MLP from the current window's features to force.
 
     Parameters
@@ -148,10 +149,11 @@ class MLPBaseline:
         return self
 
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
-                mode: str = "free_run") -> np.ndarray:
+                mode: str | None = None) -> np.ndarray:
         """Force estimate, shape (n_samples,); ``y`` is ignored."""
-        check_mode(mode, self.modes, "MLPBaseline")
-        return self.net_.predict(check_features(U, n_inputs=self.n_features_in_))
+        self._mode(mode, y)
+        return self.net_.predict(check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__))
 
     def streaming(self, mode: str = "free_run", *, scaling: MinMaxScaling | None = None,
                   period_s: float | None = None) -> object:

@@ -117,10 +117,11 @@ class NARXBaseline(MLPBaseline):
         return y - self._target_offset
 
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
-                mode: str = "one_step") -> np.ndarray:
+                mode: str | None = None) -> np.ndarray:
         """Force estimate, shape (n_samples,); ``one_step`` needs the measured ``y``."""
-        check_mode(mode, self.modes, "NARXBaseline")
-        U = check_features(U, n_inputs=self.n_features_in_)
+        mode = self._mode(mode, y)
+        U = check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__)
         if mode == "one_step":
             y = check_target(require_force(y, mode, "NARXBaseline"), U.shape[0])
             R = narx_regressors(U, y, self.delays)

@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import numpy as np
+from sklearn.utils.validation import check_is_fitted
 
+from estimation.base import ForceEstimator
 from estimation.errors import check_features, check_mode, check_target, require_force
 from estimation.normalize import MinMaxScaling
 from estimation.streaming import DelayedLTIStream
 
 
-class Persistence:
+class Persistence(ForceEstimator):
     """Predict the last measured force; ``one_step`` only (it needs the force).
 
     ``yhat(0) = 0`` (rest), matching a zero initial state of the other estimators.
@@ -25,10 +27,12 @@ class Persistence:
         return self
 
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
-                mode: str = "one_step") -> np.ndarray:
+                mode: str | None = None) -> np.ndarray:
         """``[0, y(0), ..., y(n-2)]``, shape (n_samples,)."""
-        check_mode(mode, self.modes, "Persistence")
-        U = check_features(U, n_inputs=self.n_features_in_)
+        check_is_fitted(self)
+        U = check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__)
+        mode = self._mode(mode, y)
         y = check_target(require_force(y, mode, "Persistence"), U.shape[0])
         return np.concatenate([[0.0], y[:-1]])
 

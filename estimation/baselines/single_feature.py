@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from estimation.base import ForceEstimator
 from estimation.errors import EstimationInputError, check_features, check_mode, check_target
 from estimation.features import FEATURES
 from estimation.normalize import MinMaxScaling
 from estimation.streaming import DirectLTIStream
 
 
-class SingleFeatureLinear:
+class SingleFeatureLinear(ForceEstimator):
     """Least-squares line from one feature type (all channels) to force.
 
     Parameters
@@ -59,10 +60,11 @@ class SingleFeatureLinear:
         return self
 
     def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
-                mode: str = "free_run") -> np.ndarray:
+                mode: str | None = None) -> np.ndarray:
         """``intercept_ + U @ coef_``, shape (n_samples,); ``y`` is ignored."""
-        check_mode(mode, self.modes, "SingleFeatureLinear")
-        U = check_features(U, n_inputs=self.n_features_in_)
+        self._mode(mode, y)
+        U = check_features(U, n_inputs=self.n_features_in_,
+                           who=type(self).__name__)
         return U @ self.coef_ + self.intercept_
 
     def streaming(self, mode: str = "free_run", *,

@@ -1,12 +1,15 @@
-"""Metrics: hand-computed values and the R^2 / NRMSE identity."""
+"""Metrics: hand-computed values, the R^2 / NRMSE identity, scikit-learn equivalence."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+import sklearn.metrics
+from sklearn.preprocessing import MinMaxScaler
 
 from estimation.errors import EstimationInputError
 from estimation.metrics import nrmse_fit, r2_score, rmse, total_variation_rate
+from estimation.normalize import MinMaxScaling
 
 
 def test_hand_computed_values() -> None:
@@ -59,3 +62,37 @@ def test_bad_inputs() -> None:
         rmse(np.array([1.0, np.nan]), np.ones(2))
     with pytest.raises(EstimationInputError, match="dt_s"):
         total_variation_rate(np.ones(3), 0.0)
+
+
+def _paper_r2(y: np.ndarray, y_hat: np.ndarray) -> float:
+    """Eq. (21) as written, the reference for the scikit-learn computation."""
+    return 1.0 - np.sum((y - y_hat) ** 2) / np.sum((y - np.mean(y)) ** 2)
+
+
+def test_r2_and_rmse_are_scikit_learn_and_equal_the_paper_formula(monkeypatch) -> None:
+    rng = np.random.default_rng(7)
+    for scale, n in ((1.0, 10), (40.0, 500), (1e-3, 3000)):
+        y = scale * rng.random(n).cumsum()
+        y_hat = y + scale * rng.normal(scale=0.3, size=n)
+        assert abs(r2_score(y, y_hat) - _paper_r2(y, y_hat)) <= 1e-12
+        assert abs(rmse(y, y_hat) - np.sqrt(np.mean((y - y_hat) ** 2))) <= 1e-12 * scale
+    calls = []
+    real = sklearn.metrics.r2_score
+    monkeypatch.setattr(sklearn.metrics, "r2_score",
+                        lambda *a, **k: calls.append(1) or real(*a, **k))
+    r2_score(y, y_hat)
+    assert calls == [1]
+    r2_score(y, y_hat, y_mean=0.0)  # R^2 about a given mean: not in scikit-learn
+    assert calls == [1]
+
+
+def test_min_max_ranges_equal_scikit_learn() -> None:
+    rng = np.random.default_rng(3)
+    U, y = rng.gamma(2.0, size=(400, 9)), 40 * rng.random(400)
+    ours = MinMaxScaling.fit(U, y)
+    ref = MinMaxScaler().fit(U)
+    np.testing.assert_array_equal(ours.u_min, ref.data_min_)
+    np.testing.assert_array_equal(ours.u_span, ref.data_range_)
+    np.testing.assert_allclose(ours.transform_u(U), ref.transform(U), rtol=0, atol=1e-12)
+    y_ref = MinMaxScaler().fit(y[:, None])
+    np.testing.assert_allclose(ours.transform_y(y), y_ref.transform(y[:, None])[:, 0], atol=1e-12)
