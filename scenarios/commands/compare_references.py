@@ -6,9 +6,9 @@ import argparse
 import json
 from pathlib import Path
 
+from controllers.design_plant import object_for
 from scenarios.commands.episode import ESTIMATOR_CHOICES
 from scenarios.compare import DEFAULT_REFERENCES, compare_references, format_comparison
-from controllers.design_plant import object_for
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

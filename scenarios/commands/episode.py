@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from estimation.registry import ESTIMATOR_NAMES
 from controllers.design import worst_case
+from estimation.registry import ESTIMATOR_NAMES
 from scenarios.commands.margins import format_table
 from scenarios.episode import ORACLE, episode_from_scenario
 from scenarios.schema import parse_scenario

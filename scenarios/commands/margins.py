@@ -36,7 +36,8 @@ def parse_forces(text: str) -> list[float]:
     try:
         forces = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        raise ValueError(f"--at-force: expected comma-separated forces in N, found {text!r}")
+        raise ValueError(
+            f"--at-force: expected comma-separated forces in N, found {text!r}") from None
     if not forces or not all(np.isfinite(forces)):
         raise ValueError(f"--at-force: expected comma-separated forces in N, found {text!r}")
     return forces
@@ -113,9 +114,10 @@ def format_table(controller: str, analyses: list[OperatingAnalysis],
             continue
         m = a.margins
         wc = m.crossover_rad_s[0] if m.crossover_rad_s else None
+        dm_ms = m.delay_margin_s * 1e3 if np.isfinite(m.delay_margin_s) else None
         lines.append(f"{a.force_n:8.3g} {_cell(m.gain_margin_db, '7.2f')} "
                      f"{_cell(m.phase_margin_deg, '7.1f')} "
-                     f"{_cell(m.delay_margin_s * 1e3 if np.isfinite(m.delay_margin_s) else None, '7.1f')} "
+                     f"{_cell(dm_ms, '7.1f')} "
                      f"{_cell(wc, '9.3g')} {_cell(m.ms, '5.2f')} {str(m.stable):>6}  {a.how}")
     if worst and worst.get("n_points"):
         dm = worst["delay_margin_s"]

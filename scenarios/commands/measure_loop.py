@@ -88,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
                 analysis.margins, np.array([p.frequency_rad_s for p in m.points]),
                 np.array([p.loop for p in m.points]),
                 title=f"{args.controller} holding {design.object.name} at {held:g} N")
-            path = args.plots / f"{args.controller}_{design.object.name}_{m.force_n:g}N_measured.png"
+            stem = f"{args.controller}_{design.object.name}_{m.force_n:g}N"
+            path = args.plots / f"{stem}_measured.png"
             fig.savefig(path, dpi=110)
             print(f"wrote {path}")
     return 0
