@@ -26,6 +26,8 @@ import signal
 import sys
 from collections.abc import Sequence
 
+from scenarios.interrupt import exit_status, raise_on_stop
+
 USER_ERRORS = (ValueError, OSError, LookupError)
 
 #: ``name -> (module, one-line help)`` of every subcommand, in the order of ``--help``.
@@ -56,18 +58,6 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "sweep": ("scenarios.commands.sweep",
               "run a YAML sweep of scenarios into the results store (resumable)"),
 }
-
-
-class Interrupted(KeyboardInterrupt):
-    """A stop signal (SIGINT or SIGTERM) arrived; ``signum`` says which."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signal.Signals(signum).name)
-        self.signum = signum
-
-
-def _raise_interrupted(signum: int, frame: object) -> None:
-    raise Interrupted(signum)
 
 
 def version() -> str:
@@ -120,27 +110,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(_chosen(argv))
     args = parser.parse_args(argv)
-    previous = None
     try:
-        try:
-            previous = signal.signal(signal.SIGTERM, _raise_interrupted)
-        except ValueError:  # not the main thread: leave SIGTERM alone
-            previous = None
-        return int(args.func(args) or 0)
+        with raise_on_stop():
+            return int(args.func(args) or 0)
     except USER_ERRORS as exc:
         if os.environ.get("GRIPLOOP_TRACEBACK"):
             raise
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"griploop {args.command}: error: {message}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt as exc:
-        signum = getattr(exc, "signum", signal.SIGINT)
-        print(f"griploop {args.command}: stopped by {signal.Signals(signum).name}",
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM (scenarios.interrupt.Interrupted)
+        status = exit_status(exc)
+        print(f"griploop {args.command}: stopped by {signal.Signals(status - 128).name}",
               file=sys.stderr)
-        return 128 + int(signum)
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        return status
 
 
 if __name__ == "__main__":

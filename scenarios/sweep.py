@@ -34,6 +34,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from scenarios.interrupt import Interrupted, raise_on_stop
 from scenarios.runner import require_runners
 from scenarios.schema import DEFAULT_TIME_LIMIT_S, ExpandedScenario, Scenario
 from scenarios.store import Outcome, ResultStore, content_hash, encode_traces, package_version
@@ -308,6 +309,7 @@ class Sandbox:
             code = 0
             try:
                 parent.close()
+                _shield_from_stop_signals()
                 _die_with_parent()
                 _serve(child)
             except BaseException:
@@ -373,6 +375,29 @@ def _serve(conn: Any) -> None:
         except EOFError:
             return
         conn.send(execute(task, scenario, hash_))
+
+
+def _shield_from_stop_signals() -> None:
+    """Keep Ctrl-C away from a sandbox child: the driver decides when it stops.
+
+    The child leaves the terminal's foreground process group (Ctrl-C signals
+    that group) and ignores SIGINT, so a solver inside a scenario (OSQP installs
+    its own SIGINT handler) never sees the interrupt, never turns it into a
+    failed scenario and never prints its matrices. SIGTERM gets its default
+    action back (the driver's handler raises). The driver stops the child with
+    SIGKILL; it also dies with its parent (:func:`_die_with_parent`).
+    """
+    try:
+        os.setpgid(0, 0)
+    except OSError:
+        pass
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _ignore_sigint() -> None:
+    """Run on local dask workers: they share the terminal's process group."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _die_with_parent() -> None:
@@ -601,6 +626,10 @@ def run_sweep(
     ------
     SweepError
         ``workers < 1`` or a task that cannot be named.
+    scenarios.interrupt.Interrupted
+        SIGINT or SIGTERM arrived (in the main thread): the running scenarios
+        are stopped, nothing is recorded for them and the claims are released,
+        so the next run of the sweep runs them.
     scenarios.runner.RunnerUnavailableError
         The default task has no runner for a kind in the sweep.
     """
@@ -620,7 +649,11 @@ def run_sweep(
     counts = {"ok": 0, "failed": 0, "seen": 0, "skipped": 0}
     busy: list[PlannedScenario] = []
 
+    stopping: list[Any] = [None]
+
     def record(p: PlannedScenario, outcome: Outcome) -> None:
+        if stopping[0] and outcome.status == "failed":
+            raise Interrupted(stopping[0].signum)  # a casualty of the stop: run it again later
         store.record(
             outcome, kind=p.scenario.kind, config_json=p.config_json, task=name, version=version
         )
@@ -659,23 +692,26 @@ def run_sweep(
             yield from claimed(todo)
 
     t0 = time.perf_counter()
-    try:
-        for p, outcome in _outcomes(stream(), task, workers, scheduler, time_limit_s):
-            record(p, outcome)
-        while busy:  # run by another driver: wait for its rows, or take over its claims
-            time.sleep(poll_s)
-            waiting, busy[:] = list(busy), []
-            stored = store.statuses(p.hash for p in waiting)
-            mine = [p for p in waiting if p.hash not in stored]  # others: done elsewhere
-            counts["skipped"] += len(waiting) - len(mine)
-            for _ in range(len(waiting) - len(mine)):
-                _untally(bar)
-            for p, outcome in _outcomes(claimed(mine), task, workers, scheduler, time_limit_s):
+    with raise_on_stop() as stop:
+        stopping[0] = stop
+        try:
+            for p, outcome in _outcomes(stream(), task, workers, scheduler, time_limit_s):
                 record(p, outcome)
-    finally:
-        store.release_claims(owner)
-        if bar is not None:
-            bar.close()
+            while busy:  # run by another driver: wait for its rows, or take over its claims
+                time.sleep(poll_s)
+                waiting, busy[:] = list(busy), []
+                stored = store.statuses(p.hash for p in waiting)
+                mine = [p for p in waiting if p.hash not in stored]  # others: done elsewhere
+                counts["skipped"] += len(waiting) - len(mine)
+                for _ in range(len(waiting) - len(mine)):
+                    _untally(bar)
+                for p, outcome in _outcomes(claimed(mine), task, workers, scheduler,
+                                            time_limit_s):
+                    record(p, outcome)
+        finally:
+            store.release_claims(owner)
+            if bar is not None:
+                bar.close()
     elapsed = time.perf_counter() - t0
     return SweepSummary(
         max(total, counts["seen"]), counts["skipped"], counts["ok"], counts["failed"], elapsed
@@ -762,4 +798,8 @@ def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
         silence_logs=logging.ERROR,
     )
     with cluster, Client(cluster) as client:
+        try:  # the workers share the terminal's process group: Ctrl-C is the driver's
+            client.run(_ignore_sigint)
+        except Exception:  # noqa: BLE001  (best effort: the driver ignores their failures)
+            pass
         yield client
