@@ -95,3 +95,12 @@ def solves_qps(scenario: Scenario) -> dict:
     while time.perf_counter() - t0 < 1.0:
         solver(lbg=-1.0, ubg=rng.uniform(0.5, 1.0, n))
     return seeded(scenario)
+
+
+def signal_state(scenario: Scenario) -> dict:
+    """How the process running the scenario would receive a terminal's Ctrl-C."""
+    import os
+    import signal
+
+    return {"pgid": os.getpgid(0), "pid": os.getpid(),
+            "sigint_ignored": signal.getsignal(signal.SIGINT) is signal.SIG_IGN}

@@ -86,3 +86,21 @@ def test_a_stopped_sweep_stores_no_failure_and_resumes(tmp_path, signum, status)
     assert f"{len(stopped)} already stored, {N - len(stopped)} ok, 0 failed" in rerun.stdout
     rows = _rows(db)
     assert len(rows) == N and all(s == "ok" and a == 1 for _, s, a in rows), rows
+
+
+def test_the_sandbox_child_never_sees_a_terminal_ctrl_c():
+    sys.path.insert(0, str(HERE))
+    try:
+        from scenarios.schema import parse_scenario
+        from scenarios.sweep import Sandbox
+
+        scenario = parse_scenario({"kind": "episode", "seed": 1}, source="test")
+        with Sandbox() as box:
+            outcome = box.run("tasks:signal_state", scenario, "h", 30.0)
+    finally:
+        sys.path.remove(str(HERE))
+    assert outcome.status == "ok", outcome.error
+    child = outcome.result
+    assert child["pid"] != os.getpid()
+    assert child["pgid"] == child["pid"] != os.getpgid(0)  # its own process group
+    assert child["sigint_ignored"]
