@@ -445,11 +445,13 @@ def run_guarded(box: Sandbox, task: Task, scenario: Scenario, hash_: str,
 
 
 class Progress:
-    """Plain-text progress bar on a stream: done, failed, rate and ETA.
+    """Progress bar of a sweep (:mod:`tqdm`): done, failed, rate and ETA.
 
-    On a terminal the line is redrawn in place at most every
-    ``min_interval_s``; otherwise a line is printed every tenth of the sweep
-    or every ``log_interval_s``, whichever comes first.
+    On a terminal tqdm redraws the line in place at most every
+    ``min_interval_s``; otherwise (a log file, CI) tqdm's line is printed
+    whole every tenth of the sweep or every ``log_interval_s``, whichever comes
+    first. ``total`` may change while the sweep runs (scenarios found stored or
+    run by another driver are taken off).
 
     Parameters
     ----------
@@ -461,6 +463,9 @@ class Progress:
         Where to write; default ``sys.stderr``.
     """
 
+    FORMAT = ("{desc} {percentage:3.0f}%|{bar:24}| {n_fmt}/{total_fmt} done{postfix} "
+              "[{elapsed}<{remaining}, {rate_fmt}]")
+
     def __init__(
         self,
         total: int,
@@ -469,62 +474,57 @@ class Progress:
         *,
         min_interval_s: float = 0.1,
         log_interval_s: float = 10.0,
-        width: int = 24,
     ) -> None:
-        self.total, self.label, self.width = total, label, width
+        from tqdm import tqdm
+
+        self.label = label
         self.stream = stream if stream is not None else sys.stderr
         self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.min_interval_s, self.log_interval_s = min_interval_s, log_interval_s
-        self.done = self.failed = 0
-        self._t0 = time.perf_counter()
-        self._last = -math.inf
+        self.log_interval_s = log_interval_s
+        self.failed = 0
+        self._bar = tqdm(total=total, desc=label, file=self.stream, bar_format=self.FORMAT,
+                         unit="scenario", mininterval=min_interval_s, ascii=not self.tty,
+                         dynamic_ncols=self.tty, disable=False, leave=True,
+                         postfix="0 failed", delay=0 if self.tty else float("inf"))
+        self._last = time.perf_counter()
         self._last_done = 0
+
+    @property
+    def total(self) -> int:
+        """Scenarios to run."""
+        return int(self._bar.total or 0)
+
+    @total.setter
+    def total(self, value: int) -> None:
+        self._bar.total = max(0, int(value))
+
+    @property
+    def done(self) -> int:
+        """Scenarios finished so far."""
+        return int(self._bar.n)
 
     def update(self, status: str) -> None:
         """Count one finished scenario and redraw if due."""
-        self.done += 1
         self.failed += status == "failed"
+        self._bar.set_postfix_str(f"{self.failed} failed", refresh=False)
+        self._bar.update(1)
+        if self.tty:
+            return
         now = time.perf_counter()
-        if self.tty:
-            due = now - self._last >= self.min_interval_s
-        else:
-            step = max(1, self.total // 10)
-            due = self.done - self._last_done >= step or now - self._last >= self.log_interval_s
-        if due or self.done == self.total:
-            self._draw(now)
+        step = max(1, self.total // 10)
+        if (self.done - self._last_done >= step or now - self._last >= self.log_interval_s
+                or self.done >= self.total):
+            self._last, self._last_done = now, self.done
+            self.stream.write(self.line() + "\n")
+            self.stream.flush()
 
-    def line(self, now: float | None = None) -> str:
-        """The current progress line."""
-        elapsed = (time.perf_counter() if now is None else now) - self._t0
-        frac = self.done / self.total if self.total else 1.0
-        filled = int(round(frac * self.width))
-        bar = "#" * filled + "-" * (self.width - filled)
-        rate = self.done / elapsed if elapsed > 0 and self.done else 0.0
-        left = self.total - self.done
-        eta = _clock(left / rate) if rate > 0 else "?" if left else "0:00:00"
-        return (
-            f"{self.label} [{bar}] {self.done}/{self.total} done, {self.failed} failed, "
-            f"{rate * 60:.1f}/min, ETA {eta}"
-        )
-
-    def _draw(self, now: float) -> None:
-        self._last, self._last_done = now, self.done
-        if self.tty:
-            self.stream.write("\r" + self.line(now) + "\x1b[K")
-        else:
-            self.stream.write(self.line(now) + "\n")
-        self.stream.flush()
+    def line(self) -> str:
+        """The current progress line (tqdm's meter)."""
+        return str(self._bar)
 
     def close(self) -> None:
         """Finish the line."""
-        if self.tty and self._last > -math.inf:
-            self.stream.write("\n")
-            self.stream.flush()
-
-
-def _clock(seconds: float) -> str:
-    seconds = int(round(seconds))
-    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
+        self._bar.close()
 
 
 def pending(
