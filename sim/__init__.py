@@ -13,9 +13,12 @@ import os as _os
 import sys as _sys
 
 
-def _choose_headless_gl(environ: "dict[str, str] | _os._Environ[str]" = _os.environ,
-                        platform: str = _sys.platform) -> None:
-    """Select EGL when no OpenGL backend is set and no display exists (Linux only)."""
+def _choose_headless_gl(environ=None, platform: str = _sys.platform) -> None:
+    """Select EGL when no OpenGL backend is set and no display exists (Linux only).
+
+    ``environ`` is a mutable mapping of environment variables (default ``os.environ``).
+    """
+    environ = _os.environ if environ is None else environ
     if environ.get("MUJOCO_GL") or not platform.startswith("linux"):
         return
     if environ.get("DISPLAY") or environ.get("WAYLAND_DISPLAY"):
