@@ -93,3 +93,31 @@ def test_chosen_command_imports_only_its_module() -> None:
             "assert not others, others\n"
             "assert 'matplotlib.pyplot' not in sys.modules\n")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_json_output_is_optional_everywhere() -> None:
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    with_json = []
+    for name, command in sub.choices.items():
+        for action in command._actions:
+            if "--json" in action.option_strings:
+                with_json.append(name)
+                assert not action.required, f"griploop {name} --json is required"
+    assert {"margins", "episode", "reproduce", "compare-references"} <= set(with_json)
+
+
+def test_sigterm_in_a_command_exits_143(monkeypatch, capsys) -> None:
+    import os
+    import signal
+
+    import scenarios.commands.export as export
+
+    def stopped(args):
+        os.kill(os.getpid(), signal.SIGTERM)
+        raise AssertionError("SIGTERM did not stop the command")
+
+    monkeypatch.setattr(export, "run", stopped)  # register() binds func=run when called
+    assert main(["export", "x.sqlite"]) == 143
+    assert "stopped by SIGTERM" in capsys.readouterr().err
+
