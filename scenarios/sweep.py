@@ -477,12 +477,15 @@ class Progress:
     ) -> None:
         from tqdm import tqdm
 
+        class _Bar(tqdm):  # no monitor thread: sandbox children are forked from this process
+            monitor_interval = 0
+
         self.label = label
         self.stream = stream if stream is not None else sys.stderr
         self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
         self.log_interval_s = log_interval_s
         self.failed = 0
-        self._bar = tqdm(total=total, desc=label, file=self.stream, bar_format=self.FORMAT,
+        self._bar = _Bar(total=total, desc=label, file=self.stream, bar_format=self.FORMAT,
                          unit="scenario", mininterval=min_interval_s, ascii=not self.tty,
                          dynamic_ncols=self.tty, disable=False, leave=True,
                          postfix="0 failed", delay=0 if self.tty else float("inf"))
