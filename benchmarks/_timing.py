@@ -1,28 +1,21 @@
-"""Small timing helpers shared by the benchmark scripts."""
+"""Timing helpers shared by the benchmark scripts, on the standard library's :mod:`timeit`."""
 
 from __future__ import annotations
 
-import time
+import statistics
+import timeit
 from collections.abc import Callable
 
-import numpy as np
 
-
-def time_call(fn: Callable[[], object], *, repeat: int = 5, min_time_s: float = 0.2) -> float:
+def time_call(fn: Callable[[], object], *, repeat: int = 5) -> float:
     """Median wall time of one call of ``fn`` in seconds.
 
-    Each of ``repeat`` measurements runs ``fn`` enough times to last at least
-    ``min_time_s`` and divides by the count, so fast functions are timed over
-    many calls and slow ones once.
+    :meth:`timeit.Timer.autorange` picks the number of calls (1, 2, 5, 10, ...)
+    that lasts at least 0.2 s; the timer then takes ``repeat`` measurements of
+    that many calls (garbage collection off, as ``timeit`` does) and the median
+    per call is returned. Fast functions are thus timed over many calls and
+    slow ones once.
     """
-    samples = []
-    for _ in range(repeat):
-        count, start = 0, time.perf_counter()
-        while True:
-            fn()
-            count += 1
-            elapsed = time.perf_counter() - start
-            if elapsed >= min_time_s:
-                break
-        samples.append(elapsed / count)
-    return float(np.median(samples))
+    timer = timeit.Timer(fn)
+    number, _ = timer.autorange()
+    return statistics.median(timer.repeat(repeat=repeat, number=number)) / number

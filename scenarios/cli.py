@@ -1,62 +1,129 @@
 """The ``griploop`` command line.
 
-Subcommands live in :mod:`scenarios.commands`, one module each. Errors a user
-can cause (bad files, bad options, infeasible designs) are subclasses of
-``ValueError``, ``OSError`` or ``LookupError``; they are printed as one line on
-stderr with exit status 2. Set ``GRIPLOOP_TRACEBACK=1`` to see the traceback.
+Subcommands live in :mod:`scenarios.commands`, one module each, listed in
+:data:`COMMANDS` with their one-line help so that ``griploop --help`` imports
+none of them: only the chosen subcommand's module is imported (``griploop
+--help`` answers in a fraction of a second). Errors a user can cause (bad
+files, bad options, infeasible designs) are subclasses of ``ValueError``,
+``OSError`` or ``LookupError``; they are printed as one line on stderr with
+exit status 2. Set ``GRIPLOOP_TRACEBACK=1`` to see the traceback.
 
-MuJoCo chooses its OpenGL backend when first imported, so headless EGL is
-selected here, before any command module is loaded (an explicit ``MUJOCO_GL``
-in the environment wins).
+Ctrl-C (SIGINT) and SIGTERM stop a command with exit status 130 and 143
+(128 + the signal number), after its clean-up ran (a sweep releases its claims
+and stops its worker processes; nothing is recorded as failed).
+
+MuJoCo chooses its OpenGL backend when first imported; :mod:`sim` selects a
+headless one when none is set and there is no display. Matplotlib draws with
+Agg (set here, before any command module is loaded).
 """
 
 from __future__ import annotations
 
+import argparse
+import importlib
 import os
+import signal
+import sys
+from collections.abc import Sequence
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-os.environ.setdefault("PYOPENGL_PLATFORM", os.environ["MUJOCO_GL"])
-os.environ.setdefault("MPLBACKEND", "Agg")
-
-import argparse  # noqa: E402
-import importlib  # noqa: E402
-import pkgutil  # noqa: E402
-import sys  # noqa: E402
-from collections.abc import Sequence  # noqa: E402
-
-import scenarios.commands as _commands  # noqa: E402
+from scenarios.interrupt import exit_status, raise_on_stop
 
 USER_ERRORS = (ValueError, OSError, LookupError)
 
+#: ``name -> (module, one-line help)`` of every subcommand, in the order of ``--help``.
+#: Each module defines ``register(subparsers)`` (adding its parser with the same help)
+#: and ``run(args) -> int``; ``tests/scenarios/test_cli.py`` checks the two helps agree.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "compare-references": ("scenarios.commands.compare_references",
+                           "grasp one object with references from several estimators and the "
+                           "oracle"),
+    "demo": ("scenarios.commands.demo", "run the main job on embedded defaults and write a report"),
+    "episode": ("scenarios.commands.episode",
+                "run one closed-loop grasp-lift-hold episode from sEMG to the MuJoCo hand"),
+    "evaluate": ("scenarios.commands.evaluate",
+                 "fit and score every force estimator on one recording"),
+    "export": ("scenarios.commands.export", "write a results store as Parquet and CSV tables"),
+    "margins": ("scenarios.commands.margins",
+                "design a controller for an object and report its margins at each grip force"),
+    "measure-loop": ("scenarios.commands.measure_loop",
+                     "measure L(jw) and |S(jw)| on the simulated hand by sine injection"),
+    "plot-recording": ("scenarios.commands.plot_recording",
+                       "plot a recording: force above the stacked sEMG channels"),
+    "report": ("scenarios.commands.report",
+               "write a self-contained HTML report of a results store"),
+    "reproduce": ("scenarios.commands.reproduce",
+                  "reproduce the paper's Tables 2 and 3 on virtual subjects"),
+    "subjects": ("scenarios.commands.subjects",
+                 "simulate the paper's squeeze session for a virtual population"),
+    "sweep": ("scenarios.commands.sweep",
+              "run a YAML sweep of scenarios into the results store (resumable)"),
+}
 
-def build_parser() -> argparse.ArgumentParser:
-    """The top-level parser with every subcommand registered."""
+
+def version() -> str:
+    """The installed distribution's version (``importlib.metadata``), or ``unknown``."""
+    from importlib import metadata
+
+    try:
+        return metadata.version("griploop")
+    except metadata.PackageNotFoundError:
+        return "unknown (not installed)"
+
+
+def _chosen(argv: Sequence[str]) -> str | None:
+    """The subcommand named in ``argv`` (the first word that is not an option)."""
+    for word in argv:
+        if not word.startswith("-"):
+            return word if word in COMMANDS else None
+    return None
+
+
+def build_parser(command: str | None = "*") -> argparse.ArgumentParser:
+    """The top-level parser.
+
+    Parameters
+    ----------
+    command : str or None
+        The subcommand whose module is imported and whose full parser is
+        registered; ``"*"`` (default) imports every one, ``None`` none (the
+        others are listed by name and help only).
+    """
     parser = argparse.ArgumentParser(
         prog="griploop",
         description="Simulation-in-the-loop testbed for myoelectric prosthesis grip control.",
+        epilog="griploop COMMAND --help describes a command. Exit status: 0 done, 2 user "
+        "error, 130/143 stopped by Ctrl-C/SIGTERM.",
     )
+    parser.add_argument("--version", action="version", version=f"griploop {version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for info in sorted(pkgutil.iter_modules(_commands.__path__), key=lambda m: m.name):
-        module = importlib.import_module(f"{_commands.__name__}.{info.name}")
-        module.register(sub)
+    for name, (module, help_) in COMMANDS.items():
+        if command in ("*", name):
+            importlib.import_module(module).register(sub)
+        else:
+            sub.add_parser(name, help=help_, add_help=False)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``griploop`` console script; returns the exit status."""
-    parser = build_parser()
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(_chosen(argv))
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        with raise_on_stop():
+            return int(args.func(args) or 0)
     except USER_ERRORS as exc:
         if os.environ.get("GRIPLOOP_TRACEBACK"):
             raise
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"griploop {args.command}: error: {message}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"griploop {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM (scenarios.interrupt.Interrupted)
+        status = exit_status(exc)
+        print(f"griploop {args.command}: stopped by {signal.Signals(status - 128).name}",
+              file=sys.stderr)
+        return status
 
 
 if __name__ == "__main__":

@@ -10,11 +10,12 @@ identified model that is unstable in free run) are counted, never dropped.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
+from controllers.design import DEFAULT_SPECS
 from scenarios.episode import ORACLE, run_episode
 from scenarios.runner import DivergedError, UnsupportedScenarioError
 from sim.objects import ObjectSpec
@@ -31,6 +32,7 @@ def compare_references(
     estimators: Sequence[str] = DEFAULT_REFERENCES,
     mode: str = "free_run",
     controller: str = "pid",
+    controller_spec: Mapping[str, Any] | None = None,
     subject_ids: Sequence[int] = (1, 2, 3),
     population_seed: int = 0,
     seed: int = 0,
@@ -47,6 +49,10 @@ def compare_references(
     mode : {"free_run", "one_step"}
         Estimator mode (the oracle ignores it).
     controller : {"pid", "lead_lag", "mpc"}
+    controller_spec : mapping, optional
+        Design specification (keyword arguments of
+        :func:`controllers.design.design_for_object`); default
+        :data:`controllers.design.DEFAULT_SPECS` of ``controller``.
     subject_ids : sequence of int
         Virtual subjects of ``population_seed``.
     seed : int
@@ -61,6 +67,7 @@ def compare_references(
         and ``crushed`` as fractions of the outcome categories: each episode has
         one), ``n_ok`` and ``n_failed``.
     """
+    spec = dict(DEFAULT_SPECS.get(controller, {}) if controller_spec is None else controller_spec)
     rows: list[dict[str, Any]] = []
     for sid in subject_ids:
         subject = VirtualSubject.sample(population_seed, sid)
@@ -69,7 +76,8 @@ def compare_references(
                     "mode": "oracle" if name == ORACLE else mode}
             try:
                 result = run_episode(subject, obj, estimator=name, mode=mode,
-                                     controller=controller, seed=seed, episode_s=episode_s)
+                                     controller=controller, controller_spec=spec, seed=seed,
+                                     episode_s=episode_s)
             except (DivergedError, UnsupportedScenarioError) as exc:
                 rows.append({**base, "status": "failed", "error": str(exc)})
                 continue

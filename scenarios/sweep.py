@@ -34,6 +34,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from scenarios.interrupt import Interrupted, raise_on_stop
 from scenarios.runner import require_runners
 from scenarios.schema import DEFAULT_TIME_LIMIT_S, ExpandedScenario, Scenario
 from scenarios.store import Outcome, ResultStore, content_hash, encode_traces, package_version
@@ -308,6 +309,7 @@ class Sandbox:
             code = 0
             try:
                 parent.close()
+                _shield_from_stop_signals()
                 _die_with_parent()
                 _serve(child)
             except BaseException:
@@ -375,6 +377,29 @@ def _serve(conn: Any) -> None:
         conn.send(execute(task, scenario, hash_))
 
 
+def _shield_from_stop_signals() -> None:
+    """Keep Ctrl-C away from a sandbox child: the driver decides when it stops.
+
+    The child leaves the terminal's foreground process group (Ctrl-C signals
+    that group) and ignores SIGINT, so a solver inside a scenario (OSQP installs
+    its own SIGINT handler) never sees the interrupt, never turns it into a
+    failed scenario and never prints its matrices. SIGTERM gets its default
+    action back (the driver's handler raises). The driver stops the child with
+    SIGKILL; it also dies with its parent (:func:`_die_with_parent`).
+    """
+    try:
+        os.setpgid(0, 0)
+    except OSError:
+        pass
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _ignore_sigint() -> None:
+    """Run on local dask workers: they share the terminal's process group."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _die_with_parent() -> None:
     """Ask Linux to kill this process when its parent dies (no-op elsewhere)."""
     try:
@@ -420,11 +445,13 @@ def run_guarded(box: Sandbox, task: Task, scenario: Scenario, hash_: str,
 
 
 class Progress:
-    """Plain-text progress bar on a stream: done, failed, rate and ETA.
+    """Progress bar of a sweep (:mod:`tqdm`): done, failed, rate and ETA.
 
-    On a terminal the line is redrawn in place at most every
-    ``min_interval_s``; otherwise a line is printed every tenth of the sweep
-    or every ``log_interval_s``, whichever comes first.
+    On a terminal tqdm redraws the line in place at most every
+    ``min_interval_s``; otherwise (a log file, CI) tqdm's line is printed
+    whole every tenth of the sweep or every ``log_interval_s``, whichever comes
+    first. ``total`` may change while the sweep runs (scenarios found stored or
+    run by another driver are taken off).
 
     Parameters
     ----------
@@ -436,6 +463,9 @@ class Progress:
         Where to write; default ``sys.stderr``.
     """
 
+    FORMAT = ("{desc} {percentage:3.0f}%|{bar:24}| {n_fmt}/{total_fmt} done{postfix} "
+              "[{elapsed}<{remaining}, {rate_fmt}]")
+
     def __init__(
         self,
         total: int,
@@ -444,62 +474,60 @@ class Progress:
         *,
         min_interval_s: float = 0.1,
         log_interval_s: float = 10.0,
-        width: int = 24,
     ) -> None:
-        self.total, self.label, self.width = total, label, width
+        from tqdm import tqdm
+
+        class _Bar(tqdm):  # no monitor thread: sandbox children are forked from this process
+            monitor_interval = 0
+
+        self.label = label
         self.stream = stream if stream is not None else sys.stderr
         self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.min_interval_s, self.log_interval_s = min_interval_s, log_interval_s
-        self.done = self.failed = 0
-        self._t0 = time.perf_counter()
-        self._last = -math.inf
+        self.log_interval_s = log_interval_s
+        self.failed = 0
+        self._bar = _Bar(total=total, desc=label, file=self.stream, bar_format=self.FORMAT,
+                         unit="scenario", mininterval=min_interval_s, ascii=not self.tty,
+                         dynamic_ncols=self.tty, disable=False, leave=True,
+                         postfix="0 failed", delay=0 if self.tty else float("inf"))
+        self._last = time.perf_counter()
         self._last_done = 0
+
+    @property
+    def total(self) -> int:
+        """Scenarios to run."""
+        return int(self._bar.total or 0)
+
+    @total.setter
+    def total(self, value: int) -> None:
+        self._bar.total = max(0, int(value))
+
+    @property
+    def done(self) -> int:
+        """Scenarios finished so far."""
+        return int(self._bar.n)
 
     def update(self, status: str) -> None:
         """Count one finished scenario and redraw if due."""
-        self.done += 1
         self.failed += status == "failed"
+        self._bar.set_postfix_str(f"{self.failed} failed", refresh=False)
+        self._bar.update(1)
+        if self.tty:
+            return
         now = time.perf_counter()
-        if self.tty:
-            due = now - self._last >= self.min_interval_s
-        else:
-            step = max(1, self.total // 10)
-            due = self.done - self._last_done >= step or now - self._last >= self.log_interval_s
-        if due or self.done == self.total:
-            self._draw(now)
+        step = max(1, self.total // 10)
+        if (self.done - self._last_done >= step or now - self._last >= self.log_interval_s
+                or self.done >= self.total):
+            self._last, self._last_done = now, self.done
+            self.stream.write(self.line() + "\n")
+            self.stream.flush()
 
-    def line(self, now: float | None = None) -> str:
-        """The current progress line."""
-        elapsed = (time.perf_counter() if now is None else now) - self._t0
-        frac = self.done / self.total if self.total else 1.0
-        filled = int(round(frac * self.width))
-        bar = "#" * filled + "-" * (self.width - filled)
-        rate = self.done / elapsed if elapsed > 0 and self.done else 0.0
-        left = self.total - self.done
-        eta = _clock(left / rate) if rate > 0 else "?" if left else "0:00:00"
-        return (
-            f"{self.label} [{bar}] {self.done}/{self.total} done, {self.failed} failed, "
-            f"{rate * 60:.1f}/min, ETA {eta}"
-        )
-
-    def _draw(self, now: float) -> None:
-        self._last, self._last_done = now, self.done
-        if self.tty:
-            self.stream.write("\r" + self.line(now) + "\x1b[K")
-        else:
-            self.stream.write(self.line(now) + "\n")
-        self.stream.flush()
+    def line(self) -> str:
+        """The current progress line (tqdm's meter)."""
+        return str(self._bar)
 
     def close(self) -> None:
         """Finish the line."""
-        if self.tty and self._last > -math.inf:
-            self.stream.write("\n")
-            self.stream.flush()
-
-
-def _clock(seconds: float) -> str:
-    seconds = int(round(seconds))
-    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
+        self._bar.close()
 
 
 def pending(
@@ -601,6 +629,10 @@ def run_sweep(
     ------
     SweepError
         ``workers < 1`` or a task that cannot be named.
+    scenarios.interrupt.Interrupted
+        SIGINT or SIGTERM arrived (in the main thread): the running scenarios
+        are stopped, nothing is recorded for them and the claims are released,
+        so the next run of the sweep runs them.
     scenarios.runner.RunnerUnavailableError
         The default task has no runner for a kind in the sweep.
     """
@@ -620,7 +652,11 @@ def run_sweep(
     counts = {"ok": 0, "failed": 0, "seen": 0, "skipped": 0}
     busy: list[PlannedScenario] = []
 
+    stopping: list[Any] = [None]
+
     def record(p: PlannedScenario, outcome: Outcome) -> None:
+        if stopping[0] and outcome.status == "failed":
+            raise Interrupted(stopping[0].signum)  # a casualty of the stop: run it again later
         store.record(
             outcome, kind=p.scenario.kind, config_json=p.config_json, task=name, version=version
         )
@@ -659,23 +695,26 @@ def run_sweep(
             yield from claimed(todo)
 
     t0 = time.perf_counter()
-    try:
-        for p, outcome in _outcomes(stream(), task, workers, scheduler, time_limit_s):
-            record(p, outcome)
-        while busy:  # run by another driver: wait for its rows, or take over its claims
-            time.sleep(poll_s)
-            waiting, busy[:] = list(busy), []
-            stored = store.statuses(p.hash for p in waiting)
-            mine = [p for p in waiting if p.hash not in stored]  # others: done elsewhere
-            counts["skipped"] += len(waiting) - len(mine)
-            for _ in range(len(waiting) - len(mine)):
-                _untally(bar)
-            for p, outcome in _outcomes(claimed(mine), task, workers, scheduler, time_limit_s):
+    with raise_on_stop() as stop:
+        stopping[0] = stop
+        try:
+            for p, outcome in _outcomes(stream(), task, workers, scheduler, time_limit_s):
                 record(p, outcome)
-    finally:
-        store.release_claims(owner)
-        if bar is not None:
-            bar.close()
+            while busy:  # run by another driver: wait for its rows, or take over its claims
+                time.sleep(poll_s)
+                waiting, busy[:] = list(busy), []
+                stored = store.statuses(p.hash for p in waiting)
+                mine = [p for p in waiting if p.hash not in stored]  # others: done elsewhere
+                counts["skipped"] += len(waiting) - len(mine)
+                for _ in range(len(waiting) - len(mine)):
+                    _untally(bar)
+                for p, outcome in _outcomes(claimed(mine), task, workers, scheduler,
+                                            time_limit_s):
+                    record(p, outcome)
+        finally:
+            store.release_claims(owner)
+            if bar is not None:
+                bar.close()
     elapsed = time.perf_counter() - t0
     return SweepSummary(
         max(total, counts["seen"]), counts["skipped"], counts["ok"], counts["failed"], elapsed
@@ -762,4 +801,8 @@ def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
         silence_logs=logging.ERROR,
     )
     with cluster, Client(cluster) as client:
+        try:  # the workers share the terminal's process group: Ctrl-C is the driver's
+            client.run(_ignore_sigint)
+        except Exception:  # noqa: BLE001  (best effort: the driver ignores their failures)
+            pass
         yield client

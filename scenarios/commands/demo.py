@@ -14,7 +14,7 @@ import time
 from importlib.resources import files
 from pathlib import Path
 
-from scenarios.commands.margins import DEFAULT_SPECS
+from controllers.design import DEFAULT_SPECS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

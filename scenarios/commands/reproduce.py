@@ -23,7 +23,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "reproduce",
         help="reproduce the paper's Tables 2 and 3 on virtual subjects",
         description="Simulate the paper's squeeze session for N virtual subjects, identify "
-        "on the first 50 %% of each, validate on the rest, and print Table 2 (R2, NRMSE per "
+        "on the first 50 % of each, validate on the rest, and print Table 2 (R2, NRMSE per "
         "subject) for one_step and free_run and Table 3 (timing, system properties) next "
         "to the paper's numbers.",
     )

@@ -29,8 +29,11 @@ time_limit_s (default 120 s), recorded with a "timeout" error, and one that
 kills its process twice. The number of scenarios is counted from the design
 before anything is expanded and refused above --max-scenarios. Two drivers
 on one store share the work: each scenario is claimed before it runs.
+Ctrl-C or SIGTERM stops the sweep at once: the scenarios then running are
+not stored (never as failed) and run on the next call.
 Exit status: 0 when the sweep completed (failed rows included), 2 on a user
-error (bad file, option, scheduler address, full disk, read-only store).
+error (bad file, option, scheduler address, full disk, read-only store),
+130 / 143 when stopped by Ctrl-C / SIGTERM.
 
 examples:
   griploop sweep scenarios/library/grasp_mass_friction.yaml --workers 2

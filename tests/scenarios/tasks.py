@@ -74,3 +74,33 @@ def counted(scenario: Scenario) -> dict:
     with open(os.environ["GRIPLOOP_TEST_RUNS"], "a") as fh:
         fh.write(f"{scenario.seed}\n")
     return sleepy(scenario)
+
+
+def solves_qps(scenario: Scenario) -> dict:
+    """:func:`seeded` after solving small OSQP problems (as the MPC does) for about a second.
+
+    OSQP installs its own SIGINT handler while it solves: an interrupt that reaches
+    this process turns into a solver failure, which the sweep must never store.
+    """
+    import casadi
+
+    rng = np.random.default_rng(scenario.seed)
+    n = 30
+    m = rng.standard_normal((n, n))
+    qp = {"x": casadi.SX.sym("x", n)}
+    qp["f"] = 0.5 * casadi.dot(qp["x"], casadi.mtimes(casadi.DM(m @ m.T + n * np.eye(n)), qp["x"]))
+    qp["g"] = qp["x"]
+    solver = casadi.qpsol("s", "osqp", qp, {"error_on_fail": True, "osqp": {"verbose": False}})
+    t0 = time.perf_counter()
+    while time.perf_counter() - t0 < 1.0:
+        solver(lbg=-1.0, ubg=rng.uniform(0.5, 1.0, n))
+    return seeded(scenario)
+
+
+def signal_state(scenario: Scenario) -> dict:
+    """How the process running the scenario would receive a terminal's Ctrl-C."""
+    import os
+    import signal
+
+    return {"pgid": os.getpgid(0), "pid": os.getpid(),
+            "sigint_ignored": signal.getsignal(signal.SIGINT) is signal.SIG_IGN}

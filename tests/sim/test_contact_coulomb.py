@@ -10,11 +10,6 @@
 
 from __future__ import annotations
 
-import os
-
-# Headless rendering must be chosen before mujoco is first imported.
-os.environ.setdefault("MUJOCO_GL", "egl")
-
 import mujoco
 import numpy as np
 import pytest

@@ -5,18 +5,15 @@ from __future__ import annotations
 import os
 import warnings
 
-# Headless rendering must be chosen before mujoco is first imported.
-os.environ.setdefault("MUJOCO_GL", "egl")
-
-import gymnasium as gym  # noqa: E402
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-from gymnasium.utils.env_checker import check_env  # noqa: E402
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
 
 import sim  # noqa: E402, F401  (registers the environment)
-from sim.grasp_env import GraspEnv, WristSchedule  # noqa: E402
-from sim.recording import Recording  # noqa: E402
-from sim.references import ReferenceError, StreamReference  # noqa: E402
+from sim.grasp_env import GraspEnv, WristSchedule
+from sim.recording import Recording
+from sim.references import ReferenceError, StreamReference
 
 
 def _p_controller(obs: np.ndarray, gain: float = 0.008, bias: float = 0.12) -> np.ndarray:

@@ -8,19 +8,14 @@ finger-side normal sum, at every physics substep, from the first touch until
 
 from __future__ import annotations
 
-import os
+import mujoco
+import numpy as np
+import pytest
 
-# Headless rendering must be chosen before mujoco is first imported.
-os.environ.setdefault("MUJOCO_GL", "egl")
-
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-
-from sim.contact import FirstContact, first_contact_peak, read_contacts  # noqa: E402
-from sim.grasp_env import GraspEnv  # noqa: E402
-from sim.hand import MotorSpec, PadSpec, build_model  # noqa: E402
-from sim.objects import make_object  # noqa: E402
+from sim.contact import FirstContact, first_contact_peak, read_contacts
+from sim.grasp_env import GraspEnv
+from sim.hand import MotorSpec, PadSpec, build_model
+from sim.objects import make_object
 
 COMMANDS = (0.1, 0.2, 0.4)
 OBJECTS = ("egg", "cup", "can")

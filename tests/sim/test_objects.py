@@ -2,11 +2,6 @@
 
 from __future__ import annotations
 
-import os
-
-# Headless rendering must be chosen before mujoco is first imported.
-os.environ.setdefault("MUJOCO_GL", "egl")
-
 import math
 
 import mujoco
