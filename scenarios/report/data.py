@@ -458,7 +458,8 @@ def condition_label(result: Mapping[str, Any]) -> str:
 
 
 def loop_designs(episodes: Sequence[Mapping[str, Any]],
-                 traces: Mapping[str, Mapping[str, np.ndarray]]) -> list[LoopDesign]:
+                 traces: Mapping[str, Mapping[str, np.ndarray]],
+                 label: Any = None) -> list[LoopDesign]:
     """Distinct analysed loops of the episodes, in order of first appearance.
 
     Parameters
@@ -467,6 +468,9 @@ def loop_designs(episodes: Sequence[Mapping[str, Any]],
         ``ok`` episode rows.
     traces : dict of str to dict
         Store hash -> that row's traces (must hold :data:`LOOP_TRACES`).
+    label : callable, optional
+        Condition text of an episode row (default: :func:`condition_label` of
+        its result).
 
     Raises
     ------
@@ -480,9 +484,9 @@ def loop_designs(episodes: Sequence[Mapping[str, Any]],
         key = loop_fingerprint(tr, res["loop_dt_s"])
         entry = found.setdefault(key, {"row": row, "hashes": [], "conditions": []})
         entry["hashes"].append(row["hash"])
-        label = condition_label(res)
-        if label not in entry["conditions"]:
-            entry["conditions"].append(label)
+        text = label(row) if label is not None else condition_label(res)
+        if text not in entry["conditions"]:
+            entry["conditions"].append(text)
     designs = []
     for i, entry in enumerate(found.values(), start=1):
         row = entry["row"]
@@ -566,14 +570,30 @@ def swept_factors(episodes: Sequence[Mapping[str, Any]]) -> list[str]:
     """Config paths whose value differs between the episodes (the seed excluded).
 
     The order: the paths of :data:`FACTOR_NAMES` in that order, then the
-    others alphabetically.
+    others alphabetically. A path outside :data:`FACTOR_NAMES` whose value is a
+    function of one of those (e.g. ``controller.horizon``, set for the MPC
+    only) is a consequence of that factor, not a factor of its own, and is left
+    out.
     """
     flat = [flatten_config(e.get("config") or {}) for e in episodes]
     paths = sorted(set().union(*flat)) if flat else []
     varying = [p for p in paths if p not in NOT_FACTORS
                and len({_hashable(f.get(p)) for f in flat}) > 1]
     known = list(FACTOR_NAMES)
-    return sorted(varying, key=lambda p: (known.index(p) if p in known else len(known), p))
+    ordered = sorted(varying, key=lambda p: (known.index(p) if p in known else len(known), p))
+
+    def determined_by(path: str, other: str) -> bool:
+        seen: dict[Any, Any] = {}
+        for f in flat:
+            value = _hashable(f.get(path))
+            if seen.setdefault(_hashable(f.get(other)), value) != value:
+                return False
+        return True
+
+    # a setting the schema fills in per controller (the MPC's horizon) varies with the
+    # controller but is not swept: drop other paths that are a function of a named factor
+    return [p for p in ordered if p in FACTOR_NAMES
+            or not any(determined_by(p, q) for q in ordered if q in FACTOR_NAMES)]
 
 
 def _hashable(value: Any) -> Any:

@@ -24,7 +24,8 @@ body { font-family: sans-serif; margin: 1.5em auto; max-width: 1200px; color: #2
 h1 { font-size: 1.6em; } h2 { border-bottom: 1px solid #ccc; padding-bottom: .2em; }
 table { border-collapse: collapse; margin: .6em 0 1.2em; font-size: .85em; }
 th, td { border: 1px solid #ccc; padding: .2em .5em; text-align: right; }
-th { background: #f2f2f2; } td.text, th.text { text-align: left; }
+th { background: #f2f2f2; } td { white-space: nowrap; }
+td.text { white-space: normal; } td.text, th.text { text-align: left; }
 caption { caption-side: top; text-align: left; font-weight: bold; padding: .3em 0; }
 img { max-width: 100%; height: auto; display: block; margin: .5em 0; }
 p.note { color: #666; font-style: italic; }
