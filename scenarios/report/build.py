@@ -371,7 +371,8 @@ def _loop_section(designs: Sequence[D.LoopDesign], limit: int) -> Section:
         figures = (("Bode", bode_figure), ("Nyquist", nyquist_figure),
                    ("poles", pole_zero_figure))
         parts.append(side_by_side([
-            img(F.png_bytes(make(d.margins, title=f"{d.label}: {kind}")), f"{kind} of {name}")
+            img(F.png_bytes(F.offset_annotations(make(d.margins, title=f"{d.label}: {kind}"))),
+                f"{kind} of {name}")
             for kind, make in figures]))
     return Section("loops", title, "\n".join(parts))
 
@@ -382,6 +383,11 @@ def _margin_section(designs: Sequence[D.LoopDesign], episodes: Sequence[dict] = 
         return Section("margins", title, note("No episode rows with an analysed loop: "
                                               "section omitted."), True)
     parts = []
+    analysed = sum(len(d.hashes) for d in designs)
+    if episodes and analysed < len(episodes):
+        parts.append(note(f"{len(episodes) - analysed} of {len(episodes)} episodes never held "
+                          "a force in the air (not lifted, or crushed on the way) and have no "
+                          "analysed loop; they are in the summary, not in this table."))
     if any(e["result"].get("held_force_n") is not None for e in episodes):
         parts.append(note("A margin belongs to a loop at an operating point: each episode's "
                           "margins are those of the controller that ran at the grip force it "

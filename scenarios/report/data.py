@@ -472,14 +472,19 @@ def loop_designs(episodes: Sequence[Mapping[str, Any]],
         Condition text of an episode row (default: :func:`condition_label` of
         its result).
 
+    Episodes that never held a force in the air (``held_force_n`` is None: not
+    lifted, or crushed on the way) and carry no loop traces are skipped.
+
     Raises
     ------
     ReportInputError
-        A row lacks a loop trace.
+        A row that held a force lacks a loop trace, or has only some of them.
     """
     found: dict[str, dict[str, Any]] = {}
     for row in episodes:
         res, tr = row["result"], traces[row["hash"]]
+        if not any(n in tr for n in LOOP_TRACES) and res.get("held_force_n") is None:
+            continue  # never held a force in the air: the episode analysed no loop
         check_traces(row, tr, LOOP_TRACES)
         key = loop_fingerprint(tr, res["loop_dt_s"])
         entry = found.setdefault(key, {"row": row, "hashes": [], "conditions": []})

@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
-from matplotlib.text import Text
+from matplotlib.text import Annotation, Text
 
 from estimation.paper import SECTION_4_2, TABLE2_SUMMARY
 from scenarios.report.data import MODES, OutcomeGrid, ScoreTable, level_text
@@ -36,6 +36,16 @@ def readable(fig: Figure, min_pt: float = MIN_FONT_PT) -> Figure:
     for text in fig.findobj(Text):
         if text.get_fontsize() < min_pt:
             text.set_fontsize(min_pt)
+    return fig
+
+
+def offset_annotations(fig: Figure, dx_pt: float = 6.0, dy_pt: float = 6.0) -> Figure:
+    """Move annotations placed on their point (margin labels) ``dx_pt, dy_pt`` points away
+    from it, so that the text does not sit on the curve it labels."""
+    for ann in fig.findobj(Annotation):
+        if ann.anncoords == "data" and tuple(ann.xyann) == tuple(ann.xy):
+            ann.anncoords = "offset points"
+            ann.xyann = (dx_pt, dy_pt)
     return fig
 
 

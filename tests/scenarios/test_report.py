@@ -665,3 +665,19 @@ def test_hostile_text_is_escaped(tmp_path):
     assert "&lt;script&gt;alert(&#34;x&#34;)&lt;/script&gt;&amp;amp;" in html
     ((_, headers, rows),) = tables(section(html, "summary"))
     assert headers[0] == "object" and {r[0] for r in rows} == {hostile, "can"}
+
+
+def test_episodes_that_held_no_force_have_no_loop(store_path):
+    with ResultStore(store_path) as store:
+        episodes = D.split_rows(store.rows()).episodes[:3]
+        traces = {e["hash"]: dict(store.traces(e["hash"])) for e in episodes}
+    crushed = episodes[0]
+    crushed["result"] = {**crushed["result"], "held_force_n": None, "outcome": "crushed"}
+    for name in D.LOOP_TRACES:
+        del traces[crushed["hash"]][name]
+    designs = D.loop_designs(episodes, traces)
+    assert sum(len(d.hashes) for d in designs) == 2
+    assert crushed["hash"] not in designs[0].hashes
+    del traces[episodes[1]["hash"]]["loop_A"]  # held a force but lost a matrix: an error
+    with pytest.raises(ReportInputError, match="missing trace"):
+        D.loop_designs(episodes, traces)
