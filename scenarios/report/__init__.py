@@ -1,8 +1,11 @@
 """The self-contained HTML report of a results store (``griploop report``).
 
-Modules: :mod:`~scenarios.report.data` gathers and aggregates (no drawing),
-:mod:`~scenarios.report.figures` draws PNGs in memory,
-:mod:`~scenarios.report.html` assembles escaped HTML, and
+Modules: :mod:`~scenarios.report.data` gathers and aggregates (no drawing): swept
+factors, outcome summary with Wilson intervals, paired controller differences,
+faceted outcome grids, loop designs;
+:mod:`~scenarios.report.figures` draws PNGs in memory (every text at 9 pt or more),
+:mod:`~scenarios.report.html` renders the Jinja2 templates of ``templates/``
+(autoescaped), and
 :mod:`~scenarios.report.build` puts the sections together.
 """
 

@@ -27,7 +27,19 @@ import numpy as np
 from estimation.paper import TABLE2, TABLE3
 from scenarios.report import data as D
 from scenarios.report import figures as F
-from scenarios.report.html import Section, esc, fmt, img, note, page, pm, side_by_side, table
+from scenarios.report.html import (
+    Section,
+    choices,
+    esc,
+    figure,
+    fmt,
+    img,
+    note,
+    page,
+    pm,
+    side_by_side,
+    table,
+)
 from scenarios.store import ResultStore, package_version
 
 _PAPER_TABLE2 = ("ss_kf", "mlp", "narx", "lda_qpf")
@@ -66,7 +78,7 @@ def build_report(
     reproduction: str | Path | None = None,
     render_frame: bool = True,
     max_designs: int = 6,
-    max_traces: int = 12,
+    max_traces: int = 120,
     created: _dt.datetime | None = None,
 ) -> ReportResult:
     """Write ``out_dir/index.html`` from a results store and an optional reproduction JSON.
@@ -86,7 +98,7 @@ def build_report(
     max_designs : int
         Loop designs drawn as Bode / Nyquist / pole maps (all are tabulated).
     max_traces : int
-        Representative episodes drawn as force traces.
+        Episodes drawn as force traces (one selectable figure per scenario).
     created : datetime, optional
         Creation time printed in the provenance (default: now, UTC).
 
@@ -125,13 +137,19 @@ def build_report(
                         D.scores_from_rows(split.reproduction)))
     if json_scores:
         sources.append((f"{Path(reproduction).name} (griploop reproduce --json)", json_scores))
-    designs = D.loop_designs(split.episodes, traces) if split.episodes else []
+    factors = D.swept_factors(split.episodes)
+    conditions = [f for f in factors if f != D.CONTROLLER_FACTOR]
+    designs = (D.loop_designs(split.episodes, traces,
+                              label=lambda row: D.scenario_title(row, conditions))
+               if split.episodes else [])
 
     sections = [
+        _summary_section(split.episodes, factors),
+        _compare_section(split.episodes, factors),
         _paper_section(sources),
-        _traces_section(split.episodes, traces, max_traces),
+        _traces_section(split.episodes, traces, max_traces, factors),
         _loop_section(designs, max_designs),
-        _outcome_section(split.episodes),
+        _outcome_section(split.episodes, factors),
         _margin_section(designs, split.episodes),
         _frame_section(split.episodes, render_frame),
         _failed_section(split.failed),
@@ -154,7 +172,7 @@ def build_report(
 
 
 def _paper_section(sources: Sequence[tuple[str, D.ScoreTable]]) -> Section:
-    title = "1. Paper tables: ours next to the paper's"
+    title = "3. Paper tables: ours next to the paper's"
     if not sources:
         return Section("paper", title, note("No reproduction rows in the store and no "
                                             "--reproduction JSON: section omitted."), True)
@@ -250,29 +268,94 @@ def _timing_table(scores: D.ScoreTable) -> str:
 
 
 def _traces_section(episodes: Sequence[dict], traces: Mapping[str, Mapping[str, np.ndarray]],
-                    limit: int) -> Section:
-    title = "2. Force traces of representative episodes"
+                    limit: int, factors: Sequence[str] = ()) -> Section:
+    title = "4. Force traces, one per scenario"
     if not episodes:
         return Section("traces", title, note("No episode rows: section omitted."), True)
-    chosen = D.representative_episodes(episodes, limit)
-    panels = []
+    chosen = list(episodes)[:limit]
+    items = []
     for row in chosen:
         D.check_traces(row, traces[row["hash"]], D.EPISODE_TRACES)
         res = row["result"]
         seed = res.get("seed", row["config"].get("seed"))
-        label = f"{D.group_label(D.group_key(res))}, {D.condition_label(res)}, seed {seed}"
-        panels.append((label, traces[row["hash"]]))
-    body = [note(f"First episode (store order) of each controller / estimator / mode: "
-                 f"{len(chosen)} of {len(episodes)} episodes."),
-            img(F.png_bytes(F.force_traces_figure(panels)), "force traces")]
+        name = D.scenario_title(row, factors)
+        outcome = D.episode_outcome(res).replace("_", " ")
+        caption = (f"{name}: {outcome}; seed {seed}, subject {res.get('subject_id', '?')}, "
+                   f"scenario {row['hash'][:12]}.")
+        png = F.png_bytes(F.trace_figure(traces[row["hash"]], name))
+        items.append((f"{name} ({outcome})", figure(png, f"force trace of {name}", caption)))
+    shown = (f"all {len(episodes)} episodes" if len(chosen) == len(episodes)
+             else f"the first {len(chosen)} of {len(episodes)} episodes (store order)")
+    body = [note(f"Open a scenario to see its intent, reference and grip force: {shown}, "
+                 "titled by the factors the sweep varies; the seed is in the caption."),
+            choices(items)]
     return Section("traces", title, "\n".join(body))
+
+
+# ---------------------------------------------------------------- 1 + 2. summary, comparison
+
+
+def _rate(k: int, n: int) -> str:
+    low, high = D.wilson_interval(k, n)
+    return f"{100 * k / n:.0f} ({100 * low:.0f}–{100 * high:.0f})"
+
+
+def _summary_section(episodes: Sequence[dict], factors: Sequence[str]) -> Section:
+    title = "1. Outcome summary per combination of the swept factors"
+    if not episodes:
+        return Section("summary", title, note("No episode rows: section omitted."), True)
+    rows = []
+    summary = D.outcome_summary(episodes, factors)
+    for r in summary:
+        levels = [D.level_text(v) for v in r.levels] or ["all"]
+        rows.append([*levels, r.n,
+                     *(_rate(r.counts[o], r.n) for o in D.OUTCOMES),
+                     r.tracking_rmse_n, r.contact_peak_ratio, r.slip_distance_m,
+                     r.phase_margin_deg, r.worst_phase_margin_deg])
+    names = [D.factor_name(f) for f in factors] or ["episodes"]
+    headers = [*names, "n", "held %", "not lifted %", "dropped %", "crushed %",
+               "tracking RMSE (N)", "contact peak ratio", "slip distance (m)",
+               "PM at held force (deg)", "worst visited PM (deg)"]
+    swept = ", ".join(f"{D.factor_name(f)} ({f})" for f in factors) or "nothing"
+    parts = [note(f"Factors that vary between the stored scenario configs (the seed apart): "
+                  f"{swept}. One row per combination ({len(summary)} rows, "
+                  f"{len(episodes)} episodes). Rates are the percentage of the row's episodes "
+                  "with its 95 % Wilson interval in brackets; tracking RMSE, contact peak ratio, "
+                  "slip distance and the phase margin at the held force are means, the worst "
+                  "visited phase margin is the minimum over the row's episodes."),
+             table(headers, rows, "Outcomes and metrics per factor combination",
+                   text_columns=len(names))]
+    return Section("summary", title, "\n".join(parts))
+
+
+def _compare_section(episodes: Sequence[dict], factors: Sequence[str]) -> Section:
+    title = "2. Controllers side by side on the same scenarios"
+    if not episodes:
+        return Section("compare", title, note("No episode rows: section omitted."), True)
+    if D.CONTROLLER_FACTOR not in factors:
+        return Section("compare", title, note("The controller does not vary in these "
+                                              "episodes: nothing to compare."), True)
+    diffs = D.paired_differences(episodes, factors)
+    others = [D.factor_name(f) for f in factors if f != D.CONTROLLER_FACTOR]
+    rows = [[d.baseline, d.other, D.PAIRED_METRICS[d.metric][0], d.n_pairs, d.baseline_mean,
+             d.other_mean, d.mean_diff,
+             "n/a" if not np.isfinite(d.ci_low) else f"{fmt(d.ci_low)} to {fmt(d.ci_high)}"]
+            for d in diffs]
+    parts = [note("Two episodes are paired when they share every other swept factor ("
+                  f"{', '.join(others) or 'none'}) and the seed. Difference = B - A, averaged "
+                  "over the pairs, with the 95 % t interval of the mean paired difference "
+                  "(n/a below two pairs); for the held rate, a difference of +0.1 means B "
+                  "held in 10 % more of the scenarios."),
+             table(["controller A", "controller B", "metric", "pairs", "A mean", "B mean",
+                    "B - A", "95 % interval"], rows, "Paired differences", text_columns=3)]
+    return Section("compare", title, "\n".join(parts))
 
 
 # ---------------------------------------------------------------- 3 + 5. loops
 
 
 def _loop_section(designs: Sequence[D.LoopDesign], limit: int) -> Section:
-    title = "3. Loop analysis: Bode, Nyquist and pole maps"
+    title = "5. Loop analysis: Bode, Nyquist and pole maps"
     if not designs:
         return Section("loops", title, note("No episode rows with an analysed loop: "
                                             "section omitted."), True)
@@ -288,17 +371,23 @@ def _loop_section(designs: Sequence[D.LoopDesign], limit: int) -> Section:
         figures = (("Bode", bode_figure), ("Nyquist", nyquist_figure),
                    ("poles", pole_zero_figure))
         parts.append(side_by_side([
-            img(F.png_bytes(make(d.margins, title=f"{d.label}: {kind}")), f"{kind} of {name}")
+            img(F.png_bytes(F.offset_annotations(make(d.margins, title=f"{d.label}: {kind}"))),
+                f"{kind} of {name}")
             for kind, make in figures]))
     return Section("loops", title, "\n".join(parts))
 
 
 def _margin_section(designs: Sequence[D.LoopDesign], episodes: Sequence[dict] = ()) -> Section:
-    title = "5. Margins per controller design"
+    title = "7. Margins per controller design"
     if not designs:
         return Section("margins", title, note("No episode rows with an analysed loop: "
                                               "section omitted."), True)
     parts = []
+    analysed = sum(len(d.hashes) for d in designs)
+    if episodes and analysed < len(episodes):
+        parts.append(note(f"{len(episodes) - analysed} of {len(episodes)} episodes never held "
+                          "a force in the air (not lifted, or crushed on the way) and have no "
+                          "analysed loop; they are in the summary, not in this table."))
     if any(e["result"].get("held_force_n") is not None for e in episodes):
         parts.append(note("A margin belongs to a loop at an operating point: each episode's "
                           "margins are those of the controller that ran at the grip force it "
@@ -329,17 +418,21 @@ def _margin_section(designs: Sequence[D.LoopDesign], episodes: Sequence[dict] = 
 # ---------------------------------------------------------------- 4. outcome maps
 
 
-def _outcome_section(episodes: Sequence[dict]) -> Section:
-    title = "4. Not lifted, slip, drop and crush over mass x friction"
+def _outcome_section(episodes: Sequence[dict], factors: Sequence[str] = ()) -> Section:
+    title = "6. Not lifted, slip, drop and crush maps"
     if not episodes:
         return Section("outcomes", title, note("No episode rows: section omitted."), True)
-    grids = D.outcome_grids(episodes)
-    parts = [note("One panel per controller / estimator / mode; each cell averages over its "
-                  "episodes (seeds), n below the value. Each episode has one outcome: held, "
-                  "not lifted, dropped or crushed.")]
+    rows_f, cols_f, grids = D.faceted_grids(episodes, factors)
+    facets = [D.factor_name(f) for f in factors if f not in (rows_f, cols_f)]
+    parts = [note(f"{D.factor_name(rows_f)} x {D.factor_name(cols_f)}; one panel per "
+                  f"combination of the other swept factors ({', '.join(facets) or 'none'}), "
+                  "so no cell averages different objects or designs. Each cell averages "
+                  "its episodes (seeds), n below the value. Each episode has one outcome: "
+                  "held, not lifted, dropped or crushed.")]
     for metric, (_, label, _) in F.OUTCOME_METRICS.items():
         parts.append(f"<h3>{esc(label)}</h3>")
-        parts.append(img(F.png_bytes(F.outcome_figure(grids, metric)), f"{label} map"))
+        parts.append(img(F.png_bytes(F.outcome_figure(
+            grids, metric, D.factor_name(rows_f), D.factor_name(cols_f))), f"{label} map"))
     return Section("outcomes", title, "\n".join(parts))
 
 
@@ -379,7 +472,7 @@ def render_frame_png(name: str, grip_force_n: float, timeout_s: float = 120.0) -
 
 
 def _frame_section(episodes: Sequence[dict], render: bool) -> Section:
-    title = "6. Rendered grasp"
+    title = "8. Rendered grasp"
     if not render:
         return Section("frame", title, note("Rendering switched off (--no-render)."), True)
     name = D.most_common_object(episodes)
@@ -398,7 +491,7 @@ def _frame_section(episodes: Sequence[dict], render: bool) -> Section:
 
 
 def _failed_section(failed: Sequence[dict]) -> Section:
-    title = "7. Failed scenarios"
+    title = "9. Failed scenarios"
     if not failed:
         return Section("failed", title, note("No failed scenarios."))
     rows = [[r["hash"][:12], D.scenario_summary(r),
@@ -455,4 +548,4 @@ def _provenance_section(results: Path, sweep: str | None, rows: Sequence[dict],
                     f"{esc(D.scenario_summary(r))}</li>" for r in rows)
     parts.append(f"<details><summary>Config hashes of {len(rows)} rows</summary>"
                  f"<ul>{items}</ul></details>")
-    return Section("provenance", "8. Provenance", "\n".join(parts))
+    return Section("provenance", "10. Provenance", "\n".join(parts))

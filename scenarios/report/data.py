@@ -286,34 +286,47 @@ def representative_episodes(episodes: Sequence[dict[str, Any]],
 
 @dataclass(frozen=True)
 class OutcomeGrid:
-    """Drop / crush / slip outcomes of one controller, estimator and mode over mass x friction.
+    """Not-lifted / drop / crush / slip outcomes of one facet over two factors (a heatmap).
 
     Attributes
     ----------
-    key : (str, str, str)
-        ``(controller, estimator, mode)``.
-    mass_kg : ndarray, shape (n_mass,)
-        Object masses, ascending (shared by every grid of a report).
-    friction : ndarray, shape (n_friction,)
-        Friction coefficients, ascending (shared).
-    not_lifted_frac, dropped_frac, crushed_frac : ndarray, shape (n_mass, n_friction)
+    key : tuple
+        The facet (e.g. ``(controller, estimator, mode)`` or the levels of the
+        factors the heatmap does not plot).
+    row_levels, col_levels : list
+        Levels of the plotted factors (by default mass in kg and friction),
+        ascending, shared by every grid of a report.
+    not_lifted_frac, dropped_frac, crushed_frac : ndarray, shape (n_rows, n_cols)
         Fraction of episodes (over seeds) whose outcome was not lifted / dropped
         / crushed (one category each: a crushed object counts as crushed only);
         ``nan`` where the cell has no episode.
-    slip_events_mean : ndarray, shape (n_mass, n_friction)
+    slip_events_mean : ndarray, shape (n_rows, n_cols)
         Mean number of slip events per episode; ``nan`` where empty.
-    n_episodes : ndarray of int, shape (n_mass, n_friction)
+    n_episodes : ndarray of int, shape (n_rows, n_cols)
         Episodes behind each cell.
+    label : str
+        Panel title.
     """
 
-    key: tuple[str, str, str]
-    mass_kg: np.ndarray
-    friction: np.ndarray
+    key: tuple
+    row_levels: list
+    col_levels: list
     not_lifted_frac: np.ndarray
     dropped_frac: np.ndarray
     crushed_frac: np.ndarray
     slip_events_mean: np.ndarray
     n_episodes: np.ndarray
+    label: str = ""
+
+    @property
+    def mass_kg(self) -> np.ndarray:
+        """Row levels as an array (masses, kg, for the default axes)."""
+        return np.asarray(self.row_levels)
+
+    @property
+    def friction(self) -> np.ndarray:
+        """Column levels as an array (friction coefficients for the default axes)."""
+        return np.asarray(self.col_levels)
 
 
 def episode_outcome(result: Mapping[str, Any]) -> str:
@@ -328,31 +341,47 @@ def episode_outcome(result: Mapping[str, Any]) -> str:
     return "dropped" if result.get("dropped") else "held"
 
 
-def outcome_grids(episodes: Sequence[Mapping[str, Any]]) -> list[OutcomeGrid]:
-    """Per controller / estimator / mode, outcomes averaged over seeds in each mass x friction cell.
+def _sorted_levels(values: Sequence[Any]) -> list[Any]:
+    distinct = list(dict.fromkeys(values))
+    if all(v is None or isinstance(v, (bool, int, float)) for v in distinct):
+        return sorted(distinct, key=lambda v: (v is not None, 0.0 if v is None else float(v)))
+    return distinct
 
-    Masses and frictions are the values the episodes report
-    (``object_mass_kg``, ``object_friction``), rounded to 1e-9 so that
-    values equal up to round-off share a cell.
+
+def outcome_grids(episodes: Sequence[Mapping[str, Any]], *, key: Any = None, rows: Any = None,
+                  cols: Any = None, label: Any = None) -> list[OutcomeGrid]:
+    """Per facet, outcomes averaged over seeds in each cell of a two-factor grid.
+
+    By default a facet is a controller / estimator / mode (:func:`group_key`)
+    and the grid is mass x friction, the values the episodes report
+    (``object_mass_kg``, ``object_friction``) rounded to 1e-9 so that values
+    equal up to round-off share a cell. ``key``, ``rows`` and ``cols`` are
+    functions of an episode row giving its facet and its two levels; ``label``
+    a function of the facet giving the panel title.
     """
     if not episodes:
         return []
-    mass = np.array([round(float(e["result"]["object_mass_kg"]), 9) for e in episodes])
-    mu = np.array([round(float(e["result"]["object_friction"]), 9) for e in episodes])
-    masses, i_mass = np.unique(mass, return_inverse=True)
-    frictions, i_mu = np.unique(mu, return_inverse=True)
-    keys = [group_key(e["result"]) for e in episodes]
+    key = key or (lambda e: group_key(e["result"]))
+    rows = rows or (lambda e: round(float(e["result"]["object_mass_kg"]), 9))
+    cols = cols or (lambda e: round(float(e["result"]["object_friction"]), 9))
+    label = label or group_label
+    row_of = [rows(e) for e in episodes]
+    col_of = [cols(e) for e in episodes]
+    row_levels, col_levels = _sorted_levels(row_of), _sorted_levels(col_of)
+    i_row = np.array([row_levels.index(v) for v in row_of])
+    i_col = np.array([col_levels.index(v) for v in col_of])
+    keys = [key(e) for e in episodes]
     outcome = [episode_outcome(e["result"]) for e in episodes]
     not_lifted = np.array([o == "not_lifted" for o in outcome], dtype=float)
     dropped = np.array([o == "dropped" for o in outcome], dtype=float)
     crushed = np.array([o == "crushed" for o in outcome], dtype=float)
     slips = np.array([float(e["result"]["slip_events"]) for e in episodes])
-    shape = (masses.size, frictions.size)
+    shape = (len(row_levels), len(col_levels))
     grids = []
-    for key in dict.fromkeys(keys):
-        sel = np.array([k == key for k in keys])
-        cells = np.ravel_multi_index((i_mass[sel], i_mu[sel]), shape)
-        count = np.bincount(cells, minlength=masses.size * frictions.size).reshape(shape)
+    for facet in dict.fromkeys(keys):
+        sel = np.array([k == facet for k in keys])
+        cells = np.ravel_multi_index((i_row[sel], i_col[sel]), shape)
+        count = np.bincount(cells, minlength=shape[0] * shape[1]).reshape(shape)
 
         def mean(values: np.ndarray, cells: np.ndarray = cells,
                  count: np.ndarray = count) -> np.ndarray:
@@ -360,9 +389,9 @@ def outcome_grids(episodes: Sequence[Mapping[str, Any]]) -> list[OutcomeGrid]:
             with np.errstate(invalid="ignore", divide="ignore"):
                 return np.where(count > 0, total / count, np.nan)
 
-        grids.append(OutcomeGrid(key, masses, frictions, mean(not_lifted[sel]),
+        grids.append(OutcomeGrid(facet, row_levels, col_levels, mean(not_lifted[sel]),
                                  mean(dropped[sel]), mean(crushed[sel]), mean(slips[sel]),
-                                 count))
+                                 count, label(facet)))
     return grids
 
 
@@ -429,7 +458,8 @@ def condition_label(result: Mapping[str, Any]) -> str:
 
 
 def loop_designs(episodes: Sequence[Mapping[str, Any]],
-                 traces: Mapping[str, Mapping[str, np.ndarray]]) -> list[LoopDesign]:
+                 traces: Mapping[str, Mapping[str, np.ndarray]],
+                 label: Any = None) -> list[LoopDesign]:
     """Distinct analysed loops of the episodes, in order of first appearance.
 
     Parameters
@@ -438,22 +468,30 @@ def loop_designs(episodes: Sequence[Mapping[str, Any]],
         ``ok`` episode rows.
     traces : dict of str to dict
         Store hash -> that row's traces (must hold :data:`LOOP_TRACES`).
+    label : callable, optional
+        Condition text of an episode row (default: :func:`condition_label` of
+        its result).
+
+    Episodes that never held a force in the air (``held_force_n`` is None: not
+    lifted, or crushed on the way) and carry no loop traces are skipped.
 
     Raises
     ------
     ReportInputError
-        A row lacks a loop trace.
+        A row that held a force lacks a loop trace, or has only some of them.
     """
     found: dict[str, dict[str, Any]] = {}
     for row in episodes:
         res, tr = row["result"], traces[row["hash"]]
+        if not any(n in tr for n in LOOP_TRACES) and res.get("held_force_n") is None:
+            continue  # never held a force in the air: the episode analysed no loop
         check_traces(row, tr, LOOP_TRACES)
         key = loop_fingerprint(tr, res["loop_dt_s"])
         entry = found.setdefault(key, {"row": row, "hashes": [], "conditions": []})
         entry["hashes"].append(row["hash"])
-        label = condition_label(res)
-        if label not in entry["conditions"]:
-            entry["conditions"].append(label)
+        text = label(row) if label is not None else condition_label(res)
+        if text not in entry["conditions"]:
+            entry["conditions"].append(text)
     designs = []
     for i, entry in enumerate(found.values(), start=1):
         row = entry["row"]
@@ -492,3 +530,379 @@ def scenario_summary(row: Mapping[str, Any]) -> str:
         parts.append(cfg.get("controller", {}).get("kind", "?"))
     parts.append(f"seed {cfg.get('seed')}")
     return ", ".join(str(p) for p in parts)
+
+
+# ---------------------------------------------------------------- swept factors
+
+
+#: Short names of the scenario config paths a sweep usually varies (others keep their path).
+FACTOR_NAMES = {
+    "object.name": "object", "object.mass_kg": "mass (kg)", "object.friction": "friction",
+    "object.break_force_n": "break force (N)", "controller.kind": "controller",
+    "estimator.name": "estimator", "estimator.mode": "mode",
+    "controller.slip_reflex.enabled": "reflex", "subject.subject_id": "subject",
+}
+#: Config path -> the result field holding the value that actually ran (e.g. the object's
+#: mass when the config left it to the object library).
+_RESULT_FIELDS = {
+    "object.name": "object_name", "object.mass_kg": "object_mass_kg",
+    "object.friction": "object_friction", "object.break_force_n": "object_break_force_n",
+    "controller.kind": "controller", "estimator.name": "estimator", "estimator.mode": "mode",
+    "subject.subject_id": "subject_id",
+}
+#: Config paths that are never grouping dimensions.
+NOT_FACTORS = frozenset({"seed"})
+CONTROLLER_FACTOR = "controller.kind"
+MASS_FACTOR, FRICTION_FACTOR = "object.mass_kg", "object.friction"
+
+
+def flatten_config(config: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``{"object.mass_kg": 0.2, ...}``: every leaf of a nested scenario config.
+
+    Lists are kept as tuples (hashable), so a list-valued field is one leaf.
+    """
+    out: dict[str, Any] = {}
+    for key, value in config.items():
+        path = f"{prefix}{key}"
+        if isinstance(value, Mapping):
+            out.update(flatten_config(value, f"{path}."))
+        else:
+            out[path] = tuple(value) if isinstance(value, list) else value
+    return out
+
+
+def swept_factors(episodes: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Config paths whose value differs between the episodes (the seed excluded).
+
+    The order: the paths of :data:`FACTOR_NAMES` in that order, then the
+    others alphabetically. A path outside :data:`FACTOR_NAMES` whose value is a
+    function of one of those (e.g. ``controller.horizon``, set for the MPC
+    only) is a consequence of that factor, not a factor of its own, and is left
+    out.
+    """
+    flat = [flatten_config(e.get("config") or {}) for e in episodes]
+    paths = sorted(set().union(*flat)) if flat else []
+    varying = [p for p in paths if p not in NOT_FACTORS
+               and len({_hashable(f.get(p)) for f in flat}) > 1]
+    known = list(FACTOR_NAMES)
+    ordered = sorted(varying, key=lambda p: (known.index(p) if p in known else len(known), p))
+
+    def determined_by(path: str, other: str) -> bool:
+        seen: dict[Any, Any] = {}
+        for f in flat:
+            value = _hashable(f.get(path))
+            if seen.setdefault(_hashable(f.get(other)), value) != value:
+                return False
+        return True
+
+    # a setting the schema fills in per controller (the MPC's horizon) varies with the
+    # controller but is not swept: drop other paths that are a function of a named factor
+    return [p for p in ordered if p in FACTOR_NAMES
+            or not any(determined_by(p, q) for q in ordered if q in FACTOR_NAMES)]
+
+
+def _hashable(value: Any) -> Any:
+    return json.dumps(value, sort_keys=True, default=str) if isinstance(value, dict) else value
+
+
+def factor_name(path: str) -> str:
+    """Short column name of a config path (``"mass (kg)"``), the path itself if unknown."""
+    return FACTOR_NAMES.get(path, path)
+
+
+def factor_value(row: Mapping[str, Any], path: str) -> Any:
+    """The value of ``path`` for an episode row: the result field that ran, else the config."""
+    field_name = _RESULT_FIELDS.get(path)
+    if field_name is not None and row["result"].get(field_name) is not None:
+        value = row["result"][field_name]
+        return round(float(value), 9) if isinstance(value, float) else value
+    value = flatten_config(row.get("config") or {}).get(path)
+    return round(value, 9) if isinstance(value, float) else value
+
+
+def level_text(value: Any) -> str:
+    """A factor level as table text: ``0.2``, ``yes`` / ``no``, ``default`` for None."""
+    if value is None:
+        return "default"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def _level_key(value: Any) -> tuple[int, Any]:
+    """Sort key putting None first, then numbers ascending, then text."""
+    if value is None:
+        return (0, 0.0)
+    if isinstance(value, (bool, int, float)):
+        return (1, float(value))
+    return (2, str(value))
+
+
+def levels(episodes: Sequence[Mapping[str, Any]], path: str) -> list[Any]:
+    """Distinct values of a factor over the episodes: numbers ascending, names in store order."""
+    values = list(dict.fromkeys(_hashable(factor_value(e, path)) for e in episodes))
+    if all(v is None or isinstance(v, (bool, int, float)) for v in values):
+        return sorted(values, key=_level_key)
+    return values
+
+
+def wilson_interval(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """Wilson score interval of a proportion ``k / n`` (95 % for the default ``z``).
+
+    ``(nan, nan)`` when ``n == 0``.
+    """
+    if n == 0:
+        return (float("nan"), float("nan"))
+    p = k / n
+    denom = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return (float(max(0.0, centre - half)), float(min(1.0, centre + half)))
+
+
+OUTCOMES = ("held", "not_lifted", "dropped", "crushed")
+
+
+@dataclass(frozen=True)
+class SummaryRow:
+    """Outcomes and metrics of the episodes of one combination of the swept factors.
+
+    Attributes
+    ----------
+    levels : tuple
+        The combination, one value per factor (in :func:`outcome_summary`'s order).
+    n : int
+        Episodes.
+    counts : dict of str to int
+        Episodes per outcome of :data:`OUTCOMES`.
+    intervals : dict of str to (float, float)
+        95 % Wilson interval of each outcome's rate.
+    tracking_rmse_n, contact_peak_ratio, slip_distance_m : float
+        Means over the episodes that report the metric (``nan`` if none does).
+    phase_margin_deg : float
+        Mean phase margin at the held force (``nan`` if no episode held a force).
+    worst_phase_margin_deg : float
+        Minimum over episodes of the worst phase margin over visited forces.
+    """
+
+    levels: tuple
+    n: int
+    counts: dict[str, int]
+    intervals: dict[str, tuple[float, float]]
+    tracking_rmse_n: float
+    contact_peak_ratio: float
+    slip_distance_m: float
+    phase_margin_deg: float
+    worst_phase_margin_deg: float
+
+    def rate(self, outcome: str) -> float:
+        """Fraction of the episodes with ``outcome``."""
+        return self.counts[outcome] / self.n
+
+
+def _values(results: Sequence[Mapping[str, Any]], name: str) -> np.ndarray:
+    out = [float(r[name]) for r in results if r.get(name) is not None]
+    return np.array([v for v in out if np.isfinite(v)], dtype=float)
+
+
+def _mean(values: np.ndarray) -> float:
+    return float(values.mean()) if values.size else float("nan")
+
+
+def outcome_summary(episodes: Sequence[Mapping[str, Any]],
+                    factors: Sequence[str]) -> list[SummaryRow]:
+    """One :class:`SummaryRow` per combination of ``factors`` present in the episodes.
+
+    Rows are sorted by the factors' levels (numbers ascending, names in store order).
+    """
+    groups: dict[tuple, list[Mapping[str, Any]]] = {}
+    for e in episodes:
+        key = tuple(_hashable(factor_value(e, p)) for p in factors)
+        groups.setdefault(key, []).append(e["result"])
+    order = [{v: i for i, v in enumerate(levels(episodes, p))} for p in factors]
+    out = []
+    for key in sorted(groups, key=lambda k: tuple(o[v] for o, v in zip(order, k, strict=True))):
+        results = groups[key]
+        outcomes = [episode_outcome(r) for r in results]
+        counts = {o: outcomes.count(o) for o in OUTCOMES}
+        worst = _values(results, "worst_phase_margin_deg")
+        out.append(SummaryRow(
+            key, len(results), counts,
+            {o: wilson_interval(c, len(results)) for o, c in counts.items()},
+            _mean(_values(results, "tracking_rmse_n")),
+            _mean(_values(results, "contact_peak_ratio")),
+            _mean(_values(results, "slip_distance_m")),
+            _mean(_values(results, "phase_margin_deg")),
+            float(worst.min()) if worst.size else float("nan"),
+        ))
+    return out
+
+
+# ---------------------------------------------------------------- paired comparison
+
+
+#: Paired metrics: name -> (label, function of an episode result giving a float or None).
+PAIRED_METRICS: dict[str, tuple[str, Any]] = {
+    "held": ("held rate", lambda r: float(episode_outcome(r) == "held")),
+    "tracking_rmse_n": ("tracking RMSE (N)", lambda r: r.get("tracking_rmse_n")),
+    "slip_distance_m": ("slip distance (m)", lambda r: r.get("slip_distance_m")),
+    "contact_peak_ratio": ("contact peak ratio", lambda r: r.get("contact_peak_ratio")),
+}
+
+
+@dataclass(frozen=True)
+class PairedDifference:
+    """Mean difference ``other - baseline`` of one metric over paired scenarios.
+
+    Two episodes are paired when every swept factor but the controller, and the
+    seed, are equal. The interval is the 95 % t interval of the mean of the
+    paired differences (``nan`` for fewer than two pairs).
+
+    Attributes
+    ----------
+    baseline, other : str
+        Controllers.
+    metric : str
+        Key of :data:`PAIRED_METRICS`.
+    n_pairs : int
+        Pairs where both episodes report the metric.
+    baseline_mean, other_mean : float
+        Means of the metric over those pairs.
+    mean_diff, ci_low, ci_high : float
+        Mean paired difference and its 95 % interval.
+    """
+
+    baseline: str
+    other: str
+    metric: str
+    n_pairs: int
+    baseline_mean: float
+    other_mean: float
+    mean_diff: float
+    ci_low: float
+    ci_high: float
+
+
+def paired_differences(episodes: Sequence[Mapping[str, Any]], factors: Sequence[str],
+                       controller: str = CONTROLLER_FACTOR,
+                       metrics: Sequence[str] = tuple(PAIRED_METRICS)) -> list[PairedDifference]:
+    """Paired differences between each pair of controllers on the same scenarios.
+
+    Parameters
+    ----------
+    episodes : sequence of dict
+        Episode rows (``result`` and ``config``).
+    factors : sequence of str
+        The swept factors (:func:`swept_factors`); must include ``controller``.
+    controller : str
+        The factor compared.
+    metrics : sequence of str
+        Keys of :data:`PAIRED_METRICS`.
+
+    Returns
+    -------
+    list of PairedDifference
+        For each controller pair ``(a, b)`` with ``a`` before ``b`` in store
+        order, each metric: ``b - a``. Empty if the controller does not vary.
+        When a scenario appears more than once per controller (repeated rows),
+        the first row is used.
+    """
+    from scipy import stats
+
+    if controller not in factors:
+        return []
+    others = [p for p in factors if p != controller]
+    by_controller: dict[Any, dict[tuple, Mapping[str, Any]]] = {}
+    for e in episodes:
+        key = (*(_hashable(factor_value(e, p)) for p in others),
+               e["result"].get("seed", (e.get("config") or {}).get("seed")))
+        by_controller.setdefault(factor_value(e, controller), {}).setdefault(key, e["result"])
+    names = list(by_controller)
+    out = []
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            shared = [k for k in by_controller[a] if k in by_controller[b]]
+            for metric in metrics:
+                get = PAIRED_METRICS[metric][1]
+                pairs = [(get(by_controller[a][k]), get(by_controller[b][k])) for k in shared]
+                pairs = [(float(x), float(y)) for x, y in pairs
+                         if x is not None and y is not None
+                         and np.isfinite(float(x)) and np.isfinite(float(y))]
+                n = len(pairs)
+                xa = np.array([p[0] for p in pairs])
+                xb = np.array([p[1] for p in pairs])
+                diff = xb - xa
+                mean = _mean(diff)
+                if n >= 2:
+                    half = float(stats.t.ppf(0.975, n - 1) * diff.std(ddof=1) / np.sqrt(n))
+                    low, high = mean - half, mean + half
+                else:
+                    low = high = float("nan")
+                out.append(PairedDifference(str(a), str(b), metric, n, _mean(xa), _mean(xb),
+                                            mean, low, high))
+    return out
+
+
+# ---------------------------------------------------------------- faceted heatmaps
+
+
+def heatmap_axes(episodes: Sequence[Mapping[str, Any]],
+                 factors: Sequence[str]) -> tuple[str, str]:
+    """The two factors a heatmap plots: mass x friction when both vary, else the two
+    swept factors with the most levels (numeric ones first), padded with mass and friction."""
+    if MASS_FACTOR in factors and FRICTION_FACTOR in factors:
+        return MASS_FACTOR, FRICTION_FACTOR
+
+    def rank(p: str) -> tuple[int, int]:
+        values = levels(episodes, p)
+        numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                      for v in values if v is not None)
+        return (0 if numeric else 1, -len(values))
+
+    chosen = sorted(factors, key=rank)[:2]
+    for fallback in (MASS_FACTOR, FRICTION_FACTOR):
+        if len(chosen) < 2 and fallback not in chosen:
+            chosen.append(fallback)
+    return chosen[0], chosen[1]
+
+
+def facet_label(paths: Sequence[str], values: Sequence[Any]) -> str:
+    """``"can, pid, oracle"``: the levels of a facet (names of yes/no factors spelled out)."""
+    parts = []
+    for path, value in zip(paths, values, strict=True):
+        if isinstance(value, bool) or isinstance(value, (int, float)):
+            parts.append(f"{factor_name(path).split(' (')[0]} {level_text(value)}")
+        else:
+            parts.append(level_text(value))
+    return ", ".join(parts) or "all episodes"
+
+
+def faceted_grids(episodes: Sequence[Mapping[str, Any]],
+                  factors: Sequence[str]) -> tuple[str, str, list[OutcomeGrid]]:
+    """Outcome grids over :func:`heatmap_axes`, one per combination of the other factors.
+
+    Returns
+    -------
+    (row factor, column factor, grids)
+        Each grid's ``key`` is the tuple of the facet's levels and ``label`` its
+        :func:`facet_label`.
+    """
+    rows_f, cols_f = heatmap_axes(episodes, factors)
+    facets = [p for p in factors if p not in (rows_f, cols_f)]
+    grids = outcome_grids(
+        episodes,
+        key=lambda e: tuple(_hashable(factor_value(e, p)) for p in facets),
+        rows=lambda e: factor_value(e, rows_f), cols=lambda e: factor_value(e, cols_f),
+        label=lambda k: facet_label(facets, k))
+    order = [{v: i for i, v in enumerate(levels(episodes, p))} for p in facets]
+    grids.sort(key=lambda g: tuple(o[v] for o, v in zip(order, g.key, strict=True)))
+    return rows_f, cols_f, grids
+
+
+def scenario_title(row: Mapping[str, Any], factors: Sequence[str]) -> str:
+    """Short title of an episode: its levels of the swept factors (``"can, m=0.2 ..."``)."""
+    if not factors:
+        return f"{row['result']['controller']}, {condition_label(row['result'])}"
+    return facet_label(factors, [factor_value(row, p) for p in factors])

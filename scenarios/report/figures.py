@@ -7,16 +7,20 @@ Loop figures (Bode, Nyquist, pole-zero) come from :mod:`controllers.figures`.
 from __future__ import annotations
 
 import io
+import textwrap
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
+from matplotlib.text import Annotation, Text
 
 from estimation.paper import SECTION_4_2, TABLE2_SUMMARY
-from scenarios.report.data import MODES, OutcomeGrid, ScoreTable, group_label
+from scenarios.report.data import MODES, OutcomeGrid, ScoreTable, level_text
 
 DPI = 80
+#: Smallest font size of any text in a report figure, pt.
+MIN_FONT_PT = 9.0
 _MODE_COLORS = {"one_step": "C0", "free_run": "C1"}
 #: Outcome maps: metric -> (OutcomeGrid attribute, colour-bar label, fixed colour range or None).
 OUTCOME_METRICS: dict[str, tuple[str, str, tuple[float, float] | None]] = {
@@ -27,8 +31,35 @@ OUTCOME_METRICS: dict[str, tuple[str, str, tuple[float, float] | None]] = {
 }
 
 
+def readable(fig: Figure, min_pt: float = MIN_FONT_PT) -> Figure:
+    """Raise every text of ``fig`` (labels, ticks, legends, annotations) to at least ``min_pt``."""
+    for text in fig.findobj(Text):
+        if text.get_fontsize() < min_pt:
+            text.set_fontsize(min_pt)
+    return fig
+
+
+def offset_annotations(fig: Figure, dx_pt: float = 6.0, dy_pt: float = 6.0) -> Figure:
+    """Move annotations placed on their point (margin labels) ``dx_pt, dy_pt`` points away
+    from it, so that the text does not sit on the curve it labels."""
+    for ann in fig.findobj(Annotation):
+        if ann.anncoords == "data" and tuple(ann.xyann) == tuple(ann.xy):
+            ann.anncoords = "offset points"
+            ann.xyann = (dx_pt, dy_pt)
+    return fig
+
+
+def short_title(text: str, width: int = 34) -> str:
+    """``text`` wrapped on lines of at most ``width`` characters (two lines, then cut)."""
+    lines = textwrap.wrap(text, width) or [""]
+    if len(lines) > 2:
+        lines = [lines[0], textwrap.shorten(" ".join(lines[1:]), width, placeholder=" ...")]
+    return "\n".join(lines)
+
+
 def png_bytes(fig: Figure, dpi: int = DPI) -> bytes:
-    """The figure as PNG bytes."""
+    """The figure as PNG bytes, every text at least :data:`MIN_FONT_PT` (:func:`readable`)."""
+    readable(fig)
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=dpi)
     return buffer.getvalue()
@@ -107,8 +138,9 @@ def force_traces_figure(episodes: Sequence[tuple[str, Mapping[str, np.ndarray]]]
     return fig
 
 
-def outcome_figure(grids: Sequence[OutcomeGrid], metric: str) -> Figure:
-    """Heatmaps of one outcome over mass x friction, one panel per controller / estimator / mode.
+def outcome_figure(grids: Sequence[OutcomeGrid], metric: str, row_name: str = "mass (kg)",
+                   col_name: str = "friction coefficient") -> Figure:
+    """Heatmaps of one outcome over two factors, one panel per facet (``grid.label``).
 
     Each cell shows its value and, below, the number of episodes behind it;
     empty cells stay blank.
@@ -119,12 +151,13 @@ def outcome_figure(grids: Sequence[OutcomeGrid], metric: str) -> Figure:
     vmin, vmax = limits if limits else (0.0, max(1.0, float(finite.max(initial=0.0))))
     norm = Normalize(vmin, vmax)
     n = len(grids)
-    cols = min(n, 3)
-    rows = int(np.ceil(n / cols))
     g0 = grids[0]
-    cell_w = 0.55 * max(g0.friction.size, 2)
-    cell_h = 0.45 * max(g0.mass_kg.size, 2)
-    fig = Figure(figsize=(cols * (cell_w + 1.3) + 1.0, rows * (cell_h + 1.0) + 0.3),
+    n_rows, n_cols = len(g0.row_levels), len(g0.col_levels)
+    cols = min(n, 3 if n_cols <= 4 else 2)
+    rows = int(np.ceil(n / cols))
+    cell_w = 0.75 * max(n_cols, 2)
+    cell_h = 0.55 * max(n_rows, 2)
+    fig = Figure(figsize=(cols * (cell_w + 1.4) + 1.2, rows * (cell_h + 1.4) + 0.3),
                  layout="constrained")
     axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False)).ravel()
     image = None
@@ -135,15 +168,32 @@ def outcome_figure(grids: Sequence[OutcomeGrid], metric: str) -> Figure:
             if grid.n_episodes[i, j]:
                 shade = "white" if norm(v) > 0.6 else "black"
                 ax.text(j, i, f"{v:.2g}\nn={grid.n_episodes[i, j]}", ha="center", va="center",
-                        fontsize=6, color=shade)
-        ax.set_xticks(range(grid.friction.size), [f"{f:g}" for f in grid.friction], fontsize=7)
-        ax.set_yticks(range(grid.mass_kg.size), [f"{m:g}" for m in grid.mass_kg], fontsize=7)
-        ax.set_xlabel("friction coefficient", fontsize=8)
-        ax.set_ylabel("mass (kg)", fontsize=8)
-        ax.set_title(group_label(grid.key), fontsize=8)
+                        fontsize=9, color=shade)
+        ax.set_xticks(range(n_cols), [level_text(f) for f in grid.col_levels], fontsize=9,
+                      rotation=30 if n_cols > 4 else 0)
+        ax.set_yticks(range(n_rows), [level_text(m) for m in grid.row_levels], fontsize=9)
+        ax.set_xlabel(col_name, fontsize=10)
+        ax.set_ylabel(row_name, fontsize=10)
+        ax.set_title(short_title(grid.label or str(grid.key), 30), fontsize=10)
     for ax in axes[n:]:
         ax.set_visible(False)
     fig.colorbar(image, ax=axes[:n].tolist(), label=label, shrink=0.9)
+    return fig
+
+
+def trace_figure(traces: Mapping[str, np.ndarray], title: str = "") -> Figure:
+    """Intent, reference and grip force vs time of one episode."""
+    fig = Figure(figsize=(7.0, 3.0), layout="constrained")
+    ax = fig.subplots()
+    ax.plot(traces["t_s"], traces["intent_n"], color="0.5", lw=1, label="intent")
+    ax.plot(traces["t_s"], traces["reference_n"], color="C1", lw=1, label="reference")
+    ax.plot(traces["t_s"], traces["grip_force_n"], color="C0", lw=1.2, label="grip force")
+    if title:
+        ax.set_title(short_title(title, 60), fontsize=10)
+    ax.set_xlabel("time (s)", fontsize=10)
+    ax.set_ylabel("force (N)", fontsize=10)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=9, loc="lower right", ncols=3)
     return fig
 
 

@@ -1,7 +1,10 @@
-"""HTML assembly: escaped tables, embedded PNG images, sections and the page.
+"""HTML assembly from Jinja2 templates: escaped tables, embedded PNG images, sections, the page.
 
-The page is one self-contained file: inline CSS, images as base64 ``data:``
-URIs, no script and no external address.
+The templates live in ``scenarios/report/templates`` and are rendered with
+autoescaping on, so every value passed in is escaped unless it is
+:class:`markupsafe.Markup` (HTML this module built). The page is one
+self-contained file: inline CSS, images as base64 ``data:`` URIs, no script
+and no external address.
 """
 
 from __future__ import annotations
@@ -13,20 +16,42 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import jinja2
+from markupsafe import Markup
+
 _CSS = """
 body { font-family: sans-serif; margin: 1.5em auto; max-width: 1200px; color: #222; }
 h1 { font-size: 1.6em; } h2 { border-bottom: 1px solid #ccc; padding-bottom: .2em; }
 table { border-collapse: collapse; margin: .6em 0 1.2em; font-size: .85em; }
 th, td { border: 1px solid #ccc; padding: .2em .5em; text-align: right; }
-th { background: #f2f2f2; } td.text, th.text { text-align: left; }
+th { background: #f2f2f2; } td { white-space: nowrap; }
+td.text { white-space: normal; } td.text, th.text { text-align: left; }
 caption { caption-side: top; text-align: left; font-weight: bold; padding: .3em 0; }
 img { max-width: 100%; height: auto; display: block; margin: .5em 0; }
 p.note { color: #666; font-style: italic; }
 nav ul { columns: 2; } details { margin: .5em 0; } code { font-size: .85em; }
 .bad { color: #b00; font-weight: bold; }
 div.row { display: flex; flex-wrap: wrap; gap: .5em; align-items: flex-start; }
-div.row img { max-width: 32%; } div.scroll { overflow-x: auto; max-width: 100%; }
+div.row img { max-width: 49%; } div.scroll { overflow-x: auto; max-width: 100%; }
+figure { margin: .5em 0; } figcaption { font-size: .85em; color: #444; }
+div.choices details { border: 1px solid #ddd; border-radius: 3px; padding: .2em .5em; }
+div.choices summary { cursor: pointer; } div.choices details[open] summary { font-weight: bold; }
+td.lo { color: #666; font-size: .9em; }
 """
+
+_ENV = jinja2.Environment(
+    loader=jinja2.PackageLoader("scenarios.report", "templates"),
+    autoescape=True, undefined=jinja2.StrictUndefined, keep_trailing_newline=False,
+)
+
+
+def render(template: str, **context: Any) -> str:
+    """Render one of the report's templates (autoescaped) to an HTML string.
+
+    Plain ``str`` (not :class:`Markup`), so that the fragments concatenate like
+    any string; they are marked safe again where they enter a template.
+    """
+    return _ENV.get_template(template).render(**context)
 
 
 def esc(value: Any) -> str:
@@ -64,22 +89,27 @@ def table(headers: Sequence[str], rows: Sequence[Sequence[Any]], caption: str = 
 
     Cells are escaped; floats are formatted with :func:`fmt`.
     """
-    def cell(tag: str, i: int, value: Any) -> str:
-        cls = ' class="text"' if i < text_columns else ""
-        return f"<{tag}{cls}>{esc(fmt(value))}</{tag}>"
-
-    head = "".join(cell("th", i, h) for i, h in enumerate(headers))
-    body = "\n".join("<tr>" + "".join(cell("td", i, v) for i, v in enumerate(r)) + "</tr>"
-                     for r in rows)
-    cap = f"<caption>{esc(caption)}</caption>" if caption else ""
-    return (f'<div class="scroll"><table>{cap}<thead><tr>{head}</tr></thead><tbody>\n{body}'
-            "\n</tbody></table></div>")
+    return render("table.html.j2", headers=[fmt(h) for h in headers],
+                  rows=[[fmt(v) for v in r] for r in rows], caption=caption,
+                  text_columns=text_columns)
 
 
 def img(png: bytes, alt: str) -> str:
     """An ``<img>`` with the PNG embedded as a base64 data URI."""
     data = base64.b64encode(png).decode("ascii")
-    return f'<img src="data:image/png;base64,{data}" alt="{esc(alt)}">'
+    return str(Markup('<img src="data:image/png;base64,{}" alt="{}">').format(data, alt))
+
+
+def figure(png: bytes, alt: str, caption: str = "") -> str:
+    """An embedded PNG in a ``<figure>`` with an optional caption."""
+    return render("figure.html.j2", data=base64.b64encode(png).decode("ascii"), alt=alt,
+                  caption=caption)
+
+
+def choices(items: Sequence[tuple[str, str]], open_first: bool = True) -> str:
+    """A list of ``<details>`` (summary text, body HTML), one open at a time by the reader."""
+    return render("choices.html.j2", open_first=open_first,
+                  items=[{"summary": summary, "body": Markup(body)} for summary, body in items])
 
 
 def side_by_side(items: Sequence[str]) -> str:
@@ -89,7 +119,7 @@ def side_by_side(items: Sequence[str]) -> str:
 
 def note(text: str) -> str:
     """A one-line note paragraph."""
-    return f'<p class="note">{esc(text)}</p>'
+    return str(Markup('<p class="note">{}</p>').format(text))
 
 
 @dataclass(frozen=True)
@@ -115,18 +145,7 @@ class Section:
 
 
 def page(title: str, subtitle: str, sections: Sequence[Section]) -> str:
-    """The whole HTML document."""
-    toc = "".join(f'<li><a href="#{esc(s.anchor)}">{esc(s.title)}</a>'
-                  f'{" (no data)" if s.omitted else ""}</li>' for s in sections)
-    parts = [
-        "<!DOCTYPE html>",
-        '<html lang="en"><head><meta charset="utf-8">',
-        '<meta name="viewport" content="width=device-width, initial-scale=1">',
-        f"<title>{esc(title)}</title><style>{_CSS}</style></head><body>",
-        f"<h1>{esc(title)}</h1><p>{esc(subtitle)}</p>",
-        f"<nav><ul>{toc}</ul></nav>",
-    ]
-    for s in sections:
-        parts.append(f'<section id="{esc(s.anchor)}"><h2>{esc(s.title)}</h2>\n{s.body}</section>')
-    parts.append("</body></html>\n")
-    return "\n".join(parts)
+    """The whole HTML document (``page.html.j2``)."""
+    return render("page.html.j2", title=title, subtitle=subtitle, css=Markup(_CSS),
+                  sections=[{"anchor": s.anchor, "title": s.title, "body": Markup(s.body),
+                             "omitted": s.omitted} for s in sections]) + "\n"

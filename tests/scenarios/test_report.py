@@ -203,7 +203,7 @@ def tables(text: str) -> list[tuple[str, list[str], list[list[str]]]]:
     out = []
     for body in re.findall(r"<table>(.*?)</table>", text, re.S):
         caption = re.search(r"<caption>(.*?)</caption>", body)
-        headers = [unescape(h) for h in re.findall(r"<th[^>]*>(.*?)</th>", body)]
+        headers = [unescape(h) for h in re.findall(r"<th(?:\s[^>]*)?>(.*?)</th>", body)]
         rows = [[unescape(c) for c in re.findall(r"<td[^>]*>(.*?)</td>", r)]
                 for r in re.findall(r"<tr>(.*?)</tr>", body)]
         out.append((unescape(caption.group(1)) if caption else "", headers,
@@ -335,12 +335,14 @@ def test_episode_row_missing_a_field_is_rejected(tmp_path):
 
 def test_report_has_every_section_with_real_content(report):
     result, html = report
-    assert [s.anchor for s in result.sections] == ["paper", "traces", "loops", "outcomes",
-                                                   "margins", "frame", "failed", "provenance"]
+    assert [s.anchor for s in result.sections] == [
+        "summary", "compare", "paper", "traces", "loops", "outcomes", "margins", "frame",
+        "failed", "provenance"]
     assert not any(s.omitted for s in result.sections), [s.title for s in result.sections]
-    # 2 bar charts + traces + 3 designs x 3 loop figures + 4 outcome maps (not lifted,
-    # dropped, crushed, slip) + frame
-    assert result.n_images == 2 + 1 + 9 + 4 + 1
+    # 2 bar charts + one trace per episode + 3 designs x 3 loop figures + 4 outcome maps
+    # (not lifted, dropped, crushed, slip) + frame
+    n_episodes = 4 * len(MASSES_KG) * len(FRICTIONS) * len(SEEDS)
+    assert result.n_images == 2 + n_episodes + 9 + 4 + 1
 
 
 def test_page_is_self_contained(report):
@@ -433,7 +435,7 @@ def test_same_inputs_give_identical_html(store_path, tmp_path):
 def test_sections_without_data_become_a_note(store_path, tmp_path):
     result = build_report(store_path, tmp_path, sweep="tiny_paper", render_frame=False)
     omitted = {s.anchor for s in result.sections if s.omitted}
-    assert omitted == {"traces", "loops", "outcomes", "margins", "frame"}
+    assert omitted == {"summary", "compare", "traces", "loops", "outcomes", "margins", "frame"}
     html = result.path.read_text()
     assert "No episode rows: section omitted." in section(html, "traces")
     assert result.n_images == 1  # the bar chart
@@ -450,7 +452,7 @@ def test_cli_writes_the_report(store_path, tmp_path, capsys):
     out, err = capsys.readouterr()
     assert code == 0 and err == ""
     assert out.startswith(f"wrote {tmp_path / 'out' / 'index.html'} (")
-    assert "no data: 1. Paper tables" in out
+    assert "no data: 3. Paper tables" in out
     assert (tmp_path / "out" / "index.html").stat().st_size > 10_000
     print(f"report of {4 * 8} episode rows: {elapsed_s:.1f} s")
 
@@ -471,3 +473,211 @@ def test_cli_user_errors_are_one_line(store_path, tmp_path, capsys, monkeypatch,
     assert code == 2 and out == ""
     assert err.count("\n") == 1 and err.startswith("griploop report: error: ")
     assert expected in err
+
+
+# ------------------------------------------------------------------ grouping by swept factors
+
+FIXTURE_FACTORS = ["object.name", "object.mass_kg", "object.friction", "controller.kind",
+                   "estimator.name", "estimator.mode"]
+
+
+def test_swept_factors_come_from_the_configs(store_path):
+    with ResultStore(store_path) as store:
+        episodes = D.split_rows(store.rows()).episodes
+    # the seed varies too but is never a factor; the MPC's horizon (filled in by the schema
+    # for the MPC only) is a consequence of the controller, not a factor
+    assert D.swept_factors(episodes) == FIXTURE_FACTORS
+    assert len({e["config"]["seed"] for e in episodes}) == len(SEEDS)
+
+
+def test_summary_has_one_row_per_factor_combination(report, store_path):
+    _, html = report
+    ((caption, headers, rows),) = tables(section(html, "summary"))
+    names = ["object", "mass (kg)", "friction", "controller", "estimator", "mode"]
+    assert headers[:7] == [*names, "n"]
+    with ResultStore(store_path) as store:
+        episodes = [r["result"] for r in D.split_rows(store.rows()).episodes]
+    fields = ("object_name", "object_mass_kg", "object_friction", "controller", "estimator",
+              "mode")
+    combos = {tuple(f"{r[f]:g}" if isinstance(r[f], float) else str(r[f]) for f in fields)
+              for r in episodes}
+    got = [tuple(r[:6]) for r in rows]
+    assert len(got) == len(set(got)) == len(combos) == 16
+    assert set(got) == combos
+    for row in rows:
+        cell = [r for r in episodes
+                if tuple(f"{r[f]:g}" if isinstance(r[f], float) else str(r[f])
+                         for f in fields) == tuple(row[:6])]
+        assert int(row[6]) == len(cell) == len(SEEDS)
+        dropped = sum(D.episode_outcome(r) == "dropped" for r in cell)
+        low, high = D.wilson_interval(dropped, len(cell))
+        assert row[headers.index("dropped %")] == \
+            f"{100 * dropped / len(cell):.0f} ({100 * low:.0f}–{100 * high:.0f})"
+        rmse = np.mean([r["tracking_rmse_n"] for r in cell])
+        assert row[headers.index("tracking RMSE (N)")] == f"{rmse:.4g}"
+
+
+@pytest.mark.parametrize(("k", "n", "low", "high"), [
+    (0, 1, 0.0, 1.959963984540054 ** 2 / (1 + 1.959963984540054 ** 2)),
+    (1, 1, 1 / (1 + 1.959963984540054 ** 2), 1.0),
+    (8, 10, 0.4901625, 0.9433178),  # textbook value (Newcombe 1998, method 3)
+])
+def test_wilson_interval_closed_form(k, n, low, high):
+    assert D.wilson_interval(k, n) == pytest.approx((low, high), abs=1e-6)
+    assert all(np.isnan(D.wilson_interval(0, 0)))
+
+
+def hand_row(i: int, controller: str, mass_kg: float, seed: int, *, held: bool = True,
+             rmse: float = 1.0, slip_m: float = 0.0, reflex: bool = False,
+             break_n: float = 4.0) -> dict:
+    """An episode row as the store returns it, with only what the grouping reads."""
+    config = {"kind": "episode", "seed": seed,
+              "object": {"name": "egg", "mass_kg": mass_kg, "friction": 0.5,
+                         "break_force_n": break_n},
+              "controller": {"kind": controller, "horizon": 20 if controller == "mpc" else None,
+                             "slip_reflex": {"enabled": reflex}},
+              "estimator": {"name": "oracle", "mode": "free_run"}}
+    result = {"controller": controller, "estimator": "oracle", "mode": "free_run",
+              "object_name": "egg", "object_mass_kg": mass_kg, "object_friction": 0.5,
+              "object_break_force_n": break_n, "seed": seed, "subject_id": 1,
+              "outcome": "held" if held else "dropped", "lifted": True, "dropped": not held,
+              "crushed": False, "slip_events": 0 if held else 2, "tracking_rmse_n": rmse,
+              "slip_distance_m": slip_m, "contact_peak_ratio": 1.0}
+    return {"hash": f"{i:064x}", "kind": "episode", "status": "ok", "config": config,
+            "result": result}
+
+
+def test_paired_differences_closed_form():
+    # pid and mpc on the same 3 masses x 1 seed; mpc's RMSE is lower by 1, 2 and 3 N and it
+    # drops the heaviest object; an extra mpc row (seed 9) has no pid partner
+    rows = []
+    for i, (mass, gap) in enumerate([(0.1, 1.0), (0.2, 2.0), (0.4, 3.0)]):
+        rows.append(hand_row(2 * i, "pid", mass, 1, rmse=5.0 + gap, slip_m=0.01))
+        rows.append(hand_row(2 * i + 1, "mpc", mass, 1, rmse=5.0, held=mass < 0.3,
+                             slip_m=0.01 * (1 + i)))
+    rows.append(hand_row(99, "mpc", 0.1, 9, rmse=100.0, held=False))
+    factors = D.swept_factors(rows)
+    assert factors == ["object.mass_kg", "controller.kind"]  # horizon follows the controller
+    diffs = {d.metric: d for d in D.paired_differences(rows, factors)}
+    t_975_2 = 4.302652729911275  # Student t, 97.5 % quantile, 2 degrees of freedom
+    rmse = diffs["tracking_rmse_n"]
+    assert (rmse.baseline, rmse.other, rmse.n_pairs) == ("pid", "mpc", 3)
+    assert rmse.baseline_mean == pytest.approx(7.0) and rmse.other_mean == pytest.approx(5.0)
+    # differences -1, -2, -3: mean -2, SD 1
+    assert rmse.mean_diff == pytest.approx(-2.0)
+    assert (rmse.ci_low, rmse.ci_high) == pytest.approx(
+        (-2.0 - t_975_2 / np.sqrt(3), -2.0 + t_975_2 / np.sqrt(3)))
+    held = diffs["held"]
+    # differences 0, 0, -1: mean -1/3, SD 1/sqrt(3)
+    assert held.mean_diff == pytest.approx(-1 / 3)
+    assert held.ci_high - held.mean_diff == pytest.approx(t_975_2 / 3)
+    slip = diffs["slip_distance_m"]
+    assert slip.mean_diff == pytest.approx(0.01)  # 0, 0.01, 0.02
+    # a row differing in another factor is not a pair
+    shifted = [hand_row(0, "pid", 0.1, 1), hand_row(1, "mpc", 0.1, 1, reflex=True)]
+    factors = D.swept_factors(shifted)
+    assert factors == ["controller.kind", "controller.slip_reflex.enabled"]
+    assert all(d.n_pairs == 0 for d in D.paired_differences(shifted, factors))
+    assert D.paired_differences(rows, ["object.mass_kg"]) == []  # controller not swept
+
+
+def test_comparison_section_matches_a_recount(report, store_path):
+    _, html = report
+    ((caption, headers, rows),) = tables(section(html, "compare"))
+    assert caption == "Paired differences"
+    with ResultStore(store_path) as store:
+        episodes = [r["result"] for r in D.split_rows(store.rows()).episodes]
+    by = {(r["controller"], r["estimator"], r["object_mass_kg"], r["object_friction"],
+           r["seed"]): r for r in episodes}
+    pairs = [(a, by[("lead_lag", *k[1:])]) for k, a in by.items()
+             if k[0] == "pid" and ("lead_lag", *k[1:]) in by]
+    assert len(pairs) == len(MASSES_KG) * len(FRICTIONS) * len(SEEDS)  # ss_kf only
+    row = next(r for r in rows if r[:3] == ["pid", "lead_lag", "tracking RMSE (N)"])
+    diff = np.array([b["tracking_rmse_n"] - a["tracking_rmse_n"] for a, b in pairs])
+    assert int(row[3]) == len(pairs)
+    assert row[headers.index("B - A")] == f"{diff.mean():.4g}"
+    half = 2.3646242510102993 * diff.std(ddof=1) / np.sqrt(diff.size)  # t(0.975, 7)
+    assert row[-1] == f"{diff.mean() - half:.4g} to {diff.mean() + half:.4g}"
+    assert {tuple(r[:2]) for r in rows} == {("pid", "lead_lag"), ("pid", "mpc"),
+                                            ("lead_lag", "mpc")}
+
+
+def test_heatmaps_are_faceted_by_the_factors_they_do_not_plot():
+    # fragile.yaml's shape: mass and friction fixed, break force x controller x reflex
+    rows = [hand_row(i, c, 0.06, 1, held=b > 1.0, reflex=r, break_n=b)
+            for i, (b, c, r) in enumerate((b, c, r) for b in (0.4, 1.0, 4.0)
+                                          for c in ("pid", "mpc") for r in (False, True))]
+    factors = D.swept_factors(rows)
+    assert factors == ["object.break_force_n", "controller.kind",
+                       "controller.slip_reflex.enabled"]
+    rows_f, cols_f, grids = D.faceted_grids(rows, factors)
+    assert (rows_f, cols_f) == ("object.break_force_n", "controller.kind")
+    assert [g.label for g in grids] == ["reflex no", "reflex yes"]
+    for g in grids:
+        assert g.row_levels == [0.4, 1.0, 4.0] and g.col_levels == ["pid", "mpc"]
+        assert g.n_episodes.tolist() == [[1, 1]] * 3  # nothing averaged across facets
+        assert g.dropped_frac[:, 0].tolist() == [1.0, 1.0, 0.0]  # held above 1 N only
+    # the mass x friction grid of the fixture: one panel per object / design
+    demo = [hand_row(i, c, m, 1) for i, (m, c) in enumerate(
+        (m, c) for m in (0.1, 0.2) for c in ("pid", "mpc"))]
+    for i, row in enumerate(demo):
+        row["config"]["object"]["friction"] = row["result"]["object_friction"] = 0.3 + 0.1 * i
+    rows_f, cols_f, grids = D.faceted_grids(demo, D.swept_factors(demo))
+    assert (rows_f, cols_f) == ("object.mass_kg", "object.friction")
+    assert [g.label for g in grids] == ["pid", "mpc"]
+
+
+def test_traces_are_one_selectable_figure_per_scenario(report, store_path):
+    _, html = report
+    body = section(html, "traces")
+    with ResultStore(store_path) as store:
+        episodes = D.split_rows(store.rows()).episodes
+    summaries = re.findall(r"<summary>(.*?)</summary>", body)
+    captions = [unescape(c) for c in re.findall(r"<figcaption>(.*?)</figcaption>", body)]
+    assert len(summaries) == len(captions) == body.count("<img ") == len(episodes)
+    assert body.count("<details open>") == 1
+    for row, caption in zip(episodes, captions, strict=True):
+        assert f"seed {row['result']['seed']}," in caption
+        assert row["hash"][:12] in caption
+
+
+def test_hostile_text_is_escaped(tmp_path):
+    hostile = '<script>alert("x")</script>&amp;'
+    loop = designed_loops()["pid"]
+    path = tmp_path / "hostile.sqlite"
+    version = package_version()
+    with ResultStore(path) as store:
+        members = []
+        for i, name in enumerate((hostile, "can")):
+            result, traces = simulate_episode(loop, "pid", "oracle", 0.4, 0.8, 1)
+            result["object_name"] = name
+            config = json.dumps({"kind": "episode", "seed": 1,
+                                 "object": {"name": name}, "controller": {"kind": "pid"}},
+                                sort_keys=True)
+            key = content_hash(config, version, f"hostile:{i}")
+            store.record(Outcome(key, "ok", result, encode_traces(traces), None, None, 0.0,
+                                 1.0, 1.0, "test:0"), kind="episode", config_json=config,
+                         task=f"hostile:{i}", version=version)
+            members.append((key, i, {}))
+        store.add_members(hostile, members)
+    html = build_report(path, tmp_path / "out", render_frame=False).path.read_text()
+    assert "<script" not in html.lower()
+    assert "&lt;script&gt;alert(&#34;x&#34;)&lt;/script&gt;&amp;amp;" in html
+    ((_, headers, rows),) = tables(section(html, "summary"))
+    assert headers[0] == "object" and {r[0] for r in rows} == {hostile, "can"}
+
+
+def test_episodes_that_held_no_force_have_no_loop(store_path):
+    with ResultStore(store_path) as store:
+        episodes = D.split_rows(store.rows()).episodes[:3]
+        traces = {e["hash"]: dict(store.traces(e["hash"])) for e in episodes}
+    crushed = episodes[0]
+    crushed["result"] = {**crushed["result"], "held_force_n": None, "outcome": "crushed"}
+    for name in D.LOOP_TRACES:
+        del traces[crushed["hash"]][name]
+    designs = D.loop_designs(episodes, traces)
+    assert sum(len(d.hashes) for d in designs) == 2
+    assert crushed["hash"] not in designs[0].hashes
+    del traces[episodes[1]["hash"]]["loop_A"]  # held a force but lost a matrix: an error
+    with pytest.raises(ReportInputError, match="missing trace"):
+        D.loop_designs(episodes, traces)

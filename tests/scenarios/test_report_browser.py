@@ -217,7 +217,7 @@ def test_report_renders_in_headless_chromium(report_path):
     assert found["broken"] == 0, found["widths"]
     assert min(found["widths"]) >= 200
     assert found["scripts"] == 0
-    assert found["sections"] == 8
+    assert found["sections"] == 10
     assert found["height"] > 5000  # a long page, not an error stub
     pixels = matplotlib.image.imread(io.BytesIO(shot), format="png")
     assert pixels.shape[:2] == (1600, 1280)
