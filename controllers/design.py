@@ -16,6 +16,7 @@ optionally, a :class:`controllers.reflex.SlipReflex`.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass, field
 from typing import Any
@@ -38,6 +39,7 @@ from controllers.design_plant import (
 from controllers.errors import PlantError, SpecificationError
 from controllers.mpc import MPC
 from controllers.plant import delay
+from controllers.plant_cache import cached_family
 from controllers.reflex import SlipReflex
 from controllers.registry import CONTROLLER_NAMES, design_controller
 from controllers.schedule import ScheduledController
@@ -249,8 +251,15 @@ class ControllerDesign:
 @functools.lru_cache(maxsize=64)
 def cached_plant_family(obj: ObjectSpec, control_dt_s: float,
                         forces_n: tuple[float, ...] = DEFAULT_FORCE_GRID_N) -> PlantFamily:
-    """:func:`controllers.design_plant.plant_family` memoized per object, period and grid."""
-    return plant_family(obj, control_dt_s=control_dt_s, forces_n=forces_n)
+    """:func:`controllers.design_plant.plant_family` memoized per object, period and grid.
+
+    In memory per process, and on disk for every process of the machine
+    (:mod:`controllers.plant_cache`); ``PlantFamily.source`` says which.
+    """
+    family, source = cached_family(
+        obj, control_dt_s, tuple(forces_n),
+        lambda: plant_family(obj, control_dt_s=control_dt_s, forces_n=forces_n))
+    return dataclasses.replace(family, source=source)
 
 
 @functools.lru_cache(maxsize=512)

@@ -374,12 +374,15 @@ class PlantFamily:
         One per grid force, ascending.
     build_s : float
         Wall time to build the family, s.
+    source : str
+        ``"built"`` here, or where it came from (:mod:`controllers.plant_cache`).
     """
 
     object: ObjectSpec
     control_dt_s: float
     points: tuple[OperatingPoint, ...]
     build_s: float
+    source: str = "built"
 
     @property
     def forces_n(self) -> np.ndarray:

@@ -158,9 +158,10 @@ def run(args: argparse.Namespace) -> int:
             design.check_force(f)
     analyses = [design.analyse(f) for f in forces]
     worst = worst_case(analyses)
-    print(f"plant family of {design.object.name}: {len(design.family.points)} grid forces "
-          f"{design.family.range_n[0]:g}..{design.family.range_n[1]:g} N built in "
-          f"{design.family.build_s:.2f} s")
+    fam = design.family
+    where = "" if fam.source.startswith("built") else f", read from the {fam.source} cache"
+    print(f"plant family of {design.object.name}: {len(fam.points)} grid forces "
+          f"{fam.range_n[0]:g}..{fam.range_n[1]:g} N built in {fam.build_s:.2f} s{where}")
     print(format_table(args.controller, analyses, worst))
     obj = design.object
     result = {

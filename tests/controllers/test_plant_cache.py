@@ -1,0 +1,64 @@
+"""The on-disk plant-family cache returns exactly what a fresh build gives."""
+
+import numpy as np
+import pytest
+
+from controllers import plant_cache
+from controllers.design_plant import plant_family
+from sim.objects import make_object
+
+CAN = make_object("can", mass_kg=0.3, friction=0.7)
+GRID = (3.0, 10.0)
+
+
+def _build(obj=CAN, grid=GRID):
+    return lambda: plant_family(obj, control_dt_s=0.01, forces_n=grid)
+
+
+@pytest.fixture()
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(tmp_path))
+    return tmp_path / "plants"
+
+
+def test_a_cached_family_equals_a_fresh_one(cache):
+    fresh, source = plant_cache.cached_family(CAN, 0.01, GRID, _build())
+    assert source == "built" and len(list(cache.glob("*.npz"))) == 1
+    again, source = plant_cache.cached_family(CAN, 0.01, GRID, _build())
+    assert source == "disk"
+    for a, b in zip(fresh.points, again.points, strict=True):
+        assert (a.force_n, a.how, a.notes, a.reason) == (b.force_n, b.how, b.notes, b.reason)
+        for name in ("A", "B", "C", "D"):
+            np.testing.assert_array_equal(getattr(a.plant.model, name),
+                                          getattr(b.plant.model, name))
+        assert a.plant.model.dt == b.plant.model.dt
+        assert (a.plant.u0, a.plant.y0_n, a.plant.method) == (b.plant.u0, b.plant.y0_n,
+                                                             b.plant.method)
+        assert b.plant.object is CAN
+
+
+def test_the_key_follows_object_period_and_grid():
+    key = plant_cache.family_key(CAN, 0.01, GRID)
+    assert key == plant_cache.family_key(CAN, 0.01, GRID)
+    assert key != plant_cache.family_key(CAN.replace(mass_kg=0.31), 0.01, GRID)
+    assert key != plant_cache.family_key(CAN, 0.02, GRID)
+    assert key != plant_cache.family_key(CAN, 0.01, (3.0, 10.0, 20.0))
+
+
+def test_a_corrupted_file_is_rebuilt_and_replaced(cache):
+    plant_cache.cached_family(CAN, 0.01, GRID, _build())
+    (path,) = cache.glob("*.npz")
+    path.write_bytes(b"not an npz")
+    family, source = plant_cache.cached_family(CAN, 0.01, GRID, _build())
+    assert source == "built" and family.points[0].ok
+    assert plant_cache.cached_family(CAN, 0.01, GRID, _build())[1] == "disk"
+
+
+def test_cache_off_and_not_writable(tmp_path, monkeypatch):
+    monkeypatch.setenv("GRIPLOOP_CACHE_DIR", "off")
+    assert plant_cache.cached_family(CAN, 0.01, GRID, _build())[1] == "built (cache off)"
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(blocker))  # its "plants" cannot be made
+    family, source = plant_cache.cached_family(CAN, 0.01, GRID, _build())
+    assert source == "built (cache not writable)" and family.points[0].ok
