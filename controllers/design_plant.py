@@ -47,6 +47,8 @@ PLANT_METHODS = ("linearized", "identified")
 #: episodes (1.2 x 30 N), denser around the pads' knee (about 8 N).
 DEFAULT_FORCE_GRID_N = (1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 5.5, 6.0, 6.5, 7.0, 7.5, 8.0, 9.0,
                         10.0, 12.0, 15.0, 20.0, 25.0, 30.0, 36.0)
+#: Length of the simulated step that checks each family point's fit, s.
+FAMILY_STEP_S = 0.4
 #: Below this multiple of the slip threshold the object cannot be held in the
 #: air steadily, and it is linearized weightless (see :func:`design_plant`).
 WEIGHTLESS_BELOW_SLIP_FACTOR = 1.3
@@ -306,8 +308,9 @@ def operating_point(obj: ObjectSpec, force_n: float, *, control_dt_s: float = 0.
     step.
     """
     notes: list[str] = []
-    try:
-        first = design_plant(obj, grip_force_n=force_n, control_dt_s=control_dt_s)
+    try:  # the step that checks the fit lasts 0.4 s: the grasp's modes settle within it
+        first = design_plant(obj, grip_force_n=force_n, control_dt_s=control_dt_s,
+                             step_duration_s=FAMILY_STEP_S)
     except PlantError as exc:
         return OperatingPoint(force_n, None, "failed", (str(exc),), str(exc))
     if not first.unstable:
@@ -315,7 +318,7 @@ def operating_point(obj: ObjectSpec, force_n: float, *, control_dt_s: float = 0.
     notes.append(f"linearization has a pole at |z| = {_max_pole(first):.4f}")
     try:
         second = design_plant(obj, grip_force_n=force_n, control_dt_s=control_dt_s,
-                              settle_s=1.5, eps=1e-5)
+                              settle_s=1.5, eps=1e-5, step_duration_s=FAMILY_STEP_S)
     except PlantError as exc:
         second = None
         notes.append(f"re-linearization failed: {exc}")

@@ -90,3 +90,20 @@ def test_to_dict_contract(golden_loop):
     rebuilt = control.ss(loop["A"], loop["B"], loop["C"], loop["D"], loop["dt"])
     w = np.array([0.3, 1.0, 5.0])
     assert frequency_response(rebuilt, w) == pytest.approx(frequency_response(golden_loop, w))
+
+
+def test_batched_frequency_response_equals_python_control():
+    import control
+
+    from controllers.plant import frequency_response
+
+    rng = np.random.default_rng(3)
+    for dt in (None, 0.01):
+        for n in (1, 4, 12):
+            sys = control.rss(n, 1, 1) if dt is None else control.drss(n, 1, 1, dt=dt)
+            sys = control.ss(np.asarray(sys.A), np.asarray(sys.B), np.asarray(sys.C),
+                             rng.normal(size=(1, 1)), sys.dt)
+            w = np.geomspace(0.01, 300.0 if dt else 1e3, 200)
+            pts = np.exp(1j * w * dt) if dt else 1j * w
+            expected = np.asarray(sys(pts)).reshape(-1)
+            assert np.allclose(frequency_response(sys, w), expected, rtol=1e-9, atol=1e-12)
