@@ -328,6 +328,10 @@ class Sandbox:
 
     def _kill(self) -> int:
         pid, self._pid = self._pid, None
+        try:  # its process group (pgid == pid): subprocesses the scenario started go too
+            os.killpg(pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass  # no such group yet (killed before setpgid) or already gone
         try:
             os.kill(pid, signal.SIGKILL)
         except ProcessLookupError:

@@ -104,3 +104,15 @@ def signal_state(scenario: Scenario) -> dict:
 
     return {"pgid": os.getpgid(0), "pid": os.getpid(),
             "sigint_ignored": signal.getsignal(signal.SIGINT) is signal.SIG_IGN}
+
+
+def spawns_then_hangs(scenario: Scenario) -> dict:
+    """Starts a ``sleep`` subprocess (pid to ``$GRIPLOOP_TEST_RUNS``), then sleeps a minute."""
+    import os
+    import subprocess
+
+    proc = subprocess.Popen(["sleep", "120"])
+    with open(os.environ["GRIPLOOP_TEST_RUNS"], "a") as fh:
+        fh.write(f"{proc.pid}\n")
+    time.sleep(60)
+    return seeded(scenario)

@@ -52,6 +52,33 @@ def test_scenario_past_its_time_limit_is_a_timeout_row(tmp_path, workers):
                                      if k != "traces"} | {"n_draws": 3}
 
 
+def _running(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_timeout_stops_the_processes_the_scenario_started(tmp_path, monkeypatch):
+    runs = tmp_path / "pids.txt"
+    monkeypatch.setenv("GRIPLOOP_TEST_RUNS", str(runs))
+    items = planned("tasks:spawns_then_hangs", masses=(0.2,), kinds=("pid",))
+    with ResultStore(tmp_path / "r.sqlite") as store:
+        summary = run_sweep(items, store, task="tasks:spawns_then_hangs", progress=False,
+                            time_limit_s=1.0)
+    assert (summary.ok, summary.failed) == (0, 1)
+    (pid,) = (int(s) for s in runs.read_text().split())
+    deadline = time.monotonic() + 10
+    while _running(pid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    alive = _running(pid)
+    if alive:
+        os.kill(pid, 9)
+    assert not alive, "the scenario's subprocess outlived its timeout"
+
+
 def test_scenario_that_kills_its_process_is_failed_and_not_retried_forever(tmp_path):
     items = planned("tasks:kills_itself")
     with ResultStore(tmp_path / "r.sqlite") as store:
