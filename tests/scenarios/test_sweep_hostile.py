@@ -179,3 +179,18 @@ def test_time_limit_is_a_sweep_field(tmp_path, capsys):
     with ResultStore(db, read_only=True) as store:
         (row,) = store.rows(status="failed")
     assert row["error"].startswith("timeout:")
+
+
+def test_threads_of_one_worker_process_do_not_share_a_sandbox():
+    # a dask worker started with several threads runs several scenarios at once
+    import concurrent.futures
+
+    from scenarios import sweep
+
+    items = planned("tasks:sleepy", masses=(0.2, 0.5, 0.7, 0.9), kinds=("pid",))
+    with concurrent.futures.ThreadPoolExecutor(len(items)) as pool:
+        outs = list(pool.map(
+            lambda p: sweep.execute_limited("tasks:sleepy", p.scenario, p.hash, 30.0), items))
+    for p, out in zip(items, outs, strict=True):
+        assert out.status == "ok", out.error
+        assert out.hash == p.hash and out.result["draw"] == tasks.seeded(p.scenario)["draw"]
