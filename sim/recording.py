@@ -549,7 +549,8 @@ def load_recording(
         given = [name for name, value, default in (
             ("--time-column/--emg-columns/--force-column", columns, ColumnMap()),
             ("--time-unit", time_unit, "s"), ("--fs-hz", fs_hz, None),
-            ("--resample", resample_hz, None)) if value != default]
+            ("--resample", resample_hz, None), ("--emg-unit", emg_unit, None),
+            ("--duplicates", duplicates, "average")) if value != default]
         if given:
             raise RecordingError(
                 f"{path}: {given[0]} applies to CSV files only (an NPZ recording carries "

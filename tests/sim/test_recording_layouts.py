@@ -303,4 +303,9 @@ def test_npz_refuses_csv_only_options(tmp_path) -> None:
     path = rec.save_npz(tmp_path / "r.npz")
     with pytest.raises(RecordingError, match="--time-unit applies to CSV files only"):
         load_recording(path, time_unit="ms")
+    # the sEMG unit and the duplicates rule are the CSV's too: never silently ignored
+    with pytest.raises(RecordingError, match="--emg-unit applies to CSV files only"):
+        load_recording(path, emg_unit="uV")
+    with pytest.raises(RecordingError, match="--duplicates applies to CSV files only"):
+        load_recording(path, duplicates="spread")
     assert load_recording(path).n_samples == rec.n_samples
