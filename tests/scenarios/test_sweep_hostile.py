@@ -120,7 +120,8 @@ def test_two_drivers_on_one_store_run_each_scenario_once(tmp_path):
     path = write(tmp_path)  # 24 scenarios
     db = tmp_path / "r.sqlite"
     runs = tmp_path / "runs.txt"
-    env = cli_env() | {"GRIPLOOP_TEST_RUNS": str(runs)}
+    # each driver's first scenario waits for the other: both run some, however slow the start
+    env = cli_env() | {"GRIPLOOP_TEST_RUNS": str(runs), "GRIPLOOP_TEST_DRIVERS": "2"}
     argv = [sys.executable, "-m", "scenarios.cli", "sweep", str(path), "--db", str(db),
             "--task", "tasks:counted", "--no-progress"]
     first = subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -130,7 +131,7 @@ def test_two_drivers_on_one_store_run_each_scenario_once(tmp_path):
                               text=True)
     outs = [proc.communicate(timeout=120) for proc in (first, second)]
     assert first.returncode == 0 and second.returncode == 0, outs
-    seeds = runs.read_text().split()
+    seeds = [line.split()[0] for line in runs.read_text().splitlines()]
     assert len(seeds) == len(set(seeds)) == 24
     with sqlite3.connect(db) as conn:
         rows = conn.execute("SELECT status, attempts FROM results").fetchall()
