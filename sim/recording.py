@@ -795,6 +795,13 @@ def _emg_spec_columns(spec: Any, header: list[str], path: Path) -> list[int]:
         )
     if len(set(names)) != len(names):
         raise RecordingError(f"{path}: --emg-columns names a column twice")
+    repeated = [n for n in names if header.count(n) > 1]
+    if repeated:
+        raise RecordingError(
+            f"{path}: sEMG column {repeated[0][:40]!r} (from --emg-columns) appears "
+            f"{header.count(repeated[0])} times in the header; rename the columns or "
+            "use a glob to take them all"
+        )
     return [where[n] for n in names]
 
 

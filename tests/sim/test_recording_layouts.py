@@ -309,3 +309,15 @@ def test_npz_refuses_csv_only_options(tmp_path) -> None:
     with pytest.raises(RecordingError, match="--duplicates applies to CSV files only"):
         load_recording(path, duplicates="spread")
     assert load_recording(path).n_samples == rec.n_samples
+
+
+def test_emg_column_named_twice_in_the_header_is_refused(tmp_path) -> None:
+    # "a" twice: taking the first one silently would drop a channel the user asked for
+    path = tmp_path / "dup.csv"
+    rows = [f"{k * 0.005:.3f},{k % 7},{k % 5},{k % 3},1.0" for k in range(20)]
+    path.write_text("t,a,b,a,force\n" + "\n".join(rows) + "\n")
+    with pytest.raises(RecordingError) as info:
+        load_recording(path, columns=ColumnMap(emg="a,b"))
+    assert str(path) in str(info.value) and "'a'" in str(info.value)
+    assert "appears 2 times" in str(info.value)
+    assert load_recording(path, columns=ColumnMap(emg="b")).n_channels == 1
