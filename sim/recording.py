@@ -556,6 +556,11 @@ def load_recording(
                 f"{path}: {given[0]} applies to CSV files only (an NPZ recording carries "
                 "its own layout and rate)"
             )
+    if duplicates != "average" and resample_hz is None:
+        raise RecordingError(
+            f"{path}: --duplicates {duplicates} applies with --resample HZ only "
+            "(found no --resample); pass both"
+        )
     if fs_hz is not None:
         fs_hz = _positive_rate(fs_hz, str(path), "--fs-hz")
     if resample_hz is not None:

@@ -120,6 +120,9 @@ def test_myo_dump_needs_ms_then_resampling(tmp_path) -> None:
     assert avg.emg.shape == pairs.shape and avg.emg.dtype == np.int8
     assert np.max(np.abs(avg.emg - pairs)) <= 0.5 + 1e-9  # pair means rounded to counts
     assert avg.metadata["resampled"]["duplicates"] == "average"
+    # the rule does nothing without resampling: refused rather than silently ignored
+    with pytest.raises(RecordingError, match="--duplicates spread applies with --resample"):
+        load_recording(path, columns=columns, time_unit="ms", duplicates="spread")
 
 
 def test_logger_without_time_column_in_microvolts(tmp_path) -> None:
