@@ -1113,6 +1113,9 @@ def _load_csv(path: Path, emg_unit: str | None, max_bytes: int, columns: ColumnM
                     "duplicates": duplicates, "method": "linear (numpy.interp)",
                 }
         else:
+            # the mean step (regular: checked above); the median of stamps rounded to a few
+            # decimals is biased (2048 Hz written as %.6f gave 2049.18 Hz)
+            step = float(t[-1] - t[0]) / (t.size - 1)
             time_rate = _positive_rate(1.0 / step, str(path), f"column {tname!r} (1 / step)")
             rate = time_rate
             # a stated rate that agrees with the time column is the exact one

@@ -324,3 +324,14 @@ def test_emg_column_named_twice_in_the_header_is_refused(tmp_path) -> None:
     assert str(path) in str(info.value) and "'a'" in str(info.value)
     assert "appears 2 times" in str(info.value)
     assert load_recording(path, columns=ColumnMap(emg="b")).n_channels == 1
+
+
+def test_rate_of_a_time_column_rounded_to_microseconds(tmp_path) -> None:
+    # 2048 Hz (HD-sEMG amplifiers) written as %.6f: steps of 488 or 489 us; the rate
+    # must come from the whole span, not the median step (2049.18 Hz, 0.06 % fast)
+    n, fs = 4096, 2048.0
+    path = tmp_path / "hd.csv"
+    np.savetxt(path, np.column_stack([np.arange(n) / fs, np.arange(2 * n).reshape(n, 2) % 7]),
+               fmt=["%.6f", "%d", "%d"], delimiter=",", header="t,emg1,emg2", comments="")
+    rec = load_recording(path)
+    assert abs(rec.fs_hz / fs - 1) < 1e-6, rec.fs_hz
