@@ -25,6 +25,7 @@ import os
 import signal
 import socket
 import sys
+import threading
 import time
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
@@ -328,6 +329,10 @@ class Sandbox:
 
     def _kill(self) -> int:
         pid, self._pid = self._pid, None
+        try:  # its process group (pgid == pid): subprocesses the scenario started go too
+            os.killpg(pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass  # no such group yet (killed before setpgid) or already gone
         try:
             os.kill(pid, signal.SIGKILL)
         except ProcessLookupError:
@@ -411,20 +416,22 @@ def _die_with_parent() -> None:
         pass
 
 
-_SANDBOX: Sandbox | None = None
+_SANDBOXES = threading.local()
 
 
 def execute_limited(task: Task, scenario: Scenario, hash_: str,
                     time_limit_s: float | None) -> Outcome:
-    """:func:`execute` in this process's :class:`Sandbox`, stopped after ``time_limit_s``.
+    """:func:`execute` in this thread's :class:`Sandbox`, stopped after ``time_limit_s``.
 
     A scenario whose process dies is run once more in a fresh process; if it
     dies again it is recorded as failed. Never raises for a failing task.
+    One sandbox per thread: a dask worker with several threads runs several
+    scenarios at once, and they must not share one child and its pipe.
     """
-    global _SANDBOX
-    if _SANDBOX is None:
-        _SANDBOX = Sandbox()
-    return run_guarded(_SANDBOX, task, scenario, hash_, time_limit_s)
+    box = getattr(_SANDBOXES, "box", None)
+    if box is None:
+        box = _SANDBOXES.box = Sandbox()
+    return run_guarded(box, task, scenario, hash_, time_limit_s)
 
 
 def run_guarded(box: Sandbox, task: Task, scenario: Scenario, hash_: str,

@@ -549,12 +549,18 @@ def load_recording(
         given = [name for name, value, default in (
             ("--time-column/--emg-columns/--force-column", columns, ColumnMap()),
             ("--time-unit", time_unit, "s"), ("--fs-hz", fs_hz, None),
-            ("--resample", resample_hz, None)) if value != default]
+            ("--resample", resample_hz, None), ("--emg-unit", emg_unit, None),
+            ("--duplicates", duplicates, "average")) if value != default]
         if given:
             raise RecordingError(
                 f"{path}: {given[0]} applies to CSV files only (an NPZ recording carries "
                 "its own layout and rate)"
             )
+    if duplicates != "average" and resample_hz is None:
+        raise RecordingError(
+            f"{path}: --duplicates {duplicates} applies with --resample HZ only "
+            "(found no --resample); pass both"
+        )
     if fs_hz is not None:
         fs_hz = _positive_rate(fs_hz, str(path), "--fs-hz")
     if resample_hz is not None:
@@ -794,6 +800,13 @@ def _emg_spec_columns(spec: Any, header: list[str], path: Path) -> list[int]:
         )
     if len(set(names)) != len(names):
         raise RecordingError(f"{path}: --emg-columns names a column twice")
+    repeated = [n for n in names if header.count(n) > 1]
+    if repeated:
+        raise RecordingError(
+            f"{path}: sEMG column {repeated[0][:40]!r} (from --emg-columns) appears "
+            f"{header.count(repeated[0])} times in the header; rename the columns or "
+            "use a glob to take them all"
+        )
     return [where[n] for n in names]
 
 
@@ -1100,6 +1113,9 @@ def _load_csv(path: Path, emg_unit: str | None, max_bytes: int, columns: ColumnM
                     "duplicates": duplicates, "method": "linear (numpy.interp)",
                 }
         else:
+            # the mean step (regular: checked above); the median of stamps rounded to a few
+            # decimals is biased (2048 Hz written as %.6f gave 2049.18 Hz)
+            step = float(t[-1] - t[0]) / (t.size - 1)
             time_rate = _positive_rate(1.0 / step, str(path), f"column {tname!r} (1 / step)")
             rate = time_rate
             # a stated rate that agrees with the time column is the exact one

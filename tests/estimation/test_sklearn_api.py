@@ -184,3 +184,15 @@ def test_fitted_pipeline_pickles(features) -> None:
     np.testing.assert_array_equal(again.predict(X, y, mode="one_step"),
                                   pipe.predict(X, y, mode="one_step"))
     assert again.estimator.model_.dt == pipe.estimator.model_.dt
+
+
+def test_declared_scikit_learn_floor_has_the_apis_used() -> None:
+    # estimation.metrics uses root_mean_squared_error (scikit-learn 1.4); ForceEstimator's
+    # __sklearn_tags__ and this file's parametrize_with_checks(expected_failed_checks=...)
+    # need 1.6: an older installed scikit-learn satisfying the pin would break them
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "pyproject.toml").read_text()
+    floor = re.search(r'"scikit-learn>=([0-9][0-9.]*)"', text).group(1)
+    assert tuple(int(x) for x in floor.split(".")[:2]) >= (1, 6), floor

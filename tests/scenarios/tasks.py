@@ -68,11 +68,24 @@ def kills_itself(scenario: Scenario) -> dict:
 
 
 def counted(scenario: Scenario) -> dict:
-    """:func:`sleepy`, appending the scenario's seed to ``$GRIPLOOP_TEST_RUNS`` (count runs)."""
+    """:func:`sleepy`, appending ``seed driver_pid`` to ``$GRIPLOOP_TEST_RUNS`` (count runs).
+
+    With ``$GRIPLOOP_TEST_DRIVERS`` set to ``n``, waits (up to a minute) until ``n``
+    drivers have each started a scenario, so that every one of them runs some
+    however slowly the later ones start.
+    """
     import os
 
-    with open(os.environ["GRIPLOOP_TEST_RUNS"], "a") as fh:
-        fh.write(f"{scenario.seed}\n")
+    path = os.environ["GRIPLOOP_TEST_RUNS"]
+    with open(path, "a") as fh:
+        fh.write(f"{scenario.seed} {os.getppid()}\n")
+    drivers = int(os.environ.get("GRIPLOOP_TEST_DRIVERS", "1"))
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        with open(path) as fh:
+            if len({line.split()[1] for line in fh if line.strip()}) >= drivers:
+                break
+        time.sleep(0.05)
     return sleepy(scenario)
 
 
@@ -104,3 +117,15 @@ def signal_state(scenario: Scenario) -> dict:
 
     return {"pgid": os.getpgid(0), "pid": os.getpid(),
             "sigint_ignored": signal.getsignal(signal.SIGINT) is signal.SIG_IGN}
+
+
+def spawns_then_hangs(scenario: Scenario) -> dict:
+    """Starts a ``sleep`` subprocess (pid to ``$GRIPLOOP_TEST_RUNS``), then sleeps a minute."""
+    import os
+    import subprocess
+
+    proc = subprocess.Popen(["sleep", "120"])
+    with open(os.environ["GRIPLOOP_TEST_RUNS"], "a") as fh:
+        fh.write(f"{proc.pid}\n")
+    time.sleep(60)
+    return seeded(scenario)

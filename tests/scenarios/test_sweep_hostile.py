@@ -52,6 +52,33 @@ def test_scenario_past_its_time_limit_is_a_timeout_row(tmp_path, workers):
                                      if k != "traces"} | {"n_draws": 3}
 
 
+def _running(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_timeout_stops_the_processes_the_scenario_started(tmp_path, monkeypatch):
+    runs = tmp_path / "pids.txt"
+    monkeypatch.setenv("GRIPLOOP_TEST_RUNS", str(runs))
+    items = planned("tasks:spawns_then_hangs", masses=(0.2,), kinds=("pid",))
+    with ResultStore(tmp_path / "r.sqlite") as store:
+        summary = run_sweep(items, store, task="tasks:spawns_then_hangs", progress=False,
+                            time_limit_s=1.0)
+    assert (summary.ok, summary.failed) == (0, 1)
+    (pid,) = (int(s) for s in runs.read_text().split())
+    deadline = time.monotonic() + 10
+    while _running(pid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    alive = _running(pid)
+    if alive:
+        os.kill(pid, 9)
+    assert not alive, "the scenario's subprocess outlived its timeout"
+
+
 def test_scenario_that_kills_its_process_is_failed_and_not_retried_forever(tmp_path):
     items = planned("tasks:kills_itself")
     with ResultStore(tmp_path / "r.sqlite") as store:
@@ -93,7 +120,8 @@ def test_two_drivers_on_one_store_run_each_scenario_once(tmp_path):
     path = write(tmp_path)  # 24 scenarios
     db = tmp_path / "r.sqlite"
     runs = tmp_path / "runs.txt"
-    env = cli_env() | {"GRIPLOOP_TEST_RUNS": str(runs)}
+    # each driver's first scenario waits for the other: both run some, however slow the start
+    env = cli_env() | {"GRIPLOOP_TEST_RUNS": str(runs), "GRIPLOOP_TEST_DRIVERS": "2"}
     argv = [sys.executable, "-m", "scenarios.cli", "sweep", str(path), "--db", str(db),
             "--task", "tasks:counted", "--no-progress"]
     first = subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -103,7 +131,7 @@ def test_two_drivers_on_one_store_run_each_scenario_once(tmp_path):
                               text=True)
     outs = [proc.communicate(timeout=120) for proc in (first, second)]
     assert first.returncode == 0 and second.returncode == 0, outs
-    seeds = runs.read_text().split()
+    seeds = [line.split()[0] for line in runs.read_text().splitlines()]
     assert len(seeds) == len(set(seeds)) == 24
     with sqlite3.connect(db) as conn:
         rows = conn.execute("SELECT status, attempts FROM results").fetchall()
@@ -152,3 +180,18 @@ def test_time_limit_is_a_sweep_field(tmp_path, capsys):
     with ResultStore(db, read_only=True) as store:
         (row,) = store.rows(status="failed")
     assert row["error"].startswith("timeout:")
+
+
+def test_threads_of_one_worker_process_do_not_share_a_sandbox():
+    # a dask worker started with several threads runs several scenarios at once
+    import concurrent.futures
+
+    from scenarios import sweep
+
+    items = planned("tasks:sleepy", masses=(0.2, 0.5, 0.7, 0.9), kinds=("pid",))
+    with concurrent.futures.ThreadPoolExecutor(len(items)) as pool:
+        outs = list(pool.map(
+            lambda p: sweep.execute_limited("tasks:sleepy", p.scenario, p.hash, 30.0), items))
+    for p, out in zip(items, outs, strict=True):
+        assert out.status == "ok", out.error
+        assert out.hash == p.hash and out.result["draw"] == tasks.seeded(p.scenario)["draw"]

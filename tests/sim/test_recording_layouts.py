@@ -120,6 +120,9 @@ def test_myo_dump_needs_ms_then_resampling(tmp_path) -> None:
     assert avg.emg.shape == pairs.shape and avg.emg.dtype == np.int8
     assert np.max(np.abs(avg.emg - pairs)) <= 0.5 + 1e-9  # pair means rounded to counts
     assert avg.metadata["resampled"]["duplicates"] == "average"
+    # the rule does nothing without resampling: refused rather than silently ignored
+    with pytest.raises(RecordingError, match="--duplicates spread applies with --resample"):
+        load_recording(path, columns=columns, time_unit="ms", duplicates="spread")
 
 
 def test_logger_without_time_column_in_microvolts(tmp_path) -> None:
@@ -303,4 +306,32 @@ def test_npz_refuses_csv_only_options(tmp_path) -> None:
     path = rec.save_npz(tmp_path / "r.npz")
     with pytest.raises(RecordingError, match="--time-unit applies to CSV files only"):
         load_recording(path, time_unit="ms")
+    # the sEMG unit and the duplicates rule are the CSV's too: never silently ignored
+    with pytest.raises(RecordingError, match="--emg-unit applies to CSV files only"):
+        load_recording(path, emg_unit="uV")
+    with pytest.raises(RecordingError, match="--duplicates applies to CSV files only"):
+        load_recording(path, duplicates="spread")
     assert load_recording(path).n_samples == rec.n_samples
+
+
+def test_emg_column_named_twice_in_the_header_is_refused(tmp_path) -> None:
+    # "a" twice: taking the first one silently would drop a channel the user asked for
+    path = tmp_path / "dup.csv"
+    rows = [f"{k * 0.005:.3f},{k % 7},{k % 5},{k % 3},1.0" for k in range(20)]
+    path.write_text("t,a,b,a,force\n" + "\n".join(rows) + "\n")
+    with pytest.raises(RecordingError) as info:
+        load_recording(path, columns=ColumnMap(emg="a,b"))
+    assert str(path) in str(info.value) and "'a'" in str(info.value)
+    assert "appears 2 times" in str(info.value)
+    assert load_recording(path, columns=ColumnMap(emg="b")).n_channels == 1
+
+
+def test_rate_of_a_time_column_rounded_to_microseconds(tmp_path) -> None:
+    # 2048 Hz (HD-sEMG amplifiers) written as %.6f: steps of 488 or 489 us; the rate
+    # must come from the whole span, not the median step (2049.18 Hz, 0.06 % fast)
+    n, fs = 4096, 2048.0
+    path = tmp_path / "hd.csv"
+    np.savetxt(path, np.column_stack([np.arange(n) / fs, np.arange(2 * n).reshape(n, 2) % 7]),
+               fmt=["%.6f", "%d", "%d"], delimiter=",", header="t,emg1,emg2", comments="")
+    rec = load_recording(path)
+    assert abs(rec.fs_hz / fs - 1) < 1e-6, rec.fs_hz
