@@ -374,7 +374,7 @@ def run_episode(
     controller : {"pid", "lead_lag", "mpc"}
         Controller family.
     controller_spec : mapping, optional
-        Keyword arguments of :func:`scenarios.design.design_for_object`
+        Keyword arguments of :func:`controllers.design.design_for_object`
         (``phase_margin_deg``, ``crossover_rad_s``, ``horizon``, ...).
     seed : int
         Seeds the calibration session, the episode session, the networks'
@@ -655,7 +655,7 @@ def subject_for(scenario: Scenario) -> VirtualSubject:
 
 
 def controller_spec(scenario: Scenario) -> dict[str, Any]:
-    """Keyword arguments of :func:`scenarios.design.design_for_object` from a scenario."""
+    """Keyword arguments of :func:`controllers.design.design_for_object` from a scenario."""
     c = scenario.controller
     spec: dict[str, Any] = {"phase_margin_deg": c.phase_margin_deg,
                             "crossover_rad_s": c.crossover_rad_s,
