@@ -264,8 +264,3 @@ class ScheduledController:
         """Open loop at ``force_n`` (default: the present scheduling signal)."""
         f = self.signal_n if force_n is None else force_n
         return self.controller_at(f).loop(plant)
-
-    @property
-    def stats_(self) -> Any:
-        """The active design's run statistics (the MPC's solver counters)."""
-        return getattr(self.active, "stats_", None)
