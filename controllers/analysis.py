@@ -99,14 +99,16 @@ class LoopMargins:
             "closed_loop_poles": [[float(p.real), float(p.imag)] for p in self.closed_loop_poles],
             "stable": bool(self.stable),
             "bandwidth_rad_s": num(self.bandwidth_rad_s),
-            "loop": {
-                "A": np.asarray(ss.A).tolist(),
-                "B": np.asarray(ss.B).tolist(),
-                "C": np.asarray(ss.C).tolist(),
-                "D": np.asarray(ss.D).tolist(),
-                "dt": self.dt,
-            },
+            "loop": state_space_dict(ss),
         }
+
+
+def state_space_dict(sys: control.LTI) -> dict[str, Any]:
+    """``{A, B, C, D, dt}`` of ``sys`` as JSON-ready lists (``dt`` None if continuous)."""
+    ss = control.ss(sys)
+    return {"A": np.asarray(ss.A, float).tolist(), "B": np.asarray(ss.B, float).tolist(),
+            "C": np.asarray(ss.C, float).tolist(), "D": np.asarray(ss.D, float).tolist(),
+            "dt": _dt(ss)}
 
 
 def _dt(loop: control.LTI) -> float | None:

@@ -24,7 +24,7 @@ from typing import Any
 import control
 import numpy as np
 
-from controllers.analysis import LoopMargins, loop_margins
+from controllers.analysis import LoopMargins, loop_margins, state_space_dict
 from controllers.approach import ContactGate
 from controllers.bounds import SensedSlipBound
 from controllers.design_plant import (
@@ -55,13 +55,6 @@ DEFAULT_SPECS: dict[str, dict[str, Any]] = {
 DEFAULT_CROSSOVER_RAD_S = 30.0
 #: Lag-to-crossover ratio of the lead-lag design (see docs/CONTROL.md).
 LEAD_LAG_RATIO = 2.0
-
-
-def _ss_dict(sys: control.LTI) -> dict[str, Any]:
-    ss = control.ss(sys)
-    return {"A": np.asarray(ss.A, float).tolist(), "B": np.asarray(ss.B, float).tolist(),
-            "C": np.asarray(ss.C, float).tolist(), "D": np.asarray(ss.D, float).tolist(),
-            "dt": float(ss.dt)}
 
 
 def controller_map(controller: Any) -> control.StateSpace:
@@ -123,9 +116,9 @@ class OperatingAnalysis:
                         "crossover_rad_s": full["crossover_rad_s"],
                         "ms": full["ms"], "stable": full["stable"],
                         "bandwidth_rad_s": full["bandwidth_rad_s"]},
-            "plant": _ss_dict(self.plant),
-            "controller": _ss_dict(self.controller),
-            "loop": _ss_dict(m.loop),
+            "plant": state_space_dict(self.plant),
+            "controller": state_space_dict(self.controller),
+            "loop": state_space_dict(m.loop),
             "plant_method": self.how,
         }
 
@@ -238,14 +231,22 @@ class ControllerDesign:
         """The analysis at every grid force of the family (failed points included)."""
         return [self.analyse(p.force_n) for p in self.family.points]
 
-    def feedforward(self, reference_n: float) -> float:
-        """Static command that holds ``reference_n`` (interpolated over the family), units."""
+    @functools.cached_property
+    def _static_map(self) -> tuple[np.ndarray, np.ndarray]:
+        """Operating points of the family sorted by force: (force N, command)."""
         pts = self.family.usable
         y0 = np.array([p.plant.y0_n for p in pts])
         u0 = np.array([p.plant.u0 for p in pts])
         order = np.argsort(y0)
-        return float(np.interp(reference_n, y0[order], u0[order],
-                               left=u0[order][0] * reference_n / max(y0[order][0], 1e-9)))
+        return y0[order], u0[order]
+
+    def feedforward(self, reference_n: float) -> float:
+        """Static command that holds ``reference_n`` (interpolated over the family), units.
+
+        Called every control step of the approach: the table is built once.
+        """
+        y0, u0 = self._static_map
+        return float(np.interp(reference_n, y0, u0, left=u0[0] * reference_n / max(y0[0], 1e-9)))
 
 
 @functools.lru_cache(maxsize=64)

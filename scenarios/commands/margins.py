@@ -18,7 +18,6 @@ from typing import Any
 
 import numpy as np
 
-from controllers.analysis import LoopMargins
 from controllers.design import (
     DEFAULT_SPECS,
     ControllerDesign,
@@ -129,22 +128,6 @@ def format_table(controller: str, analyses: list[OperatingAnalysis],
             f"(PM at {worst['phase_margin_at_n']:g} N, GM at {worst['gain_margin_at_n']:g} N)"
         )
     return "\n".join(lines)
-
-
-def format_margins(controller: str, margins: LoopMargins) -> str:
-    """One loop's margins as a short table (used by ``griploop episode``)."""
-    m = margins
-    dm_samples = "" if m.delay_margin_samples is None else f" ({m.delay_margin_samples} samples)"
-    rows = [
-        ("gain margin", f"{m.gain_margin_db:.2f} dB"),
-        ("phase margin", f"{m.phase_margin_deg:.2f} deg"),
-        ("delay margin", f"{m.delay_margin_s * 1e3:.1f} ms{dm_samples}"),
-        ("gain crossovers", ", ".join(f"{w:.4g}" for w in m.crossover_rad_s) + " rad/s"),
-        ("peak sensitivity Ms", f"{m.ms:.3f} at {m.ms_frequency_rad_s:.4g} rad/s"),
-        ("stable", str(m.stable)),
-    ]
-    width = max(len(r[0]) for r in rows)
-    return "\n".join([f"margins of {controller}"] + [f"  {k:<{width}}  {v}" for k, v in rows])
 
 
 def run(args: argparse.Namespace) -> int:
