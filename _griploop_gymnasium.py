@@ -6,7 +6,7 @@ need ``import sim`` first. The installed ``griploop-gymnasium.pth`` calls
 :func:`install` at interpreter start-up: it costs one small import and puts a
 finder on :data:`sys.meta_path` that, once ``gymnasium`` has been imported,
 registers the ids below with string entry points (nothing of griploop is
-imported until an environment is made). :mod:`sim.registration` registers the
+imported until an environment is made). :mod:`sim.hand.registration` registers the
 same ids when ``sim`` is imported first.
 """
 
@@ -18,8 +18,8 @@ from importlib.machinery import ModuleSpec
 from types import ModuleType
 from typing import Any
 
-#: Environment id -> entry point (kept equal to :mod:`sim.registration`; a test checks).
-ENVIRONMENTS = {"griploop/GraspLift-v0": "sim.grasp_env:GraspEnv"}
+#: Environment id -> entry point (kept equal to :mod:`sim.hand.registration`; a test checks).
+ENVIRONMENTS = {"griploop/GraspLift-v0": "sim.hand.grasp_env:GraspEnv"}
 
 
 def register(gymnasium: Any) -> None:

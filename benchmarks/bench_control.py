@@ -23,7 +23,7 @@ from _timing import time_call  # noqa: E402
 
 from controllers.base import Observation  # noqa: E402
 from controllers.design import cached_plant_family, design_for_object  # noqa: E402
-from sim.objects import make_object  # noqa: E402
+from sim.hand.objects import make_object  # noqa: E402
 
 TARGET_STEP_US = 10.0
 

@@ -23,9 +23,9 @@ import numpy as np
 from scipy import signal
 
 from estimation.features import extract_features
-from sim.emg_stats import REAL_RANGES, STAT_KEYS, population_statistics
-from sim.protocol import paper_protocol
-from sim.subjects import make_generator, make_population
+from sim.user.emg_stats import REAL_RANGES, STAT_KEYS, population_statistics
+from sim.user.intent import paper_protocol
+from sim.user.subjects import make_generator, make_population
 
 GOALS = {"noise": 10_000.0, "motor_units": 50.0}
 
@@ -149,7 +149,7 @@ def versus_real(population: list) -> str:
 
     stats = {g: population_statistics([s.paper_session(generator=g) for s in population])
              for g in ("noise", "motor_units")}
-    lines = ["\nper-subject statistics vs real recordings (sim.emg_stats; median [min-max]):",
+    lines = ["\nper-subject statistics vs real recordings (sim.user.emg_stats; median [min-max]):",
              f"{'statistic':<24}{'real':>28}{'noise':>28}{'motor_units':>28}"]
     for key in STAT_KEYS:
         row = f"{key:<24}{cell(*REAL_RANGES[key]):>28}"

@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
-from scenarios.episode import run_episode
-from sim.objects import make_object
-from sim.subjects import VirtualSubject
+from scenarios.runners.episode import run_episode
+from sim.hand.objects import make_object
+from sim.user.subjects import VirtualSubject
 
 STAGES = ("t_semg_s", "t_features_s", "t_estimator_s", "t_controller_s", "t_physics_s")
 

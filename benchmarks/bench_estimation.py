@@ -32,7 +32,7 @@ from estimation.paper import TABLE3
 from estimation.registry import ESTIMATOR_NAMES, make_estimator
 from estimation.rls import rls
 from estimation.state_space import identification_rows
-from sim.subjects import make_population
+from sim.user.subjects import make_population
 
 
 def median_time(fn, repeats: int) -> float:

@@ -22,9 +22,9 @@ import time
 import mujoco
 import numpy as np
 
-from sim.grasp_env import GraspEnv
-from sim.hand import build_pinch_model
-from sim.objects import make_object
+from sim.hand.grasp_env import GraspEnv
+from sim.hand.model import build_pinch_model
+from sim.hand.objects import make_object
 
 FRICTION_SETTINGS = (
     ("pyramidal, impratio 1", mujoco.mjtCone.mjCONE_PYRAMIDAL, 1.0, 0),

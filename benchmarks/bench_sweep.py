@@ -27,9 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
+from scenarios.execution.sweep import plan, run_sweep
 from scenarios.schema import Scenario, expand_sweep, parse_sweep
 from scenarios.store import Outcome, ResultStore, content_hash, encode_traces
-from scenarios.sweep import plan, run_sweep
 
 _LOOPS = 200_000  # rounds of spin(); set by calibrate(), shipped to workers with spin
 

@@ -68,7 +68,7 @@ _REQUIRED = ("time_s", "reference_n", "grip_force_n")
 
 def observation_from_info(info: Mapping[str, Any], reference_n: float, *,
                           slip_speed_threshold_m_s: float = 0.005) -> Observation:
-    """The observation a prosthesis has after a :class:`sim.grasp_env.GraspEnv` step.
+    """The observation a prosthesis has after a :class:`sim.hand.grasp_env.GraspEnv` step.
 
     Parameters
     ----------

@@ -43,7 +43,7 @@ from controllers.plant_cache import cached_family
 from controllers.reflex import SlipReflex
 from controllers.registry import CONTROLLER_NAMES, design_controller
 from controllers.schedule import ScheduledController
-from sim.objects import ObjectSpec
+from sim.hand.objects import ObjectSpec
 
 #: Default specification of each controller family, shared by the library and the CLI.
 DEFAULT_SPECS: dict[str, dict[str, Any]] = {

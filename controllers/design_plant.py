@@ -10,11 +10,11 @@ records how each point was obtained.
 
 Two models of the motor-command -> grip-force dynamics around a steady grasp:
 
-* ``"linearized"``: :func:`sim.linearize.linearize_grasp` (finite-difference
+* ``"linearized"``: :func:`sim.hand.linearize.linearize_grasp` (finite-difference
   linearization of the physics, reduced by balanced truncation);
 * ``"identified"``: a first- or second-order-plus-delay model fitted by
   :func:`controllers.identify.identify_low_order` to the simulated nonlinear
-  response to a command step (:func:`sim.linearize.simulate_step`).
+  response to a command step (:func:`sim.hand.linearize.simulate_step`).
 
 Timing convention. ``GraspEnv.step`` reports the force at the end of the
 control period in which the command was applied, so the environment's model
@@ -39,8 +39,8 @@ from controllers.bounds import ForceBounds, force_bounds, slip_threshold_n
 from controllers.errors import IdentificationError, PlantError
 from controllers.identify import identify_low_order
 from controllers.plant import delay, truncate_slow_modes
-from sim.linearize import linearize_grasp, nrmse_fit, simulate_step
-from sim.objects import ObjectSpec, make_object
+from sim.hand.linearize import linearize_grasp, nrmse_fit, simulate_step
+from sim.hand.objects import ObjectSpec, make_object
 
 PLANT_METHODS = ("linearized", "identified")
 #: Grip forces (N) of the design grid: from 1 N to the reference cap of the
@@ -163,7 +163,7 @@ def design_plant(
     Parameters
     ----------
     name : str or ObjectSpec
-        Object name in :data:`sim.objects.LIBRARY`, or a full object spec.
+        Object name in :data:`sim.hand.objects.LIBRARY`, or a full object spec.
     mass_kg, friction : float, optional
         Overrides of the object's mass (kg) and friction coefficient.
     method : {"linearized", "identified"}

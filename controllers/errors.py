@@ -1,7 +1,7 @@
 """Errors raised by :mod:`controllers` where a plant, a specification or a name enters.
 
 Each subclasses a built-in so the ``griploop`` CLI turns it into one line on
-stderr (see :mod:`scenarios.cli`).
+stderr (see :mod:`scenarios.cli.main`).
 """
 
 from __future__ import annotations

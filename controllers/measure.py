@@ -1,7 +1,7 @@
 """Measure the loop gain on the nonlinear hand, as a lab measures a real one.
 
 :func:`measure_loop` holds the object in the air at a grip force with the
-designed controller running on the MuJoCo hand (:class:`sim.grasp_env.GraspEnv`),
+designed controller running on the MuJoCo hand (:class:`sim.hand.grasp_env.GraspEnv`),
 then injects small sines ``d = a sin(w t)`` at the plant input, one frequency
 at a time. With ``u_c`` the controller's command as the hand receives it (one
 period after it was computed: the computation delay) and ``u = u_c + d`` the
@@ -33,7 +33,7 @@ import numpy as np
 from controllers.base import observation_from_info
 from controllers.design import ControllerDesign
 from controllers.plant import frequency_response
-from sim.grasp_env import GraspEnv, WristSchedule
+from sim.hand.grasp_env import GraspEnv, WristSchedule
 
 #: Injection frequencies, as multiples of the predicted crossover.
 DEFAULT_FREQUENCY_FACTORS = (0.5, 0.7, 0.85, 1.0, 1.2, 1.4, 2.0)

@@ -30,11 +30,12 @@ import control
 import numpy as np
 
 from controllers.design_plant import DesignPlant, OperatingPoint, PlantFamily
-from sim.objects import ObjectSpec
+from sim.hand.objects import ObjectSpec
 
 FORMAT = 1
-_SOURCES = (("sim", "hand.py"), ("sim", "grasp_env.py"), ("sim", "contact.py"),
-            ("sim", "linearize.py"), ("sim", "objects.py"), ("sim", "assets/hand.xml"),
+_SOURCES = (("sim.hand", "model.py"), ("sim.hand", "grasp_env.py"), ("sim.hand", "contact.py"),
+            ("sim.hand", "linearize.py"), ("sim.hand", "objects.py"),
+            ("sim.hand", "assets/hand.xml"),
             ("controllers", "design_plant.py"), ("controllers", "plant.py"),
             ("controllers", "identify.py"))
 

@@ -31,11 +31,11 @@ from estimation.errors import (  # noqa: E402
     UnknownEstimatorError,
     UnstableModelError,
 )
+from estimation.evaluation import aggregate, evaluate_subject  # noqa: E402
 from estimation.kalman import SteadyStateKalman, design_kalman  # noqa: E402
 from estimation.metrics import nrmse_fit, r2_score, rmse, total_variation_rate  # noqa: E402
 from estimation.order import OrderSelection, select_order  # noqa: E402
 from estimation.pipeline import ForcePipeline  # noqa: E402
-from estimation.protocol import aggregate, evaluate_subject  # noqa: E402
 from estimation.registry import ESTIMATOR_NAMES, make_estimator  # noqa: E402
 from estimation.state_space import SSEstimator  # noqa: E402
 

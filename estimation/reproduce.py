@@ -1,7 +1,7 @@
 """Reproduction of the paper's Tables 2 and 3 on virtual subjects.
 
 This module is the only place that depends on the virtual-subject API
-(:func:`sim.subjects.make_population`, ``VirtualSubject.paper_session``).
+(:func:`sim.user.subjects.make_population`, ``VirtualSubject.paper_session``).
 
 ``run_reproduction`` returns the JSON contract::
 
@@ -24,10 +24,10 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from estimation.evaluation import aggregate, evaluate_subject, split_index
 from estimation.features import PAPER_CHANNELS, extract_features
 from estimation.order import select_order
 from estimation.paper import PAPER_ORDER, SECTION_4_2, TABLE2_SUMMARY, TABLE3
-from estimation.protocol import aggregate, evaluate_subject, split_index
 from estimation.registry import ESTIMATOR_NAMES
 
 #: Paper Table 2/3 estimators, in the paper's column order.
@@ -177,7 +177,7 @@ def run_reproduction(
     dict
         The JSON contract (see the module docstring); private keys start with ``_``.
     """
-    from sim.subjects import make_population  # the only dependency on the subject API
+    from sim.user.subjects import make_population  # the only dependency on the subject API
 
     channels = parse_channels(channels)
 

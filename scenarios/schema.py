@@ -96,19 +96,19 @@ class SubjectSpec(_Model):
         Seed of the virtual population the subject is drawn from.
     subject_id : int
         Number of the subject within the population, from 1 (the paper has
-        10; ``sim.subjects.make_population`` numbers them 1..n).
+        10; ``sim.user.subjects.make_population`` numbers them 1..n).
     generator : {"noise", "motor_units"}
         sEMG generator: amplitude-modulated noise (Hogan and Mann 1980) or a
         Fuglevand (1993) motor-unit pool.
     extra_noise_lsb : float
         Additional sEMG noise std in int8 counts, added in quadrature to the
-        rest noise (about 1.9 LSB); ``sim.armband`` convention.
+        rest noise (about 1.9 LSB); ``sim.user.armband`` convention.
     electrode_shift : float
         Rotation of the armband in electrode spacings (positive towards higher
-        channel numbers; 0 is the paper's placement); ``sim.armband`` convention.
+        channel numbers; 0 is the paper's placement); ``sim.user.armband`` convention.
     fatigue_per_min : float
         Fractional fall of the sEMG median frequency per minute (amplitude
-        rises twice as fast); ``sim.emg_noise`` convention.
+        rises twice as fast); ``sim.user.emg_noise`` convention.
     """
 
     population_seed: int = Field(0, ge=0, le=_MAX_SEED)

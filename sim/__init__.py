@@ -29,10 +29,10 @@ def _choose_headless_gl(environ=None, platform: str = _sys.platform) -> None:
 
 _choose_headless_gl()
 
-from sim import registration as _registration  # noqa: E402, F401  (griploop/GraspLift-v0)
-from sim.protocol import IntentProfile, grasp_lift_hold, paper_protocol, ramp_profile  # noqa: E402
+from sim.hand import registration as _registration  # noqa: E402, F401  (griploop/GraspLift-v0)
 from sim.recording import Recording, RecordingError, load_recording  # noqa: E402
-from sim.subjects import GENERATORS, VirtualSubject, make_population  # noqa: E402
+from sim.user.intent import IntentProfile, grasp_lift_hold, paper_protocol, ramp_profile  # noqa: E402
+from sim.user.subjects import GENERATORS, VirtualSubject, make_population  # noqa: E402
 
 __all__ = ["Recording", "RecordingError", "load_recording"]
 __all__ += ["GENERATORS", "IntentProfile", "VirtualSubject", "grasp_lift_hold", "make_population",

@@ -1,4 +1,4 @@
-"""Pluggable grip-force reference signals for :class:`sim.grasp_env.GraspEnv`.
+"""Pluggable grip-force reference signals for :class:`sim.hand.grasp_env.GraspEnv`.
 
 A reference is any object with ``reset()`` and ``value(t_s) -> float``
 (newtons at episode time ``t_s``). :func:`as_reference` turns the usual inputs

@@ -43,7 +43,7 @@ from scenarios.report.html import (
 from scenarios.store import ResultStore, package_version
 
 _PAPER_TABLE2 = ("ss_kf", "mlp", "narx", "lda_qpf")
-#: Grip force of the rendered frame, N (``sim.render_snapshot``'s default; below about
+#: Grip force of the rendered frame, N (``sim.hand.render_snapshot``'s default; below about
 #: 4 N the hand's steady grasp of the block loses thumb contact).
 FRAME_GRIP_N = 10.0
 
@@ -440,7 +440,7 @@ def _outcome_section(episodes: Sequence[dict], factors: Sequence[str] = ()) -> S
 
 
 def render_frame_png(name: str, grip_force_n: float, timeout_s: float = 120.0) -> bytes:
-    """PNG of the hand holding ``name`` at ``grip_force_n`` N (``sim.render_snapshot``).
+    """PNG of the hand holding ``name`` at ``grip_force_n`` N (``sim.hand.render_snapshot``).
 
     Rendered in a child process: MuJoCo picks its OpenGL backend when first
     imported, so a process that imported it without ``MUJOCO_GL=egl`` cannot
@@ -456,7 +456,7 @@ def render_frame_png(name: str, grip_force_n: float, timeout_s: float = 120.0) -
     env.setdefault("PYOPENGL_PLATFORM", env["MUJOCO_GL"])
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "grasp.png"
-        cmd = [sys.executable, "-m", "sim.render_snapshot", str(out), "--object", name,
+        cmd = [sys.executable, "-m", "sim.hand.render_snapshot", str(out), "--object", name,
                "--grip", f"{grip_force_n:.6g}"]
         try:
             proc = subprocess.run(cmd, env=env, capture_output=True, text=True,

@@ -230,11 +230,11 @@ def split_rows(rows: Iterable[dict[str, Any]]) -> StoreRows:
         if row["status"] == "failed":
             out.failed.append(row)
         elif row["kind"] == "episode":
-            _require(row, EPISODE_FIELDS, "the episode row of scenarios.episode")
+            _require(row, EPISODE_FIELDS, "the episode row of scenarios.runners.episode")
             out.episodes.append(row)
         elif row["kind"] == "reproduction":
             _require(row, ("estimator", "mode", "subject_id", "r2", "nrmse"),
-                     "the row of scenarios.runner.run_reproduction")
+                     "the row of scenarios.runners.dispatch.run_reproduction")
             out.reproduction.append(row)
         else:
             out.other.append(row)

@@ -14,7 +14,7 @@ from controllers.design import (
 )
 from controllers.errors import SpecificationError
 from controllers.schedule import ScheduledController
-from sim.objects import make_object
+from sim.hand.objects import make_object
 
 CAN = make_object("can", mass_kg=0.4, friction=0.5)
 

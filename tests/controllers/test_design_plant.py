@@ -5,7 +5,7 @@ from controllers import ContactGate, check_plant, design_controller
 from controllers.base import observation_from_info
 from controllers.design import DEFAULT_SPECS
 from controllers.design_plant import design_plant, object_force_bounds
-from sim.grasp_env import GraspEnv
+from sim.hand.grasp_env import GraspEnv
 
 CAN = {"mass_kg": 0.4, "friction": 0.5}
 

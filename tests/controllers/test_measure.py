@@ -11,7 +11,7 @@ import pytest
 
 from controllers.design import design_for_object
 from controllers.measure import measure_loop, phasor
-from sim.objects import make_object
+from sim.hand.objects import make_object
 
 CAN = make_object("can", mass_kg=0.2, friction=1.0)
 FORCES_N = (3.0, 5.0, 10.0, 20.0)

@@ -5,7 +5,7 @@ import pytest
 
 from controllers import plant_cache
 from controllers.design_plant import plant_family
-from sim.objects import make_object
+from sim.hand.objects import make_object
 
 CAN = make_object("can", mass_kg=0.3, friction=0.7)
 GRID = (3.0, 10.0)

@@ -14,8 +14,8 @@ import pytest
 
 from controllers.base import observation_from_info
 from controllers.design import design_for_object
-from sim.grasp_env import GraspEnv, WristSchedule
-from sim.objects import make_object
+from sim.hand.grasp_env import GraspEnv, WristSchedule
+from sim.hand.objects import make_object
 
 REFERENCE_N = 3.5
 BREAK_N = 9.0

@@ -7,9 +7,9 @@ import pytest
 
 from estimation import make_estimator
 from estimation.deployable import StreamingRateError, log_lag_regressors
+from estimation.evaluation import evaluate_subject
 from estimation.features import extract_features
-from estimation.protocol import evaluate_subject
-from sim.subjects import make_population
+from sim.user.subjects import make_population
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ import pytest
 from estimation.reproduce import evaluate_recording, parse_channels
 from scenarios.cli import main
 from sim.recording import Recording
-from sim.subjects import make_population
+from sim.user.subjects import make_population
 
 
 @pytest.fixture(scope="module")

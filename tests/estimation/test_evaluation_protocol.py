@@ -9,9 +9,9 @@ import pytest
 from est_synthetic import toy_recording
 
 from estimation.errors import InsufficientDataError
+from estimation.evaluation import aggregate, evaluate_subject, split_index
 from estimation.features import extract_features
 from estimation.metrics import r2_score
-from estimation.protocol import aggregate, evaluate_subject, split_index
 from estimation.registry import make_estimator
 from estimation.reproduce import to_jsonable
 

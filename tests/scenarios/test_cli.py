@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from scenarios.cli import build_parser, main
+from scenarios.cli.main import build_parser, main
 
 
 def test_every_command_has_help() -> None:
@@ -43,7 +43,7 @@ def test_unknown_command_exits_nonzero(capsys) -> None:
 
 
 def test_command_table_matches_the_modules() -> None:
-    from scenarios.cli import COMMANDS
+    from scenarios.cli.main import COMMANDS
 
     parser = build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
@@ -54,10 +54,10 @@ def test_command_table_matches_the_modules() -> None:
 
 
 def test_top_level_help_is_fast_and_imports_no_command() -> None:
-    code = ("import sys, time; t = time.perf_counter(); from scenarios.cli import main\n"
+    code = ("import sys, time; t = time.perf_counter(); from scenarios.cli.main import main\n"
             "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
             "print(time.perf_counter() - t, file=sys.stderr)\n"
-            "heavy = [m for m in ('numpy', 'scenarios.commands.sweep', 'mujoco', "
+            "heavy = [m for m in ('numpy', 'scenarios.cli.commands.sweep', 'mujoco', "
             "'matplotlib.pyplot', 'sim') if m in sys.modules]\n"
             "assert not heavy, heavy\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
@@ -85,11 +85,11 @@ def test_no_help_text_shows_a_doubled_percent() -> None:
 
 
 def test_chosen_command_imports_only_its_module() -> None:
-    code = ("import sys; from scenarios.cli import build_parser\n"
+    code = ("import sys; from scenarios.cli.main import build_parser\n"
             "build_parser('export')\n"
-            "assert 'scenarios.commands.export' in sys.modules\n"
-            "others = [m for m in sys.modules if m.startswith('scenarios.commands.') "
-            "and m != 'scenarios.commands.export']\n"
+            "assert 'scenarios.cli.commands.export' in sys.modules\n"
+            "others = [m for m in sys.modules if m.startswith('scenarios.cli.commands.') "
+            "and m != 'scenarios.cli.commands.export']\n"
             "assert not others, others\n"
             "assert 'matplotlib.pyplot' not in sys.modules\n")
     subprocess.run([sys.executable, "-c", code], check=True)
@@ -111,7 +111,7 @@ def test_sigterm_in_a_command_exits_143(monkeypatch, capsys) -> None:
     import os
     import signal
 
-    import scenarios.commands.export as export
+    import scenarios.cli.commands.export as export
 
     def stopped(args):
         os.kill(os.getpid(), signal.SIGTERM)

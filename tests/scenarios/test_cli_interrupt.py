@@ -91,8 +91,8 @@ def test_a_stopped_sweep_stores_no_failure_and_resumes(tmp_path, signum, status)
 def test_the_sandbox_child_never_sees_a_terminal_ctrl_c():
     sys.path.insert(0, str(HERE))
     try:
+        from scenarios.execution.sweep import Sandbox
         from scenarios.schema import parse_scenario
-        from scenarios.sweep import Sandbox
 
         scenario = parse_scenario({"kind": "episode", "seed": 1}, source="test")
         with Sandbox() as box:

@@ -9,9 +9,9 @@ import pytest
 from controllers.design import DEFAULT_SPECS, design_for_object
 from controllers.design_plant import object_for
 from controllers.registry import CONTROLLER_NAMES
-from scenarios.commands.episode import scenario_from_args
-from scenarios.commands.margins import design_from_args
-from scenarios.episode import controller_spec
+from scenarios.cli.commands.episode import scenario_from_args
+from scenarios.cli.commands.margins import design_from_args
+from scenarios.runners.episode import controller_spec
 
 
 def _margins_args(controller: str) -> argparse.Namespace:
@@ -43,7 +43,7 @@ def test_cli_and_library_designs_agree(controller):
 
 
 def test_compare_references_defaults_to_the_library_specs(monkeypatch):
-    import scenarios.compare as compare
+    import scenarios.runners.compare as compare
 
     seen = []
 

@@ -1,4 +1,4 @@
-"""``griploop subjects`` and ``griploop plot-recording`` through ``scenarios.cli.main``."""
+"""``griploop subjects`` and ``griploop plot-recording`` through ``scenarios.cli.main.main``."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 
 from scenarios.cli import main
 from sim.recording import load_recording
-from sim.subjects import make_population
+from sim.user.subjects import make_population
 
 
 def test_subjects_writes_npz_and_csv_per_subject(tmp_path, capsys):

@@ -15,8 +15,8 @@ import pyarrow.parquet as pq
 import pytest
 
 from scenarios.cli import main
+from scenarios.execution.sweep import plan
 from scenarios.schema import expand_sweep, load_sweep
-from scenarios.sweep import plan
 
 HERE = Path(__file__).parent
 SWEEP = """\
@@ -81,7 +81,7 @@ def test_missing_file_gives_one_line_and_exit_2(tmp_path, capsys, monkeypatch):
 
 
 def test_missing_runner_and_conflicting_options_exit_2(tmp_path, capsys, monkeypatch):
-    from scenarios import runner
+    from scenarios.runners import dispatch as runner
 
     monkeypatch.delenv("GRIPLOOP_TRACEBACK", raising=False)
     monkeypatch.delitem(runner._REGISTRY, "episode")  # as in a build without the hand

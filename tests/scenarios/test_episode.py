@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from scenarios.cli import main
-from scenarios.compare import compare_references, format_comparison
-from scenarios.episode import (
+from scenarios.runners.compare import compare_references, format_comparison
+from scenarios.runners.dispatch import UnsupportedScenarioError, run_scenario
+from scenarios.runners.episode import (
     FRAGILE_MARGIN,
     MIN_GRIP_N,
     episode_metrics,
@@ -17,10 +18,9 @@ from scenarios.episode import (
     reference_from_windows,
     run_episode,
 )
-from scenarios.runner import UnsupportedScenarioError, run_scenario
 from scenarios.schema import parse_scenario
-from sim.objects import make_object
-from sim.subjects import VirtualSubject
+from sim.hand.objects import make_object
+from sim.user.subjects import VirtualSubject
 
 CAN = make_object("can", mass_kg=0.4, friction=0.5)
 TIMING_KEYS = {"t_semg_s", "t_features_s", "t_estimator_s", "t_controller_s", "t_physics_s",

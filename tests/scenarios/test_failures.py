@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-import sim.grasp_env
+import sim.hand.grasp_env
+from scenarios.execution.sweep import plan, run_sweep
 from scenarios.report import build_report
 from scenarios.schema import expand_sweep, parse_sweep
 from scenarios.store import ResultStore
-from scenarios.sweep import plan, run_sweep
 
 SWEEP = {
     "name": "failures",
@@ -20,7 +20,7 @@ SWEEP = {
 
 
 def test_raise_divergence_and_infeasible_design_become_failed_rows(tmp_path, monkeypatch):
-    original_step = sim.grasp_env.GraspEnv.step
+    original_step = sim.hand.grasp_env.GraspEnv.step
 
     def diverging_step(self, action):
         # a NaN velocity in the block's scenario: MuJoCo flags BADQVEL, as in a blow-up
@@ -28,7 +28,7 @@ def test_raise_divergence_and_infeasible_design_become_failed_rows(tmp_path, mon
             self.data.qvel[0] = np.nan
         return original_step(self, action)
 
-    monkeypatch.setattr(sim.grasp_env.GraspEnv, "step", diverging_step)
+    monkeypatch.setattr(sim.hand.grasp_env.GraspEnv, "step", diverging_step)
     specs = {
         "raises": {"estimator": {"name": "persistence", "mode": "free_run"}},
         "diverges": {"object": {"name": "block", "friction": 0.9}},
@@ -41,7 +41,7 @@ def test_raise_divergence_and_infeasible_design_become_failed_rows(tmp_path, mon
         sweep = {**SWEEP, "name": name,
                  "base": {**SWEEP["base"], **{k: {**SWEEP["base"].get(k, {}), **v}
                                               for k, v in override.items()}}}
-        planned += plan(expand_sweep(parse_sweep(sweep)), "scenarios.runner:run_scenario")
+        planned += plan(expand_sweep(parse_sweep(sweep)), "scenarios.runners.dispatch:run_scenario")
     db = tmp_path / "r.sqlite"
     with ResultStore(db) as store:
         summary = run_sweep(planned, store, progress=False, sweep_name="failures")

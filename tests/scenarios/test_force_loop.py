@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from controllers.bounds import slip_threshold_n
-from scenarios.episode import (
+from scenarios.runners.episode import (
     _closed_loop,
     cached_design,
     contact_peak_ratio,
@@ -16,8 +16,8 @@ from scenarios.episode import (
     run_episode,
     was_lifted,
 )
-from sim.objects import make_object
-from sim.subjects import VirtualSubject
+from sim.hand.objects import make_object
+from sim.user.subjects import VirtualSubject
 
 DT = 0.01
 LIBRARY = ([("ball", {}), ("cup", {}), ("block", {}), ("egg", {})]

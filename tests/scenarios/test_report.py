@@ -31,11 +31,11 @@ from controllers.registry import design_controller
 from estimation.paper import TABLE2, TABLE2_SUMMARY
 from estimation.reproduce import run_reproduction
 from scenarios.cli import main
+from scenarios.execution.sweep import plan, run_sweep
 from scenarios.report import ReportInputError, build_report
 from scenarios.report import data as D
 from scenarios.schema import Scenario, expand_sweep, load_sweep
 from scenarios.store import Outcome, ResultStore, content_hash, encode_traces, package_version
-from scenarios.sweep import plan, run_sweep
 
 CREATED = dt.datetime(2026, 1, 2, 3, 4, 5, tzinfo=dt.timezone.utc)
 DT_S = 0.002

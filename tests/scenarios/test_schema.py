@@ -97,8 +97,8 @@ def test_names_match_the_project():
 
 
 def test_object_and_subject_vocabulary_matches_sim():
-    sim_objects = pytest.importorskip("sim.objects")
-    sim_subjects = pytest.importorskip("sim.subjects")
+    sim_objects = pytest.importorskip("sim.hand.objects")
+    sim_subjects = pytest.importorskip("sim.user.subjects")
     from scenarios.schema import ObjectSpec, SubjectSpec
 
     assert set(OBJECTS) == set(sim_objects.LIBRARY)

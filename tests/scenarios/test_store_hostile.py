@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 from test_cli_sweep import run_main, write
 
+from scenarios.execution.sweep import plan, run_sweep
 from scenarios.schema import expand_sweep, parse_sweep
 from scenarios.store import ResultStore, StoreError
-from scenarios.sweep import plan, run_sweep
 
 
 @pytest.fixture(autouse=True)

@@ -9,10 +9,7 @@ import numpy as np
 import pytest
 import tasks
 
-from scenarios import runner
-from scenarios.schema import Scenario, expand_sweep, parse_sweep
-from scenarios.store import ResultStore, package_version
-from scenarios.sweep import (
+from scenarios.execution.sweep import (
     DEFAULT_TASK,
     Progress,
     SweepError,
@@ -23,6 +20,9 @@ from scenarios.sweep import (
     split_result,
     task_name,
 )
+from scenarios.runners import dispatch as runner
+from scenarios.schema import Scenario, expand_sweep, parse_sweep
+from scenarios.store import ResultStore, package_version
 
 
 def sweep_spec(masses=(0.1, 0.5, 1.5), kinds=("pid", "mpc")):

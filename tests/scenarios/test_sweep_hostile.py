@@ -14,9 +14,9 @@ import pytest
 import tasks
 from test_cli_sweep import cli_env, run_main, write
 
+from scenarios.execution.sweep import plan, run_sweep
 from scenarios.schema import expand_sweep, parse_sweep
 from scenarios.store import ResultStore
-from scenarios.sweep import plan, run_sweep
 
 
 def planned(task: str, masses=(0.2, 1.5, 0.5), kinds=("pid", "mpc")):
@@ -186,7 +186,7 @@ def test_threads_of_one_worker_process_do_not_share_a_sandbox():
     # a dask worker started with several threads runs several scenarios at once
     import concurrent.futures
 
-    from scenarios import sweep
+    from scenarios.execution import sweep
 
     items = planned("tasks:sleepy", masses=(0.2, 0.5, 0.7, 0.9), kinds=("pid",))
     with concurrent.futures.ThreadPoolExecutor(len(items)) as pool:

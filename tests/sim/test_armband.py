@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy import integrate, signal
 
-from sim.armband import Armband, ArmbandError, FrontEnd, ring_distance
-from sim.muap import muap_psd
+from sim.user.armband import Armband, ArmbandError, FrontEnd, ring_distance
+from sim.user.muap import muap_psd
 
 
 def test_ring_distance_wraps_channel_8_to_channel_1():

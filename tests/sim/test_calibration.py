@@ -12,7 +12,7 @@ import pytest
 from scipy import signal
 
 from estimation.features import extract_features
-from sim.subjects import GENERATORS, make_population
+from sim.user.subjects import GENERATORS, make_population
 
 FLEXORS = [5, 6, 7]  # channels 6, 7, 8 (0-based)
 

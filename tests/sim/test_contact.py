@@ -6,9 +6,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim.contact import ContactReading, OutcomeTracker, contact_force_reference, read_contacts
-from sim.hand import HandIds, build_model
-from sim.objects import make_object
+from sim.hand.contact import ContactReading, OutcomeTracker, contact_force_reference, read_contacts
+from sim.hand.model import HandIds, build_model
+from sim.hand.objects import make_object
 
 
 def _squeezing(name: str, command: float, lift_m: float = 0.0, steps: int = 600):

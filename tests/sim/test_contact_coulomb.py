@@ -14,9 +14,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim.grasp_env import GraspEnv, WristSchedule
-from sim.hand import build_pinch_model
-from sim.objects import make_object
+from sim.hand.grasp_env import GraspEnv, WristSchedule
+from sim.hand.model import build_pinch_model
+from sim.hand.objects import make_object
 
 G = 9.81
 PINCH_OBJECTS = {

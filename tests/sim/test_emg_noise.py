@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from sim.armband import FrontEnd
-from sim.emg import EmgGenerator
-from sim.emg_noise import NoiseEmgGenerator, fatigue_profile, shaped_noise
-from sim.muap import muap_psd
-from sim.subjects import make_population
+from sim.user.armband import FrontEnd
+from sim.user.emg import EmgGenerator
+from sim.user.emg_noise import NoiseEmgGenerator, fatigue_profile, shaped_noise
+from sim.user.muap import muap_psd
+from sim.user.subjects import make_population
 
 FS = 200.0
 

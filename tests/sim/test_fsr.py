@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.fsr import FSR402, FSRError
+from sim.user.fsr import FSR402, FSRError
 
 
 def quiet(**kw) -> FSR402:

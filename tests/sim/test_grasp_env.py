@@ -11,7 +11,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import sim  # noqa: E402, F401  (registers the environment)
-from sim.grasp_env import GraspEnv, WristSchedule
+from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.recording import Recording
 from sim.references import ReferenceError, StreamReference
 

@@ -40,14 +40,14 @@ def test_hook_registers_when_gymnasium_is_imported(tmp_path):
                           env=_env(PYTHONPATH=str(ROOT)), capture_output=True, text=True,
                           timeout=120)
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.split()[0] == "sim.grasp_env"
+    assert proc.stdout.split()[0] == "sim.hand.grasp_env"
 
 
 def test_hook_and_sim_registration_agree():
     import gymnasium
 
     import _griploop_gymnasium
-    from sim.registration import GRASP_LIFT_ID
+    from sim.hand.registration import GRASP_LIFT_ID
 
     assert set(_griploop_gymnasium.ENVIRONMENTS) == {GRASP_LIFT_ID}
     spec = gymnasium.spec(GRASP_LIFT_ID)
@@ -79,4 +79,4 @@ def test_make_works_after_installing(tmp_path, editable):
     proc = subprocess.run([python, "-c", MAKE], cwd=tmp_path, env=_env(), capture_output=True,
                           text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.split()[0] == "sim.grasp_env"
+    assert proc.stdout.split()[0] == "sim.hand.grasp_env"

@@ -6,9 +6,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim.contact import read_contacts
-from sim.hand import PAD_JOINTS, HandIds, MotorSpec, PadSpec, build_model
-from sim.objects import make_object
+from sim.hand.contact import read_contacts
+from sim.hand.model import PAD_JOINTS, HandIds, MotorSpec, PadSpec, build_model
+from sim.hand.objects import make_object
 
 
 def test_motor_spec_closed_forms() -> None:

@@ -39,7 +39,7 @@ def test_rendering_without_mujoco_gl_set(tmp_path):
     """Python users render without setting anything (this used to abort the process)."""
     code = (
         "import os\n"
-        "from sim.grasp_env import GraspEnv\n"
+        "from sim.hand.grasp_env import GraspEnv\n"
         "env = GraspEnv('can', 15.0, render_mode='rgb_array', render_size=(60, 80))\n"
         "env.reset(seed=0)\n"
         "frame = env.render()\n"

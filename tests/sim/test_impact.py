@@ -12,10 +12,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim.contact import FirstContact, first_contact_peak, read_contacts
-from sim.grasp_env import GraspEnv
-from sim.hand import MotorSpec, PadSpec, build_model
-from sim.objects import make_object
+from sim.hand.contact import FirstContact, first_contact_peak, read_contacts
+from sim.hand.grasp_env import GraspEnv
+from sim.hand.model import MotorSpec, PadSpec, build_model
+from sim.hand.objects import make_object
 
 COMMANDS = (0.1, 0.2, 0.4)
 OBJECTS = ("egg", "cup", "can")
@@ -111,7 +111,7 @@ def test_peak_is_the_substep_maximum_of_the_crush_reading() -> None:
 def test_measurement_arguments_are_validated() -> None:
     model = build_model(make_object("egg"))
     data = mujoco.MjData(model)
-    from sim.hand import HandIds
+    from sim.hand.model import HandIds
 
     ids = HandIds.from_model(model)
     with pytest.raises(ValueError, match="closing_command"):

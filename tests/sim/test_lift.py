@@ -15,9 +15,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim.contact import read_contacts
-from sim.grasp_env import G_M_S2, GraspEnv, WristSchedule
-from sim.objects import make_object
+from sim.hand.contact import read_contacts
+from sim.hand.grasp_env import G_M_S2, GraspEnv, WristSchedule
+from sim.hand.objects import make_object
 
 LIFT = WristSchedule(lift_after_s=0.0)
 #: Peak acceleration of a minimum-jerk move of height h in time T: (10 / sqrt 3) h / T^2.

@@ -6,7 +6,7 @@ import control
 import numpy as np
 import pytest
 
-from sim.linearize import (
+from sim.hand.linearize import (
     lift_to_period,
     linearize_grasp,
     nrmse_fit,

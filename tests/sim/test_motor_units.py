@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from sim.armband import FrontEnd
-from sim.emg import EmgGenerator
-from sim.motor_units import MotorUnitEmgGenerator, MotorUnitError, saturating_gain
-from sim.subjects import make_population
+from sim.user.armband import FrontEnd
+from sim.user.emg import EmgGenerator
+from sim.user.motor_units import MotorUnitEmgGenerator, MotorUnitError, saturating_gain
+from sim.user.subjects import make_population
 
 FS = 200.0
 

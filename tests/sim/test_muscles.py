@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from sim.muscles import (
+from sim.user.muscles import (
     MUSCLE_ROLES,
     MUSCLES,
     MuscleParams,
@@ -17,7 +17,7 @@ from sim.muscles import (
     muscle_force,
     slow_fluctuation,
 )
-from sim.subjects import make_population
+from sim.user.subjects import make_population
 
 FS = 200.0
 

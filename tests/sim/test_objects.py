@@ -7,8 +7,8 @@ import math
 import mujoco
 import pytest
 
-from sim.hand import build_model
-from sim.objects import LIBRARY, ObjectSpec, ObjectSpecError, as_object_spec, make_object
+from sim.hand.model import build_model
+from sim.hand.objects import LIBRARY, ObjectSpec, ObjectSpecError, as_object_spec, make_object
 
 
 def test_library_matches_calibration_facts() -> None:

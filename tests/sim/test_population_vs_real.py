@@ -1,9 +1,9 @@
 """The default virtual population against real MYO + FSR recordings (issue 10's table).
 
-Statistics are computed by :func:`sim.emg_stats.emg_statistics` exactly as on the
+Statistics are computed by :func:`sim.user.emg_stats.emg_statistics` exactly as on the
 real recordings: rest = quietest 20 % of 400 ms windows, active = windows in the
 top 30 % of the force range, RMS of channels 6-8. The real figures (median and
-range over 10 subjects) are in :data:`sim.emg_stats.REAL_RANGES`. Every virtual
+range over 10 subjects) are in :data:`sim.user.emg_stats.REAL_RANGES`. Every virtual
 subject must fall inside the real range (widened by a small margin for a
 10-subject draw), the population median near the real median, and the spread
 across subjects must be as wide as real people's.
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from estimation.features import extract_features
-from sim.emg_stats import REAL_RANGES, STAT_KEYS, emg_statistics, recording_statistics
-from sim.subjects import GENERATORS, make_population
+from sim.user.emg_stats import REAL_RANGES, STAT_KEYS, emg_statistics, recording_statistics
+from sim.user.subjects import GENERATORS, make_population
 
 #: per-subject bounds: the real min-max, widened by a margin (10-subject draws vary)
 SUBJECT_BOUNDS = {

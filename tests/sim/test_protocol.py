@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.protocol import (
+from sim.user.intent import (
     ProfileError,
     from_segments,
     grasp_lift_hold,

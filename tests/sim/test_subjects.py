@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from sim.protocol import grasp_lift_hold, paper_protocol
 from sim.recording import load_recording
-from sim.subjects import (
+from sim.user.intent import grasp_lift_hold, paper_protocol
+from sim.user.subjects import (
     GENERATORS,
     UnknownGeneratorError,
     VirtualSubject,

@@ -2,7 +2,7 @@
 
 Usage::
 
-    MUJOCO_GL=egl python -m sim.render_snapshot docs/grasp.png [--object ball] [--grip 10]
+    MUJOCO_GL=egl python -m sim.hand.render_snapshot docs/grasp.png [--object ball] [--grip 10]
 
 The hand closes on the object, lifts it and holds it at the requested grip
 force (``GraspEnv.steady_grasp``); the frame comes from the ``front`` camera.
@@ -20,7 +20,7 @@ import numpy as np
 def render_grasp(object: str = "ball", grip_force_n: float = 10.0,
                  size: tuple[int, int] = (480, 640)) -> np.ndarray:
     """An RGB frame ``(height, width, 3)`` uint8 of a lifted, held object."""
-    from sim.grasp_env import GraspEnv
+    from sim.hand.grasp_env import GraspEnv
 
     env = GraspEnv(object, grip_force_n, render_mode="rgb_array", render_size=size)
     try:

@@ -46,7 +46,7 @@ def add_design_options(p: argparse.ArgumentParser) -> None:
     """Options shared by ``margins`` and ``measure-loop``: controller, object, specification."""
     p.add_argument("--controller", required=True, metavar="NAME",
                    help=f"one of {', '.join(CONTROLLER_NAMES)}")
-    p.add_argument("--object", required=True, metavar="NAME", help="object name (sim.objects)")
+    p.add_argument("--object", required=True, metavar="NAME", help="object name (sim.hand.objects)")
     p.add_argument("--mass-kg", type=float, default=None, help="override the object's mass, kg")
     p.add_argument("--friction", type=float, default=None, help="override the friction coeff.")
     p.add_argument("--phase-margin-deg", type=float, default=None,

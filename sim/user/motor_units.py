@@ -17,7 +17,7 @@ Each muscle is a pool of ``n_units`` motor units (120 by default):
 * saturating gain: when ``x = T / ISI > 0.4`` the twitch is scaled by
   ``S(x) / x / (S(0.4) / 0.4)``, ``S(x) = 1 - exp(-2 x^3)``;
 * MUAP trains: each unit has its own MUAP (a mix of Gaussian first and
-  second derivatives, :mod:`sim.muap`) whose amplitude grows as
+  second derivatives, :mod:`sim.user.muap`) whose amplitude grows as
   ``P ** muap_exponent`` with a random depth factor and whose width is spread
   log-normally around the muscle's width. Widths are interpolated between a
   few basis widths, so the whole pool needs only a few FFT convolutions.
@@ -37,11 +37,11 @@ from typing import Any
 import numpy as np
 from scipy import signal
 
-from sim.armband import FrontEnd
-from sim.emg import MuscleSignals
-from sim.emg_noise import fatigue_profile
-from sim.muap import gaussian_derivative
-from sim.muscles import MuscleParams, fractional_delay
+from sim.user.armband import FrontEnd
+from sim.user.emg import MuscleSignals
+from sim.user.emg_noise import fatigue_profile
+from sim.user.muap import gaussian_derivative
+from sim.user.muscles import MuscleParams, fractional_delay
 
 _SATURATION_KNEE = 0.4
 _N_BASIS_WIDTHS = 4
@@ -66,7 +66,7 @@ def saturating_gain(t_over_isi: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class MotorUnitEmgGenerator:
-    """Motor-unit pool model of sEMG and force; satisfies :class:`sim.emg.EmgGenerator`.
+    """Motor-unit pool model of sEMG and force; satisfies :class:`sim.user.emg.EmgGenerator`.
 
     Parameters
     ----------

@@ -7,8 +7,8 @@ import json
 from pathlib import Path
 
 from controllers.design_plant import object_for
-from scenarios.commands.episode import ESTIMATOR_CHOICES
-from scenarios.compare import DEFAULT_REFERENCES, compare_references, format_comparison
+from scenarios.cli.commands.episode import ESTIMATOR_CHOICES
+from scenarios.runners.compare import DEFAULT_REFERENCES, compare_references, format_comparison
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

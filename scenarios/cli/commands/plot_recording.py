@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from scenarios.recording_options import add_recording_options, recording_kwargs
+from scenarios.cli.recording_options import add_recording_options, recording_kwargs
 from sim.recording import Recording, load_recording
 
 

@@ -8,10 +8,10 @@ to track a grip-force reference; the wrist follows a :class:`WristSchedule`
 Observation (float32, ``GraspEnv.OBS_NAMES``)::
 
     0 reference_n            grip-force reference, N
-    1 grip_force_n           thumb-side contact normal force sum, N (sim.contact)
+    1 grip_force_n           thumb-side contact normal force sum, N (sim.hand.contact)
     2 finger_position_rad    index joint encoder, rad (0 = straight down, + closes)
     3 finger_velocity_rad_s  index joint velocity, rad/s
-    4 motor_current_a        armature current, A (sim.hand.MotorSpec)
+    4 motor_current_a        armature current, A (sim.hand.model.MotorSpec)
 
 Physical readings of the last physics substep are in ``info`` and in
 ``env.last_info``; reward terms in ``info["reward_terms"]``.
@@ -28,9 +28,9 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
-from sim.contact import ContactReading, OutcomeTracker, read_contacts
-from sim.hand import HandIds, MotorSpec, PadSpec, build_model
-from sim.objects import ObjectSpec, as_object_spec
+from sim.hand.contact import ContactReading, OutcomeTracker, read_contacts
+from sim.hand.model import HandIds, MotorSpec, PadSpec, build_model
+from sim.hand.objects import ObjectSpec, as_object_spec
 from sim.references import Reference, StreamReference, as_reference
 
 G_M_S2 = 9.81
@@ -168,7 +168,7 @@ class GraspEnv(gym.Env):
     reward_weights : RewardWeights
         Reward composition.
     slip_threshold_m_s, drop_distance_m : float
-        See :class:`sim.contact.OutcomeTracker`.
+        See :class:`sim.hand.contact.OutcomeTracker`.
     position_jitter_m : float
         Half-width of a uniform random offset of the object in x and y at
         reset, drawn from ``self.np_random`` (0 = none).

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from estimation.registry import ESTIMATOR_NAMES
 from estimation.reproduce import evaluate_recording, format_summary, parse_channels
-from scenarios.recording_options import add_recording_options, recording_kwargs
+from scenarios.cli.recording_options import add_recording_options, recording_kwargs
 from sim.recording import RecordingError, load_recording
 
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from controllers.figures import measured_bode_figure
 from controllers.measure import measure_loop
-from scenarios.commands.margins import add_design_options, design_from_args, parse_forces
+from scenarios.cli.commands.margins import add_design_options, design_from_args, parse_forces
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -49,18 +49,18 @@ from threadpoolctl import threadpool_limits
 from controllers.base import observation_from_info
 from controllers.bounds import slip_threshold_n
 from controllers.design import ControllerDesign, OperatingAnalysis, design_for_object, worst_case
+from estimation.evaluation import split_index
 from estimation.features import PAPER_CHANNELS, FeatureSet, align_to_windows, extract_features
 from estimation.metrics import r2_score, total_variation_rate
 from estimation.paper import PAPER_ORDER
-from estimation.protocol import split_index
 from estimation.registry import make_estimator
 from estimation.reproduce import estimator_params
-from scenarios.runner import DivergedError, UnsupportedScenarioError
+from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.schema import Scenario
-from sim.grasp_env import GraspEnv, WristSchedule
-from sim.objects import ObjectSpec, make_object
-from sim.protocol import IntentProfile, grasp_lift_hold, paper_protocol
-from sim.subjects import VirtualSubject
+from sim.hand.grasp_env import GraspEnv, WristSchedule
+from sim.hand.objects import ObjectSpec, make_object
+from sim.user.intent import IntentProfile, grasp_lift_hold, paper_protocol
+from sim.user.subjects import VirtualSubject
 
 ORACLE = "oracle"
 HAND_FORCE_AT_MVC_N = 30.0
@@ -684,7 +684,7 @@ def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False) ->
 
 
 def run_episode_scenario(scenario: Scenario) -> dict[str, Any]:
-    """Runner of scenario kind ``episode`` (see :mod:`scenarios.runner`)."""
+    """Runner of scenario kind ``episode`` (see :mod:`scenarios.runners.dispatch`)."""
     return episode_from_scenario(scenario).as_result_row()
 
 

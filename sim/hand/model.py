@@ -1,6 +1,6 @@
 """The MuJoCo prosthetic hand: motor model, model assembly with an object, ids.
 
-The hand (``sim/assets/hand.xml``) is a single-drive myoelectric hand: one DC
+The hand (``sim/hand/assets/hand.xml``) is a single-drive myoelectric hand: one DC
 motor and gearbox close a thumb opposing two rigidly coupled fingers (index and
 middle), the layout of single-motor hands such as the Michelangelo or the
 Ottobock SensorHand. The gearbox output drives a fixed tendon
@@ -40,7 +40,7 @@ from typing import ClassVar
 import mujoco
 import numpy as np
 
-from sim.objects import ObjectSpec
+from sim.hand.objects import ObjectSpec
 
 HAND_XML = "hand.xml"
 DIGIT_JOINTS = ("thumb", "index", "middle")
@@ -250,7 +250,7 @@ def build_spec(obj: ObjectSpec, motor: MotorSpec | None = None,
     pads = pads or PadSpec()
     if not 1e-4 <= timestep_s <= 0.005:
         raise ValueError(f"timestep_s: expected 0.0001..0.005 s, found {timestep_s!r}")
-    xml = resources.files("sim").joinpath("assets", HAND_XML).read_text()
+    xml = resources.files("sim.hand").joinpath("assets", HAND_XML).read_text()
     spec = mujoco.MjSpec.from_string(xml)
     spec.option.timestep = timestep_s
     _set_pads(spec, pads, timestep_s)
@@ -332,7 +332,7 @@ def build_pinch_model(obj: ObjectSpec, grip_force_n: float,
     are geoms ``pad_left`` and ``pad_right``; gravity acts along -z.
     """
     hand = mujoco.MjSpec.from_string(
-        resources.files("sim").joinpath("assets", HAND_XML).read_text())
+        resources.files("sim.hand").joinpath("assets", HAND_XML).read_text())
     spec = mujoco.MjSpec()
     for name in ("timestep", "integrator", "cone", "impratio", "noslip_iterations",
                  "iterations", "tolerance", "ccd_tolerance"):

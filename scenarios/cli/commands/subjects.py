@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.subjects import GENERATORS, make_population
+from sim.user.subjects import GENERATORS, make_population
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -11,7 +11,7 @@ worker is recorded the same way.
 
 Tasks are importable callables ``task(scenario) -> ResultRow`` given as a
 callable or as ``"package.module:function"``; the default is
-:func:`scenarios.runner.run_scenario`.
+:func:`scenarios.runners.dispatch.run_scenario`.
 """
 
 from __future__ import annotations
@@ -35,12 +35,12 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from scenarios.interrupt import Interrupted, raise_on_stop
-from scenarios.runner import require_runners
+from scenarios.execution.interrupt import Interrupted, raise_on_stop
+from scenarios.runners.dispatch import require_runners
 from scenarios.schema import DEFAULT_TIME_LIMIT_S, ExpandedScenario, Scenario
 from scenarios.store import Outcome, ResultStore, content_hash, encode_traces, package_version
 
-DEFAULT_TASK = "scenarios.runner:run_scenario"
+DEFAULT_TASK = "scenarios.runners.dispatch:run_scenario"
 Task = str | Callable[[Scenario], Mapping[str, Any]]
 _SCALARS = (bool, int, float, str, type(None))
 
@@ -606,7 +606,7 @@ def run_sweep(
     store : ResultStore
         Where outcomes are recorded (by this process only).
     task : str or callable
-        ``task(scenario) -> ResultRow``; default :func:`scenarios.runner.run_scenario`.
+        ``task(scenario) -> ResultRow``; default :func:`scenarios.runners.dispatch.run_scenario`.
     workers : int
         1 runs in a child process of this one; more start a dask
         ``LocalCluster`` with that many single-threaded worker processes.
@@ -636,11 +636,11 @@ def run_sweep(
     ------
     SweepError
         ``workers < 1`` or a task that cannot be named.
-    scenarios.interrupt.Interrupted
+    scenarios.execution.interrupt.Interrupted
         SIGINT or SIGTERM arrived (in the main thread): the running scenarios
         are stopped, nothing is recorded for them and the claims are released,
         so the next run of the sweep runs them.
-    scenarios.runner.RunnerUnavailableError
+    scenarios.runners.dispatch.RunnerUnavailableError
         The default task has no runner for a kind in the sweep.
     """
     if workers < 1:

@@ -1,6 +1,6 @@
 """The ``griploop`` command line.
 
-Subcommands live in :mod:`scenarios.commands`, one module each, listed in
+Subcommands live in :mod:`scenarios.cli.commands`, one module each, listed in
 :data:`COMMANDS` with their one-line help so that ``griploop --help`` imports
 none of them: only the chosen subcommand's module is imported (``griploop
 --help`` answers in a fraction of a second). Errors a user can cause (bad
@@ -26,7 +26,7 @@ import signal
 import sys
 from collections.abc import Sequence
 
-from scenarios.interrupt import exit_status, raise_on_stop
+from scenarios.execution.interrupt import exit_status, raise_on_stop
 
 USER_ERRORS = (ValueError, OSError, LookupError)
 
@@ -34,28 +34,29 @@ USER_ERRORS = (ValueError, OSError, LookupError)
 #: Each module defines ``register(subparsers)`` (adding its parser with the same help)
 #: and ``run(args) -> int``; ``tests/scenarios/test_cli.py`` checks the two helps agree.
 COMMANDS: dict[str, tuple[str, str]] = {
-    "compare-references": ("scenarios.commands.compare_references",
+    "compare-references": ("scenarios.cli.commands.compare_references",
                            "grasp one object with references from several estimators and the "
                            "oracle"),
-    "demo": ("scenarios.commands.demo", "run the main job on embedded defaults and write a report"),
-    "episode": ("scenarios.commands.episode",
+    "demo": ("scenarios.cli.commands.demo",
+             "run the main job on embedded defaults and write a report"),
+    "episode": ("scenarios.cli.commands.episode",
                 "run one closed-loop grasp-lift-hold episode from sEMG to the MuJoCo hand"),
-    "evaluate": ("scenarios.commands.evaluate",
+    "evaluate": ("scenarios.cli.commands.evaluate",
                  "fit and score every force estimator on one recording"),
-    "export": ("scenarios.commands.export", "write a results store as Parquet and CSV tables"),
-    "margins": ("scenarios.commands.margins",
+    "export": ("scenarios.cli.commands.export", "write a results store as Parquet and CSV tables"),
+    "margins": ("scenarios.cli.commands.margins",
                 "design a controller for an object and report its margins at each grip force"),
-    "measure-loop": ("scenarios.commands.measure_loop",
+    "measure-loop": ("scenarios.cli.commands.measure_loop",
                      "measure L(jw) and |S(jw)| on the simulated hand by sine injection"),
-    "plot-recording": ("scenarios.commands.plot_recording",
+    "plot-recording": ("scenarios.cli.commands.plot_recording",
                        "plot a recording: force above the stacked sEMG channels"),
-    "report": ("scenarios.commands.report",
+    "report": ("scenarios.cli.commands.report",
                "write a self-contained HTML report of a results store"),
-    "reproduce": ("scenarios.commands.reproduce",
+    "reproduce": ("scenarios.cli.commands.reproduce",
                   "reproduce the paper's Tables 2 and 3 on virtual subjects"),
-    "subjects": ("scenarios.commands.subjects",
+    "subjects": ("scenarios.cli.commands.subjects",
                  "simulate the paper's squeeze session for a virtual population"),
-    "sweep": ("scenarios.commands.sweep",
+    "sweep": ("scenarios.cli.commands.sweep",
               "run a YAML sweep of scenarios into the results store (resumable)"),
 }
 
@@ -119,7 +120,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"griploop {args.command}: error: {message}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM (scenarios.interrupt.Interrupted)
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM (interrupt.Interrupted)
         status = exit_status(exc)
         print(f"griploop {args.command}: stopped by {signal.Signals(status - 128).name}",
               file=sys.stderr)

@@ -16,10 +16,10 @@ from typing import Any
 import numpy as np
 
 from controllers.design import DEFAULT_SPECS
-from scenarios.episode import ORACLE, run_episode
-from scenarios.runner import DivergedError, UnsupportedScenarioError
-from sim.objects import ObjectSpec
-from sim.subjects import VirtualSubject
+from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
+from scenarios.runners.episode import ORACLE, run_episode
+from sim.hand.objects import ObjectSpec
+from sim.user.subjects import VirtualSubject
 
 DEFAULT_REFERENCES = ("ss_kf", "mlp", "features_mav", ORACLE)
 COLUMNS = ("reference_volatility_n_per_s", "estimation_rmse_n", "tracking_rmse_n",

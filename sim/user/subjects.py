@@ -27,12 +27,14 @@ from typing import Any
 
 import numpy as np
 
-from sim.armband import Armband
-from sim.emg import EmgGenerator
-from sim.emg_noise import NoiseEmgGenerator
-from sim.fsr import FSR402
-from sim.motor_units import MotorUnitEmgGenerator
-from sim.muscles import (
+from sim.recording import Recording
+from sim.user.armband import Armband
+from sim.user.emg import EmgGenerator
+from sim.user.emg_noise import NoiseEmgGenerator
+from sim.user.fsr import FSR402
+from sim.user.intent import IntentProfile, as_rng, paper_protocol
+from sim.user.motor_units import MotorUnitEmgGenerator
+from sim.user.muscles import (
     MUSCLE_ABBREVIATIONS,
     MUSCLE_ROLES,
     MUSCLES,
@@ -40,8 +42,6 @@ from sim.muscles import (
     MuscleParams,
     slow_fluctuation,
 )
-from sim.protocol import IntentProfile, as_rng, paper_protocol
-from sim.recording import Recording
 
 GENERATORS = ("noise", "motor_units")
 
@@ -73,7 +73,7 @@ def make_generator(generator: str | EmgGenerator, **settings: Any) -> EmgGenerat
     Parameters
     ----------
     generator : str or EmgGenerator
-        Name, or an object already satisfying :class:`sim.emg.EmgGenerator`.
+        Name, or an object already satisfying :class:`sim.user.emg.EmgGenerator`.
     **settings
         Passed to the generator class (e.g. ``n_units=300`` for motor units).
 

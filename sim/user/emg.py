@@ -2,10 +2,10 @@
 
 A generator turns per-muscle neural drive into each muscle's sEMG (as the
 front end and ADC sampling see it, aliasing included) and each muscle's force.
-The subject then mixes the sEMG onto the electrodes (:mod:`sim.armband`) and
+The subject then mixes the sEMG onto the electrodes (:mod:`sim.user.armband`) and
 sums the forces into grip force. Both implementations,
-:class:`sim.emg_noise.NoiseEmgGenerator` and
-:class:`sim.motor_units.MotorUnitEmgGenerator`, satisfy :class:`EmgGenerator`.
+:class:`sim.user.emg_noise.NoiseEmgGenerator` and
+:class:`sim.user.motor_units.MotorUnitEmgGenerator`, satisfy :class:`EmgGenerator`.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from sim.armband import FrontEnd
-from sim.muscles import MuscleParams
+from sim.user.armband import FrontEnd
+from sim.user.muscles import MuscleParams
 
 
 @dataclass(frozen=True)

@@ -11,10 +11,10 @@ import numpy as np
 
 from controllers.design import worst_case
 from estimation.registry import ESTIMATOR_NAMES
-from scenarios.commands.margins import format_table
-from scenarios.episode import ORACLE, episode_from_scenario
+from scenarios.cli.commands.margins import format_table
+from scenarios.runners.episode import ORACLE, episode_from_scenario
+from scenarios.runners.video import write_video
 from scenarios.schema import parse_scenario
-from scenarios.video import write_video
 
 ESTIMATOR_CHOICES = (*ESTIMATOR_NAMES, ORACLE)
 METRIC_KEYS = ("outcome", "tracking_rmse_n", "estimation_rmse_n", "hold_reference_n",

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from sim.hand import HandIds
+from sim.hand.model import HandIds
 
 
 @dataclass
@@ -316,7 +316,7 @@ def first_contact_peak(model: mujoco.MjModel, data: mujoco.MjData, ids: HandIds,
 
     Parameters
     ----------
-    model, data : MuJoCo model and data of :func:`sim.hand.build_model`.
+    model, data : MuJoCo model and data of :func:`sim.hand.model.build_model`.
     ids : HandIds
         Resolved ids of the model.
     closing_command : float

@@ -2,7 +2,7 @@
 
 Procedure (:func:`linearize_grasp`):
 
-1. Bring :class:`sim.grasp_env.GraspEnv` to a steady grasp of the object at
+1. Bring :class:`sim.hand.grasp_env.GraspEnv` to a steady grasp of the object at
    the requested grip force (``GraspEnv.steady_grasp``).
 2. ``mujoco.mjd_transitionFD`` gives one physics step ``x+ = A x + B u`` in
    MuJoCo's tangent space (``2 nv`` states: positions, velocities).
@@ -39,8 +39,8 @@ import mujoco
 import numpy as np
 import scipy.linalg as sla
 
-from sim.contact import read_contacts
-from sim.grasp_env import GraspEnv, WristSchedule
+from sim.hand.contact import read_contacts
+from sim.hand.grasp_env import GraspEnv, WristSchedule
 
 
 @dataclass

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from scenarios.execution.sweep import DEFAULT_TASK, SweepError, count_pending, iter_plan, run_sweep
 from scenarios.schema import (
     DEFAULT_MAX_SCENARIOS,
     SweepSpec,
@@ -15,7 +16,6 @@ from scenarios.schema import (
     load_sweep,
 )
 from scenarios.store import ResultStore
-from scenarios.sweep import DEFAULT_TASK, SweepError, count_pending, iter_plan, run_sweep
 
 DEFAULT_DB = "griploop-results.sqlite"
 

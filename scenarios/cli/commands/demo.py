@@ -36,7 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``griploop demo``; returns the exit status of the first failing step, or 0."""
-    from scenarios.cli import main
+    from scenarios.cli.main import main
 
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)

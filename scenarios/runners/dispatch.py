@@ -13,7 +13,7 @@ as a ``"package.module:function"`` reference imported on first use, so that
 registering a runner never imports its simulation stack.
 
 Registered here: ``reproduction`` (:func:`run_reproduction`), and by reference
-``episode`` and ``calibration`` (:mod:`scenarios.episode`), so that importing
+``episode`` and ``calibration`` (:mod:`scenarios.runners.episode`), so that importing
 this module does not import MuJoCo.
 """
 
@@ -160,7 +160,7 @@ def run_reproduction(scenario: Scenario) -> ResultRow:
     (with the scenario's electrode shift, extra noise and fatigue) performs the
     paper's squeeze session with the FSR; features are extracted on the paper's
     channels; the estimator is fitted on the first ``identification_fraction``
-    of the windows and scored on the rest (``estimation.protocol``), as
+    of the windows and scored on the rest (``estimation.evaluation``), as
     ``griploop reproduce`` does for a whole population.
 
     Parameters
@@ -187,11 +187,11 @@ def run_reproduction(scenario: Scenario) -> ResultRow:
     """
     from threadpoolctl import threadpool_limits
 
+    from estimation.evaluation import evaluate_subject, split_index
     from estimation.features import PAPER_CHANNELS, extract_features
     from estimation.paper import PAPER_ORDER
-    from estimation.protocol import evaluate_subject, split_index
     from estimation.reproduce import estimator_params
-    from sim.subjects import VirtualSubject
+    from sim.user.subjects import VirtualSubject
 
     if scenario.protocol.calibration_s is not None:
         raise UnsupportedScenarioError(
@@ -247,5 +247,5 @@ def run_reproduction(scenario: Scenario) -> ResultRow:
 
 
 register_runner("reproduction", run_reproduction)
-register_runner("episode", "scenarios.episode:run_episode_scenario")
-register_runner("calibration", "scenarios.episode:run_calibration_scenario")
+register_runner("episode", "scenarios.runners.episode:run_episode_scenario")
+register_runner("calibration", "scenarios.runners.episode:run_calibration_scenario")

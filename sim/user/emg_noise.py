@@ -1,7 +1,7 @@
 """Fast sEMG generator: amplitude-modulated shaped noise (Hogan and Mann 1980).
 
 Each muscle's sEMG is ``sigma(t) n(t)``: ``n`` is unit-variance Gaussian noise
-whose spectrum is the MUAP spectrum (:func:`sim.muap.muap_psd`) after the
+whose spectrum is the MUAP spectrum (:func:`sim.user.muap.muap_psd`) after the
 armband's front end and *folded* by sampling at ``fs_hz`` (exactly what
 generating at a high rate, band-limiting and decimating without an
 anti-aliasing filter gives, in distribution), and
@@ -10,7 +10,7 @@ directly at ``fs_hz`` by filtering white noise in the frequency domain, which
 makes the generator tens of thousands of times faster than real time.
 
 Force follows the drive through the electromechanical delay and the
-critically damped activation dynamics (:mod:`sim.muscles`). Fatigue
+critically damped activation dynamics (:mod:`sim.user.muscles`). Fatigue
 compresses the spectrum (crossfade towards a spectrum slowed by the end-of-
 recording factor) and raises the amplitude.
 """
@@ -24,10 +24,10 @@ from typing import Any
 import numpy as np
 import scipy.fft
 
-from sim.armband import FrontEnd
-from sim.emg import MuscleSignals
-from sim.muap import muap_psd
-from sim.muscles import MuscleParams, muscle_force
+from sim.user.armband import FrontEnd
+from sim.user.emg import MuscleSignals
+from sim.user.muap import muap_psd
+from sim.user.muscles import MuscleParams, muscle_force
 
 # Lowest median-frequency factor fatigue may reach (spectrum compression limit).
 _MIN_FREQUENCY_FACTOR = 0.5
@@ -120,8 +120,8 @@ def shaped_noise(
 class NoiseEmgGenerator:
     """Amplitude-modulated noise sEMG with activation-dynamics force.
 
-    Satisfies :class:`sim.emg.EmgGenerator`; it has no settings of its own
-    (everything comes from the subject's :class:`~sim.muscles.MuscleParams`).
+    Satisfies :class:`sim.user.emg.EmgGenerator`; it has no settings of its own
+    (everything comes from the subject's :class:`~sim.user.muscles.MuscleParams`).
     """
 
     name: str = "noise"

@@ -1,0 +1,9 @@
+"""The ``griploop`` command line: :func:`main`; one module per subcommand in ``commands``.
+
+May import everything; importing this package itself stays light (argparse only)
+so that ``griploop --help`` is fast.
+"""
+
+from scenarios.cli.main import main
+
+__all__ = ["main"]

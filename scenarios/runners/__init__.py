@@ -1,0 +1,9 @@
+"""What one scenario does: a runner per scenario kind, the closed-loop episode, comparisons.
+
+:mod:`scenarios.runners.dispatch` maps each scenario kind to its runner (a
+registry); :mod:`scenarios.runners.episode` runs a grasp from sEMG to the hand;
+:mod:`scenarios.runners.compare` drives one grasp with several estimators;
+:mod:`scenarios.runners.video` renders an episode.
+
+May import: sim, estimation, controllers, :mod:`scenarios.schema`.
+"""
