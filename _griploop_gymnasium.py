@@ -7,7 +7,7 @@ need ``import sim`` first. The installed ``griploop-gymnasium.pth`` calls
 finder on :data:`sys.meta_path` that, once ``gymnasium`` has been imported,
 registers the ids below with string entry points (nothing of griploop is
 imported until an environment is made). :mod:`sim.hand.registration` registers the
-same ids when ``sim`` is imported first.
+same ids when ``sim.hand`` is imported first.
 """
 
 from __future__ import annotations

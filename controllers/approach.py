@@ -18,6 +18,7 @@ from typing import Any
 import control
 
 from controllers.base import Observation, as_observation
+from controllers.errors import SpecificationError
 
 
 class ContactGate:
@@ -97,7 +98,7 @@ class ContactGate:
         dt_s: float = 0.01,
     ) -> None:
         if not 0 < closing_command <= 1:
-            raise ValueError(
+            raise SpecificationError(
                 f"ContactGate: expected 0 < closing_command <= 1, found {closing_command}"
             )
         self.controller = controller
@@ -106,7 +107,7 @@ class ContactGate:
         self.opening_command = float(opening_command)
         self.feedforward = feedforward
         if min(approach_speed_rad_s, approach_gain, force_rate_n_s, lost_contact_s, dt_s) <= 0:
-            raise ValueError(
+            raise SpecificationError(
                 "ContactGate: expected positive approach_speed_rad_s, approach_gain, "
                 f"force_rate_n_s, lost_contact_s and dt_s, found {approach_speed_rad_s}, "
                 f"{approach_gain}, {force_rate_n_s}, {lost_contact_s}, {dt_s}"
@@ -116,7 +117,7 @@ class ContactGate:
         self.force_rate_n_s = float(force_rate_n_s)
         self.lost_contact_s = float(lost_contact_s)
         if not 0 <= handover_fraction <= 1:
-            raise ValueError(
+            raise SpecificationError(
                 f"ContactGate: expected 0 <= handover_fraction <= 1, found {handover_fraction}"
             )
         self.handover_fraction = float(handover_fraction)

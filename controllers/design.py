@@ -36,7 +36,7 @@ from controllers.design_plant import (
     operating_point,
     plant_family,
 )
-from controllers.errors import PlantError, SpecificationError
+from controllers.errors import PlantError, SpecificationError, UnknownControllerError
 from controllers.mpc import MPC
 from controllers.plant import delay
 from controllers.plant_cache import cached_family
@@ -194,7 +194,7 @@ class ControllerDesign:
         """Raise ``ValueError`` naming the analysed range if ``force_n`` is outside it."""
         lo, hi = self.family.range_n
         if not lo <= float(force_n) <= hi:
-            raise ValueError(
+            raise SpecificationError(
                 f"force {force_n:g} N: expected a force in the analysed range {lo:g}..{hi:g} N"
             )
 
@@ -412,7 +412,8 @@ def design_for_object(
         No usable plant.
     """
     if kind not in CONTROLLER_NAMES:
-        raise LookupError(f"unknown controller {kind!r}; expected one of {list(CONTROLLER_NAMES)}")
+        raise UnknownControllerError(
+            f"unknown controller {kind!r}; expected one of {list(CONTROLLER_NAMES)}")
     dt = float(control_dt_s)
     family = cached_plant_family(obj, dt, tuple(float(f) for f in forces_n))
     limit = float("inf") if force_max_n is None else float(force_max_n)

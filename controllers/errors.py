@@ -6,18 +6,20 @@ stderr (see :mod:`scenarios.cli.main`).
 
 from __future__ import annotations
 
+from sim.errors import GriploopError
 
-class PlantError(ValueError):
+
+class PlantError(GriploopError, ValueError):
     """A plant cannot be used for design: unstable, non-minimal, not SISO or badly sampled."""
 
 
-class SpecificationError(ValueError):
+class SpecificationError(GriploopError, ValueError):
     """A design specification cannot be met; the message names the limit that was hit."""
 
 
-class IdentificationError(ValueError):
+class IdentificationError(GriploopError, ValueError):
     """Step-response data cannot identify a low-order model (shape, length or excitation)."""
 
 
-class UnknownControllerError(LookupError):
+class UnknownControllerError(GriploopError, LookupError):
     """A controller name is not registered; the message lists the valid names."""

@@ -55,11 +55,12 @@ class LinearController:
         name: str = "lead_lag",
     ) -> None:
         if not controller.isdtime(strict=True):
-            raise ValueError("LinearController: expected a discrete controller, found continuous")
+            raise SpecificationError(
+                "LinearController: expected a discrete controller, found continuous")
         ss = control.ss(controller)
         d = float(np.asarray(ss.D).item())
         if d == 0.0:
-            raise ValueError(
+            raise SpecificationError(
                 "LinearController: expected a biproper controller (D != 0), found D = 0"
             )
         self.name = name
@@ -78,7 +79,7 @@ class LinearController:
         self._Bawl = self._Baw.tolist()
         zeros_map = self._A - np.outer(self._Baw, self._C)
         if self._A.size and np.max(np.abs(np.linalg.eigvals(zeros_map))) >= 1.0:
-            raise ValueError(
+            raise SpecificationError(
                 "LinearController: conditioning anti-windup needs controller zeros inside the "
                 "unit circle, found a zero on or outside it"
             )

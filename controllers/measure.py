@@ -32,6 +32,7 @@ import numpy as np
 
 from controllers.base import observation_from_info
 from controllers.design import ControllerDesign
+from controllers.errors import SpecificationError
 from controllers.plant import frequency_response
 from sim.hand.grasp_env import GraspEnv, WristSchedule
 
@@ -181,7 +182,7 @@ def measure_loop(design: ControllerDesign, force_n: float, *,
     else:
         w_all = np.sort(np.asarray(frequencies_rad_s, dtype=float))
         if w_all.size == 0 or w_all[0] <= 0 or w_all[-1] >= nyquist:
-            raise ValueError(
+            raise SpecificationError(
                 f"frequencies: expected values in (0, {nyquist:.4g}) rad/s (Nyquist), found "
                 f"{w_all.tolist()}"
             )

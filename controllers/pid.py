@@ -71,15 +71,16 @@ class PID:
         computation_delay_samples: int = 1,
     ) -> None:
         if dt_s <= 0:
-            raise ValueError(f"PID: expected dt_s > 0, found {dt_s}")
+            raise SpecificationError(f"PID: expected dt_s > 0, found {dt_s}")
         if derivative_filter_s < 0:
-            raise ValueError(f"PID: expected derivative_filter_s >= 0, found {derivative_filter_s}")
+            raise SpecificationError(
+                f"PID: expected derivative_filter_s >= 0, found {derivative_filter_s}")
         if derivative_on not in ("measurement", "error"):
-            raise ValueError(
+            raise SpecificationError(
                 f"PID: expected derivative_on 'measurement' or 'error', found {derivative_on!r}"
             )
         if not u_limits[0] < u_limits[1]:
-            raise ValueError(
+            raise SpecificationError(
                 f"PID: expected u_limits (low, high) with low < high, found {u_limits}"
             )
         self.dt_s = float(dt_s)

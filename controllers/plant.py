@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import control
 import numpy as np
 
-from controllers.errors import PlantError
+from controllers.errors import PlantError, SpecificationError
 
 # |z| above 1 + _UNIT_TOL (or Re s above _UNIT_TOL) counts as unstable; on the
 # boundary only integrators (z = 1, s = 0) are accepted.
@@ -157,7 +157,7 @@ def delay(n_samples: int, dt_s: float) -> control.TransferFunction:
         Sampling period in seconds.
     """
     if n_samples < 0:
-        raise ValueError(f"delay: expected n_samples >= 0, found {n_samples}")
+        raise SpecificationError(f"delay: expected n_samples >= 0, found {n_samples}")
     den = np.zeros(n_samples + 1)
     den[0] = 1.0
     return control.tf([1.0], den, dt_s)

@@ -30,6 +30,7 @@ import control
 import numpy as np
 
 from controllers.design_plant import DesignPlant, OperatingPoint, PlantFamily
+from controllers.errors import PlantError
 from sim.hand.objects import ObjectSpec
 
 FORMAT = 1
@@ -107,7 +108,7 @@ def load_family(path: Path, obj: ObjectSpec) -> PlantFamily:
     with np.load(path, allow_pickle=False) as data:
         meta = json.loads(str(data["meta"]))
         if meta.get("format") != FORMAT:
-            raise ValueError(f"{path}: expected plant cache format {FORMAT}, found "
+            raise PlantError(f"{path}: expected plant cache format {FORMAT}, found "
                              f"{meta.get('format')!r}")
         points = []
         for i, entry in enumerate(meta["points"]):

@@ -23,9 +23,10 @@ from typing import Any
 import control
 
 from controllers.base import Observation, as_observation
+from sim.errors import GriploopError
 
 
-class ReflexSpecError(ValueError):
+class ReflexSpecError(GriploopError, ValueError):
     """A :class:`SlipReflex` parameter is out of range; the message says expected vs found."""
 
 

@@ -57,6 +57,7 @@ import control
 import numpy as np
 
 from controllers.base import Observation, as_observation
+from controllers.errors import SpecificationError
 
 
 class ScheduledController:
@@ -92,18 +93,19 @@ class ScheduledController:
                  name: str = "controller") -> None:
         forces = [float(f) for f in forces_n]
         if len(forces) != len(designs) or not forces:
-            raise ValueError(
+            raise SpecificationError(
                 f"ScheduledController: expected one design per grid force, found "
                 f"{len(designs)} designs for {len(forces)} forces"
             )
         if any(b <= a for a, b in zip(forces, forces[1:], strict=False)):
-            raise ValueError(f"ScheduledController: expected ascending forces, found {forces}")
+            raise SpecificationError(
+                f"ScheduledController: expected ascending forces, found {forces}")
         if blend not in ("interpolate", "switch"):
-            raise ValueError(
+            raise SpecificationError(
                 f"ScheduledController: expected blend 'interpolate' or 'switch', found {blend!r}"
             )
         if release_s <= 0 or hysteresis < 0:
-            raise ValueError(
+            raise SpecificationError(
                 f"ScheduledController: expected release_s > 0 and hysteresis >= 0, found "
                 f"{release_s}, {hysteresis}"
             )
@@ -113,7 +115,7 @@ class ScheduledController:
         self.release_s = float(release_s)
         self.hysteresis = float(hysteresis)
         if warm not in ("neighbours", "all", "none"):
-            raise ValueError(
+            raise SpecificationError(
                 f"ScheduledController: expected warm 'neighbours', 'all' or 'none', found {warm!r}"
             )
         self.warm = warm

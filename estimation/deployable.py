@@ -38,9 +38,10 @@ from sklearn.ensemble import HistGradientBoostingRegressor
 from estimation.base import ForceEstimator
 from estimation.errors import EstimationInputError, check_features, check_mode, check_target
 from estimation.normalize import MinMaxScaling
+from sim.errors import GriploopError
 
 
-class StreamingRateError(ValueError):
+class StreamingRateError(GriploopError, ValueError):
     """A stream asked to run faster than the window increment its lags were trained on."""
 
 
@@ -72,7 +73,7 @@ def compressed(U: np.ndarray, compress: str, floor: float) -> np.ndarray:
         return np.sqrt(np.maximum(U, 0.0))
     if compress == "log":
         return np.hstack([U, np.log(floor + np.maximum(U, 0.0))])
-    raise ValueError(f"compress: expected one of {COMPRESSIONS}, found {compress!r}")
+    raise EstimationInputError(f"compress: expected one of {COMPRESSIONS}, found {compress!r}")
 
 
 def log_lag_regressors(U: np.ndarray, lags: int, floor: float,
@@ -205,10 +206,11 @@ class LogRidge(ForceEstimator):
         U = check_features(U)
         y = check_target(y, U.shape[0])
         if self.compress not in COMPRESSIONS:
-            raise ValueError(f"compress: expected one of {COMPRESSIONS}, found {self.compress!r}")
+            raise EstimationInputError(
+                f"compress: expected one of {COMPRESSIONS}, found {self.compress!r}")
         lag_set = (self.lags,) if isinstance(self.lags, (int, np.integer)) else tuple(self.lags)
         if not lag_set or min(lag_set) < 0:
-            raise ValueError(f"lags: expected non-negative counts, found {self.lags!r}")
+            raise EstimationInputError(f"lags: expected non-negative counts, found {self.lags!r}")
         n_tr = self._split(U.shape[0], U.shape[1])
         best = None
         for lags in lag_set:

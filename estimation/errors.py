@@ -12,32 +12,34 @@ import numpy as np
 import scipy.sparse
 from sklearn.exceptions import DataConversionWarning
 
+from sim.errors import GriploopError
 
-class EstimationInputError(ValueError):
+
+class EstimationInputError(GriploopError, ValueError):
     """Features or force passed to an estimator are malformed (shape, NaN/inf)."""
 
 
-class InsufficientDataError(ValueError):
+class InsufficientDataError(GriploopError, ValueError):
     """Fewer samples than the model order or the parameter count needs."""
 
 
-class ConstantInputError(ValueError):
+class ConstantInputError(GriploopError, ValueError):
     """An input or the force is constant, so it cannot be normalized or identified."""
 
 
-class UnstableModelError(ValueError):
+class UnstableModelError(GriploopError, ValueError):
     """An identified model is unstable and was asked to run open loop (free run)."""
 
 
-class RiccatiError(ValueError):
+class RiccatiError(GriploopError, ValueError):
     """The Riccati equation has no stabilizing solution for the given model."""
 
 
-class ModeError(ValueError):
+class ModeError(GriploopError, ValueError):
     """An estimator was asked for a prediction mode it does not support."""
 
 
-class UnknownEstimatorError(LookupError):
+class UnknownEstimatorError(GriploopError, LookupError):
     """An estimator name is not in the registry."""
 
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim.errors import GriploopError
 from sim.recording import Recording, RecordingError
 
 FEATURES = ("mav", "rms", "wl")
@@ -23,7 +24,7 @@ PAPER_CHANNELS = (6, 7, 8)  # FCU, PL, FCR (paper Table 1), 1-based
 TARGET_ALIGNMENTS = ("last", "mean")
 
 
-class FeatureError(ValueError):
+class FeatureError(GriploopError, ValueError):
     """Feature extraction was asked for something the signal cannot give."""
 
 

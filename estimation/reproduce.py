@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from estimation.errors import EstimationInputError
 from estimation.evaluation import aggregate, evaluate_subject, split_index
 from estimation.features import PAPER_CHANNELS, extract_features
 from estimation.order import select_order
@@ -57,11 +58,11 @@ def parse_channels(spec: str | Sequence[int | str] | None) -> list[int | str] | 
             return None
         items = [t.strip() for t in spec.split(",") if t.strip()]
         if not items:
-            raise ValueError(f"channels: expected 'all' or a comma-separated list like "
+            raise EstimationInputError(f"channels: expected 'all' or a comma-separated list like "
                              f"'6,7,8', found {spec!r}")
         return [int(t) if t.isdigit() else t for t in items]
     if isinstance(spec, str) or len(spec) == 0:
-        raise ValueError(f"channels: expected at least one channel, found {spec!r}")
+        raise EstimationInputError(f"channels: expected at least one channel, found {spec!r}")
     return list(spec)
 
 

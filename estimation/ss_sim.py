@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from estimation.deployable import check_period
-from estimation.errors import check_features, check_mode, check_target
+from estimation.errors import EstimationInputError, check_features, check_mode, check_target
 from estimation.normalize import MinMaxScaling
 from estimation.state_space import SSEstimator
 from estimation.streaming import delayed_response
@@ -114,7 +114,8 @@ class SimulationErrorSS(SSEstimator):
         U = check_features(U)
         y = check_target(y, U.shape[0])
         if self.compress not in ("sqrt", "none"):
-            raise ValueError(f"compress: expected 'sqrt' or 'none', found {self.compress!r}")
+            raise EstimationInputError(
+                f"compress: expected 'sqrt' or 'none', found {self.compress!r}")
         U = self._compress(U)
         super().fit(U, y)
         n, m = self.order_, U.shape[1] + 1

@@ -48,6 +48,8 @@ import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from sim.errors import GriploopError
+
 ESTIMATORS = (
     "ss_kf",
     "ss",
@@ -79,7 +81,7 @@ DEFAULT_TIME_LIMIT_S = 120.0
 """Default per-scenario time limit, s: 100x a typical episode (1 s), 10x a slow one."""
 
 
-class ScenarioError(ValueError):
+class ScenarioError(GriploopError, ValueError):
     """A scenario or sweep file is malformed, has unknown keys or bad values."""
 
 
@@ -87,7 +89,7 @@ class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid", validate_default=True, allow_inf_nan=False)
 
 
-class SubjectSpec(_Model):
+class SubjectConfig(_Model):
     """The virtual subject wearing the armband.
 
     Attributes
@@ -119,7 +121,7 @@ class SubjectSpec(_Model):
     fatigue_per_min: float = Field(0.0, ge=0.0, le=0.5)
 
 
-class ProtocolSpec(_Model):
+class ProtocolConfig(_Model):
     """What the subject does, and for how long.
 
     Attributes
@@ -146,7 +148,7 @@ class ProtocolSpec(_Model):
     identification_fraction: float = Field(0.5, gt=0.05, lt=0.95)
 
     @model_validator(mode="after")
-    def _hold_fits(self) -> ProtocolSpec:
+    def _hold_fits(self) -> ProtocolConfig:
         if self.hold_s >= self.episode_s:
             raise ValueError(
                 f"hold_s must be shorter than episode_s={self.episode_s:g} s "
@@ -155,7 +157,7 @@ class ProtocolSpec(_Model):
         return self
 
 
-class ObjectSpec(_Model):
+class ObjectConfig(_Model):
     """The object to grasp: a library object and optional overrides.
 
     Fields left at ``None`` keep the library object's value.
@@ -191,7 +193,7 @@ class ObjectSpec(_Model):
     break_force_n: float | None = Field(None, gt=0.0, le=500.0)
 
     @model_validator(mode="after")
-    def _size_matches_shape(self) -> ObjectSpec:
+    def _size_matches_shape(self) -> ObjectConfig:
         if self.shape is not None and self.size_m is not None:
             expected = SIZE_LENGTHS[self.shape]
             if len(self.size_m) != expected:
@@ -202,7 +204,7 @@ class ObjectSpec(_Model):
         return self
 
 
-class EstimatorSpec(_Model):
+class EstimatorConfig(_Model):
     """The grip-force estimator and how it is evaluated.
 
     Attributes
@@ -222,7 +224,7 @@ class EstimatorSpec(_Model):
     order: int | None = Field(None, ge=1, le=12)
 
 
-class SlipReflexSpec(_Model):
+class SlipReflexConfig(_Model):
     """Slip reflex: raise the grip force when the object slips.
 
     Attributes
@@ -240,7 +242,7 @@ class SlipReflexSpec(_Model):
     gain: float = Field(0.3, ge=0.0, le=5.0)
 
 
-class ControllerSpec(_Model):
+class ControllerConfig(_Model):
     """The grip-force controller, designed from a specification.
 
     Attributes
@@ -260,7 +262,7 @@ class ControllerSpec(_Model):
     control_hz : float
         Control-loop rate, Hz: 100 to 500, so that the control period is a
         whole number of the hand's 2 ms physics steps.
-    slip_reflex : SlipReflexSpec
+    slip_reflex : SlipReflexConfig
         Slip reflex settings.
     scheduled : bool
         Gain-scheduled over grip force (default) or one fixed design at the
@@ -274,11 +276,11 @@ class ControllerSpec(_Model):
     horizon: int | None = Field(None, ge=2, le=500)
     safety_factor: float = Field(1.5, ge=1.0, le=5.0)
     control_hz: float = Field(100.0, ge=100.0, le=500.0)
-    slip_reflex: SlipReflexSpec = Field(default_factory=SlipReflexSpec)
+    slip_reflex: SlipReflexConfig = Field(default_factory=SlipReflexConfig)
     scheduled: bool = True
 
     @model_validator(mode="after")
-    def _consistent(self) -> ControllerSpec:
+    def _consistent(self) -> ControllerConfig:
         if self.crossover_rad_s is not None and self.bandwidth_rad_s is not None:
             raise ValueError(
                 "give crossover_rad_s or bandwidth_rad_s, not both "
@@ -308,11 +310,11 @@ class Scenario(_Model):
     """
 
     kind: Literal["reproduction", "calibration", "episode"] = "episode"
-    subject: SubjectSpec = Field(default_factory=SubjectSpec)
-    protocol: ProtocolSpec = Field(default_factory=ProtocolSpec)
-    object: ObjectSpec = Field(default_factory=ObjectSpec)
-    estimator: EstimatorSpec = Field(default_factory=EstimatorSpec)
-    controller: ControllerSpec = Field(default_factory=ControllerSpec)
+    subject: SubjectConfig = Field(default_factory=SubjectConfig)
+    protocol: ProtocolConfig = Field(default_factory=ProtocolConfig)
+    object: ObjectConfig = Field(default_factory=ObjectConfig)
+    estimator: EstimatorConfig = Field(default_factory=EstimatorConfig)
+    controller: ControllerConfig = Field(default_factory=ControllerConfig)
     seed: int | None = Field(None, ge=0, le=_MAX_SEED)
 
     @model_validator(mode="after")
@@ -437,7 +439,7 @@ class RandomDesign(_Model):
     params: dict[str, Distribution] = Field(min_length=1)
 
 
-class SweepSpec(_Model):
+class SweepConfig(_Model):
     """A sweep file: a base scenario expanded over a grid or a random design.
 
     Attributes
@@ -479,7 +481,7 @@ class SweepSpec(_Model):
     random: RandomDesign | None = None
 
     @model_validator(mode="after")
-    def _one_design(self) -> SweepSpec:
+    def _one_design(self) -> SweepConfig:
         if self.grid is not None and self.random is not None:
             raise ValueError("give grid or random, not both (found both)")
         if self.grid is not None:
@@ -724,7 +726,7 @@ def _describe(exc: ValidationError, root: type[BaseModel] | None) -> tuple[tuple
     field = _dotted(loc) or "<top>"
     if err["type"] == "extra_forbidden":
         reason = f"unknown key {loc[-1]!r}" if loc else "unknown key"
-        parent = _model_at(root or SweepSpec, loc[:-1])
+        parent = _model_at(root or SweepConfig, loc[:-1])
         if parent is not None:
             reason += f" (expected one of: {', '.join(parent.model_fields)})"
         field = _dotted(loc[:-1]) or "<top>"
@@ -772,7 +774,7 @@ def field_paths(model: type[BaseModel] = Scenario, prefix: str = "") -> list[str
     return out
 
 
-def load_sweep(path: str | Path) -> SweepSpec:
+def load_sweep(path: str | Path) -> SweepConfig:
     """Read and validate a sweep file.
 
     Parameters
@@ -782,7 +784,7 @@ def load_sweep(path: str | Path) -> SweepSpec:
 
     Returns
     -------
-    SweepSpec
+    SweepConfig
         Validated sweep; ``name`` defaults to the file stem. Design paths and
         values are checked too (see :func:`expand_sweep`).
 
@@ -807,7 +809,7 @@ def load_sweep(path: str | Path) -> SweepSpec:
         raise ScenarioError(
             f"{source}:1: <top>: expected a mapping with 'base' (found {type(data).__name__})"
         )
-    spec = _validate(SweepSpec, data, source, lines)
+    spec = _validate(SweepConfig, data, source, lines)
     if spec.name is None:
         spec = spec.model_copy(update={"name": path.stem})
     _check_design(spec, source, lines)
@@ -825,9 +827,9 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scena
     return _validate(Scenario, data, source, {}, strict=False)
 
 
-def parse_sweep(data: Mapping[str, Any], source: str = "<sweep>") -> SweepSpec:
+def parse_sweep(data: Mapping[str, Any], source: str = "<sweep>") -> SweepConfig:
     """Validate a sweep given as a mapping (as :func:`load_sweep`, without line numbers)."""
-    spec = _validate(SweepSpec, dict(data), source, {})
+    spec = _validate(SweepConfig, dict(data), source, {})
     _check_design(spec, source, {})
     return spec
 
@@ -842,7 +844,7 @@ def _validate(
         raise ScenarioError(_format_error(exc, source, lines, model)) from None
 
 
-def _check_design(spec: SweepSpec, source: str, lines: Mapping[tuple, int]) -> None:
+def _check_design(spec: SweepConfig, source: str, lines: Mapping[tuple, int]) -> None:
     """Check every design path exists and every grid value is valid on the base."""
     known = set(field_paths())
     design: Mapping[str, Any] = {}
@@ -932,7 +934,7 @@ def derive_seed(sweep_seed: int, content: str, occurrence: int = 0) -> int:
     return int(seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
 
 
-def design_size(spec: SweepSpec) -> int:
+def design_size(spec: SweepConfig) -> int:
     """Number of scenarios the sweep expands to, counted from its axes without expanding."""
     if spec.grid is not None:
         points = math.prod(len(values) for values in spec.grid.values())
@@ -944,7 +946,7 @@ def design_size(spec: SweepSpec) -> int:
 
 
 def check_size(
-    spec: SweepSpec, max_scenarios: int | None = DEFAULT_MAX_SCENARIOS, source: str | None = None
+    spec: SweepConfig, max_scenarios: int | None = DEFAULT_MAX_SCENARIOS, source: str | None = None
 ) -> int:
     """:func:`design_size`, or ScenarioError when it exceeds ``max_scenarios`` (None: no cap)."""
     n = design_size(spec)
@@ -963,12 +965,12 @@ def check_size(
     return n
 
 
-def design_points(spec: SweepSpec) -> list[dict[str, Any]]:
+def design_points(spec: SweepConfig) -> list[dict[str, Any]]:
     """The design's override dicts, one per point, before replication (see :func:`iter_design`)."""
     return list(iter_design(spec))
 
 
-def iter_design(spec: SweepSpec) -> Iterator[dict[str, Any]]:
+def iter_design(spec: SweepConfig) -> Iterator[dict[str, Any]]:
     """The design's override dicts one at a time, before replication.
 
     Grid points come in row-major order of the grid as written (the last path
@@ -1005,7 +1007,7 @@ def _seed_key(scenario: Scenario, paths: Sequence[str]) -> str:
 
 
 def expand_sweep(
-    spec: SweepSpec,
+    spec: SweepConfig,
     source: str | None = None,
     *,
     max_scenarios: int | None = DEFAULT_MAX_SCENARIOS,
@@ -1014,7 +1016,7 @@ def expand_sweep(
 
     Parameters
     ----------
-    spec : SweepSpec
+    spec : SweepConfig
         A validated sweep.
     source : str, optional
         Name used in error messages (defaults to the sweep name).
@@ -1040,7 +1042,7 @@ def expand_sweep(
 
 
 def iter_expanded(
-    spec: SweepSpec,
+    spec: SweepConfig,
     source: str | None = None,
     *,
     max_scenarios: int | None = DEFAULT_MAX_SCENARIOS,
@@ -1051,7 +1053,7 @@ def iter_expanded(
     return _expand(spec, source)
 
 
-def _expand(spec: SweepSpec, source: str) -> Iterator[ExpandedScenario]:
+def _expand(spec: SweepConfig, source: str) -> Iterator[ExpandedScenario]:
     base = spec.base.model_dump()
     seen: Counter[bytes] = Counter()
     index = 0

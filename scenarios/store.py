@@ -47,6 +47,8 @@ from typing import Any
 
 import numpy as np
 
+from sim.errors import GriploopError
+
 SCHEMA_VERSION = "1"
 STATUSES = ("ok", "failed")
 EXPORT_FORMATS = ("parquet", "csv")
@@ -108,7 +110,7 @@ _META_COLUMNS = (
 )  # fmt: skip
 
 
-class StoreError(ValueError):
+class StoreError(GriploopError, ValueError):
     """A results store file is not a griploop store, or a request does not fit it."""
 
 

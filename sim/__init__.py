@@ -7,6 +7,13 @@ without a display aborts the process. So when ``MUJOCO_GL`` is unset and there
 is no display (Linux, no ``DISPLAY`` or ``WAYLAND_DISPLAY``), importing ``sim``
 selects headless EGL (``MUJOCO_GL=egl``, ``PYOPENGL_PLATFORM=egl``) before
 MuJoCo loads. An explicit ``MUJOCO_GL`` always wins.
+
+Two worlds that import nothing from each other: :mod:`sim.user` (the virtual
+user: muscles, sEMG, armband, FSR, intent protocols) and :mod:`sim.hand` (the
+MuJoCo hand, objects, contacts, ``GraspEnv``, linearization). Both may use
+:mod:`sim.recording` and :mod:`sim.references`, and :mod:`sim.errors` holds the
+base of every griploop error. Importing :mod:`sim.hand` registers the
+Gymnasium id ``griploop/GraspLift-v0``.
 """
 
 import os as _os
@@ -29,11 +36,22 @@ def _choose_headless_gl(environ=None, platform: str = _sys.platform) -> None:
 
 _choose_headless_gl()
 
-from sim.hand import registration as _registration  # noqa: E402, F401  (griploop/GraspLift-v0)
-from sim.recording import Recording, RecordingError, load_recording  # noqa: E402
-from sim.user.intent import IntentProfile, grasp_lift_hold, paper_protocol, ramp_profile  # noqa: E402
-from sim.user.subjects import GENERATORS, VirtualSubject, make_population  # noqa: E402
+#: Public names, imported on first use so that ``import sim`` (and
+#: :class:`sim.errors.GriploopError`) stays light: ``name -> module``.
+_LAZY = {
+    "Recording": "sim.recording", "RecordingError": "sim.recording",
+    "load_recording": "sim.recording",
+    "IntentProfile": "sim.user.intent", "grasp_lift_hold": "sim.user.intent",
+    "paper_protocol": "sim.user.intent", "ramp_profile": "sim.user.intent",
+    "GENERATORS": "sim.user.subjects", "VirtualSubject": "sim.user.subjects",
+    "make_population": "sim.user.subjects",
+}
+__all__ = sorted(_LAZY)
 
-__all__ = ["Recording", "RecordingError", "load_recording"]
-__all__ += ["GENERATORS", "IntentProfile", "VirtualSubject", "grasp_lift_hold", "make_population",
-            "paper_protocol", "ramp_profile"]
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'sim' has no attribute {name!r}")

@@ -35,6 +35,8 @@ from typing import Any
 
 import numpy as np
 
+from sim.errors import GriploopError
+
 EMG_UNITS = ("int8", "uV", "mV", "a.u.")
 _OPTIONAL_COLUMNS = ("intent", "intent_force_n")
 _EMG_COLUMN = re.compile(r"^emg(\d+)$")
@@ -68,7 +70,7 @@ _NPZ_ARRAYS = ("emg", "fs_hz", "channel_names", "emg_unit", "metadata_json", "fo
                "intent", "intent_force_n")
 
 
-class RecordingError(ValueError):
+class RecordingError(GriploopError, ValueError):
     """A recording file or array is malformed.
 
     The message names the source (file or argument), the column or field and

@@ -21,10 +21,11 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from sim.errors import GriploopError
 from sim.recording import Recording
 
 
-class ReferenceError(ValueError):
+class ReferenceSignalError(GriploopError, ValueError):
     """A force-reference input cannot be used."""
 
 
@@ -68,14 +69,15 @@ class ProfileReference:
     def __init__(self, force_n: np.ndarray, dt_s: float) -> None:
         arr = np.asarray(force_n, dtype=float)
         if arr.ndim != 1 or arr.size == 0:
-            raise ReferenceError(
+            raise ReferenceSignalError(
                 f"reference profile: expected a non-empty 1-D array, found shape {arr.shape}"
             )
         if not np.all(np.isfinite(arr)) or arr.min() < 0:
-            raise ReferenceError("reference profile: expected finite forces >= 0 N, found "
+            raise ReferenceSignalError("reference profile: expected finite forces >= 0 N, found "
                                  f"min {np.nanmin(arr):.3g} or non-finite values")
         if not (np.isfinite(dt_s) and dt_s > 0):
-            raise ReferenceError(f"reference dt_s: expected a positive interval, found {dt_s!r}")
+            raise ReferenceSignalError(
+                f"reference dt_s: expected a positive interval, found {dt_s!r}")
         self.force_n = arr
         self.dt_s = float(dt_s)
         self._last = arr.size - 1
@@ -138,7 +140,7 @@ def as_reference(spec: object, dt_s: float) -> Reference:
 
     Raises
     ------
-    ReferenceError
+    ReferenceSignalError
         For anything else, or a Recording without ``force_n``.
     """
     if isinstance(spec, Reference):
@@ -147,13 +149,14 @@ def as_reference(spec: object, dt_s: float) -> Reference:
         return ConstantReference(float(spec))
     if isinstance(spec, Recording):
         if spec.force_n is None:
-            raise ReferenceError(f"{spec.source}: recording has no force_n to use as reference")
+            raise ReferenceSignalError(
+                f"{spec.source}: recording has no force_n to use as reference")
         return ProfileReference(np.clip(spec.force_n, 0.0, None), 1.0 / spec.fs_hz)
     if isinstance(spec, (list, tuple, np.ndarray)):
         return ProfileReference(np.asarray(spec, dtype=float), dt_s)
     if callable(spec):
         return FunctionReference(spec)
-    raise ReferenceError(
+    raise ReferenceSignalError(
         "reference: expected a number, an array, a callable of time, a Recording or a "
         f"Reference, found {type(spec).__name__}"
     )
@@ -162,5 +165,5 @@ def as_reference(spec: object, dt_s: float) -> Reference:
 def _finite_nonneg(value: float, what: str) -> float:
     v = float(value)
     if not (np.isfinite(v) and v >= 0):
-        raise ReferenceError(f"{what}: expected a finite force >= 0 N, found {value!r}")
+        raise ReferenceSignalError(f"{what}: expected a finite force >= 0 N, found {value!r}")
     return v

@@ -4,9 +4,12 @@ Subcommands live in :mod:`scenarios.cli.commands`, one module each, listed in
 :data:`COMMANDS` with their one-line help so that ``griploop --help`` imports
 none of them: only the chosen subcommand's module is imported (``griploop
 --help`` answers in a fraction of a second). Errors a user can cause (bad
-files, bad options, infeasible designs) are subclasses of ``ValueError``,
-``OSError`` or ``LookupError``; they are printed as one line on stderr with
-exit status 2. Set ``GRIPLOOP_TRACEBACK=1`` to see the traceback.
+files, bad options, infeasible designs) are :class:`~sim.errors.GriploopError`
+subclasses; they, and the operating system refusing a file (``OSError``), are
+printed as one line on stderr with exit status 2. Any other exception is a bug:
+it is printed as one ``internal error`` line naming the file and line where it
+was raised, with exit status 1. Set ``GRIPLOOP_TRACEBACK=1`` to see the
+traceback instead.
 
 Ctrl-C (SIGINT) and SIGTERM stop a command with exit status 130 and 143
 (128 + the signal number), after its clean-up ran (a sweep releases its claims
@@ -24,11 +27,16 @@ import importlib
 import os
 import signal
 import sys
+import traceback
 from collections.abc import Sequence
+from pathlib import Path
 
 from scenarios.execution.interrupt import exit_status, raise_on_stop
+from sim.errors import GriploopError
 
-USER_ERRORS = (ValueError, OSError, LookupError)
+#: What a user can cause: griploop's own errors (bad files, options, infeasible designs)
+#: and the operating system refusing a file (missing, unreadable, disk full).
+USER_ERRORS = (GriploopError, OSError)
 
 #: ``name -> (module, one-line help)`` of every subcommand, in the order of ``--help``.
 #: Each module defines ``register(subparsers)`` (adding its parser with the same help)
@@ -125,6 +133,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"griploop {args.command}: stopped by {signal.Signals(status - 128).name}",
               file=sys.stderr)
         return status
+    except Exception as exc:  # a bug in griploop or a library: say so, briefly
+        if os.environ.get("GRIPLOOP_TRACEBACK"):
+            raise
+        where = traceback.extract_tb(exc.__traceback__)[-1]
+        message = str(exc).splitlines()[0] if str(exc) else ""
+        print(f"griploop {args.command}: internal error: {type(exc).__name__}: {message} "
+              f"(at {Path(where.filename).name}:{where.lineno}; this is a bug, "
+              "GRIPLOOP_TRACEBACK=1 shows the traceback)", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -39,13 +39,14 @@ from scenarios.execution.interrupt import Interrupted, raise_on_stop
 from scenarios.runners.dispatch import require_runners
 from scenarios.schema import DEFAULT_TIME_LIMIT_S, ExpandedScenario, Scenario
 from scenarios.store import Outcome, ResultStore, content_hash, encode_traces, package_version
+from sim.errors import GriploopError
 
 DEFAULT_TASK = "scenarios.runners.dispatch:run_scenario"
 Task = str | Callable[[Scenario], Mapping[str, Any]]
 _SCALARS = (bool, int, float, str, type(None))
 
 
-class SweepError(ValueError):
+class SweepError(GriploopError, ValueError):
     """A sweep cannot run as asked (bad task reference, worker count, options)."""
 
 

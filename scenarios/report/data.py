@@ -22,6 +22,7 @@ import numpy as np
 
 from controllers.analysis import LoopMargins, loop_margins
 from scenarios.schema import ESTIMATORS
+from sim.errors import GriploopError
 
 MODES = ("one_step", "free_run")
 
@@ -36,7 +37,7 @@ EPISODE_TRACES = ("t_s", "intent_n", "reference_n", "grip_force_n")
 LOOP_TRACES = ("loop_A", "loop_B", "loop_C", "loop_D")
 
 
-class ReportInputError(ValueError):
+class ReportInputError(GriploopError, ValueError):
     """A results store row or a reproduction JSON file lacks what the report needs."""
 
 
@@ -234,7 +235,7 @@ def split_rows(rows: Iterable[dict[str, Any]]) -> StoreRows:
             out.episodes.append(row)
         elif row["kind"] == "reproduction":
             _require(row, ("estimator", "mode", "subject_id", "r2", "nrmse"),
-                     "the row of scenarios.runners.dispatch.run_reproduction")
+                     "the row of scenarios.runners.dispatch.run_reproduction_scenario")
             out.reproduction.append(row)
         else:
             out.other.append(row)

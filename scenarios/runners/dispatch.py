@@ -12,7 +12,7 @@ Runners are registered with :func:`register_runner`, either as a callable or
 as a ``"package.module:function"`` reference imported on first use, so that
 registering a runner never imports its simulation stack.
 
-Registered here: ``reproduction`` (:func:`run_reproduction`), and by reference
+Registered here: ``reproduction`` (:func:`run_reproduction_scenario`), and by reference
 ``episode`` and ``calibration`` (:mod:`scenarios.runners.episode`), so that importing
 this module does not import MuJoCo.
 """
@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from scenarios.schema import SCENARIO_KINDS, Scenario
+from sim.errors import GriploopError
 
 ResultRow = Mapping[str, Any]
 """Flat mapping of result names to scalars, plus optional ``"traces"``."""
@@ -35,15 +36,15 @@ Runner = Callable[[Scenario], ResultRow]
 _REGISTRY: dict[str, Runner | str] = {}
 
 
-class RunnerUnavailableError(LookupError):
+class RunnerUnavailableError(GriploopError, LookupError):
     """No runner is registered for a scenario kind, or its backend cannot be imported."""
 
 
-class UnsupportedScenarioError(ValueError):
+class UnsupportedScenarioError(GriploopError, ValueError):
     """A runner cannot honour a field of the scenario (e.g. a mode its estimator lacks)."""
 
 
-class DivergedError(RuntimeError):
+class DivergedError(GriploopError, RuntimeError):
     """A scenario ran but its result diverged (e.g. an unstable identified model)."""
 
 
@@ -153,7 +154,7 @@ def run_scenario(scenario: Scenario) -> ResultRow:
     return row
 
 
-def run_reproduction(scenario: Scenario) -> ResultRow:
+def run_reproduction_scenario(scenario: Scenario) -> ResultRow:
     """One subject x estimator x mode of the paper's evaluation (kind ``reproduction``).
 
     The virtual subject ``VirtualSubject.sample(population_seed, subject_id)``
@@ -246,6 +247,6 @@ def run_reproduction(scenario: Scenario) -> ResultRow:
     }
 
 
-register_runner("reproduction", run_reproduction)
+register_runner("reproduction", run_reproduction_scenario)
 register_runner("episode", "scenarios.runners.episode:run_episode_scenario")
 register_runner("calibration", "scenarios.runners.episode:run_calibration_scenario")

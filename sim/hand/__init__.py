@@ -9,3 +9,5 @@ grip force, slip, drop and crush from MuJoCo's contacts,
 
 May import: numpy, mujoco, gymnasium, :mod:`sim.references`. Never :mod:`sim.user`.
 """
+
+from sim.hand import registration as _registration  # noqa: E402, F401  (griploop/GraspLift-v0)

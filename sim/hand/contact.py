@@ -39,6 +39,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from sim.hand.errors import GraspFailedError, HandSpecError
 from sim.hand.model import HandIds
 
 
@@ -206,11 +207,11 @@ class OutcomeTracker:
     def __init__(self, slip_threshold_m_s: float = 0.005, drop_distance_m: float = 0.03,
                  break_force_n: float | None = None) -> None:
         if not slip_threshold_m_s > 0:
-            raise ValueError(
+            raise HandSpecError(
                 f"slip_threshold_m_s: expected a positive speed, found {slip_threshold_m_s!r}"
             )
         if not drop_distance_m > 0:
-            raise ValueError(
+            raise HandSpecError(
                 f"drop_distance_m: expected a positive distance, found {drop_distance_m!r}"
             )
         self.slip_threshold_m_s = float(slip_threshold_m_s)
@@ -343,13 +344,13 @@ def first_contact_peak(model: mujoco.MjModel, data: mujoco.MjData, ids: HandIds,
         If both sides do not touch the object within ``max_close_s``.
     """
     if not 0 < closing_command <= 1:
-        raise ValueError(f"closing_command: expected 0 < c <= 1, found {closing_command!r}")
+        raise HandSpecError(f"closing_command: expected 0 < c <= 1, found {closing_command!r}")
     if not 0 < window_s <= hold_s:
-        raise ValueError(
+        raise HandSpecError(
             f"window_s, hold_s: expected 0 < window_s <= hold_s, found {window_s!r}, {hold_s!r}"
         )
     if not max_close_s > 0:
-        raise ValueError(f"max_close_s: expected a positive duration, found {max_close_s!r}")
+        raise HandSpecError(f"max_close_s: expected a positive duration, found {max_close_s!r}")
     dt = model.opt.timestep
     data.ctrl[ids.motor] = closing_command
     reading = ContactReading()
@@ -371,7 +372,7 @@ def first_contact_peak(model: mujoco.MjModel, data: mujoco.MjData, ids: HandIds,
         if grasp is not None and t >= grasp + hold_s - 0.5 * dt:
             break
         if grasp is None and t - t_start > max_close_s:
-            raise RuntimeError(
+            raise GraspFailedError(
                 f"first_contact_peak: expected a grasp within {max_close_s} s at command "
                 f"{closing_command}, found no two-sided contact"
             )

@@ -29,6 +29,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sim.hand.contact import ContactReading, OutcomeTracker, read_contacts
+from sim.hand.errors import GraspFailedError, HandSpecError
 from sim.hand.model import HandIds, MotorSpec, PadSpec, build_model
 from sim.hand.objects import ObjectSpec, as_object_spec
 from sim.references import Reference, StreamReference, as_reference
@@ -190,19 +191,19 @@ class GraspEnv(gym.Env):
                  position_jitter_m: float = 0.0, render_mode: str | None = None,
                  render_size: tuple[int, int] = (480, 640), pads: PadSpec | None = None) -> None:
         if not 0.001 <= physics_dt_s <= 0.002 + 1e-12:
-            raise ValueError(f"physics_dt_s: expected 0.001..0.002 s, found {physics_dt_s!r}")
+            raise HandSpecError(f"physics_dt_s: expected 0.001..0.002 s, found {physics_dt_s!r}")
         n_sub = round(control_dt_s / physics_dt_s)
         if n_sub < 1 or abs(n_sub * physics_dt_s - control_dt_s) > 1e-9:
-            raise ValueError(
+            raise HandSpecError(
                 f"control_dt_s: expected a whole multiple of physics_dt_s={physics_dt_s} s, "
                 f"found {control_dt_s!r}"
             )
         if not episode_s > 0:
-            raise ValueError(f"episode_s: expected a positive duration, found {episode_s!r}")
+            raise HandSpecError(f"episode_s: expected a positive duration, found {episode_s!r}")
         if render_mode not in (None, "rgb_array"):
-            raise ValueError(f"render_mode: expected None or 'rgb_array', found {render_mode!r}")
+            raise HandSpecError(f"render_mode: expected None or 'rgb_array', found {render_mode!r}")
         if not 0 <= position_jitter_m <= 0.01:
-            raise ValueError(
+            raise HandSpecError(
                 f"position_jitter_m: expected 0..0.01 m, found {position_jitter_m!r}"
             )
         self.control_dt_s = float(control_dt_s)
@@ -466,7 +467,7 @@ class GraspEnv(gym.Env):
             If no grasp forms or the target cannot be reached.
         """
         if not 0 < grip_force_n < 0.9 * self.motor.max_grip_force_n:
-            raise ValueError(
+            raise HandSpecError(
                 f"grip_force_n: expected 0..{0.9 * self.motor.max_grip_force_n:.0f} N, "
                 f"found {grip_force_n!r}"
             )
@@ -480,7 +481,7 @@ class GraspEnv(gym.Env):
             if c.thumb_contact and c.finger_contact:
                 break
         else:
-            raise RuntimeError("steady_grasp: the digits did not close on the object in 2 s")
+            raise GraspFailedError("steady_grasp: the digits did not close on the object in 2 s")
         obj = self.object_spec
         safe_u = 2.0 * obj.mass_kg * G_M_S2 / (2.0 * obj.friction) / self.motor.max_grip_force_n
         d.ctrl[ids.motor] = max(u, safe_u) if lifted else u
@@ -516,11 +517,11 @@ class GraspEnv(gym.Env):
             mujoco.mj_step(m, d, n)
             grip = read_contacts(m, d, ids, self._contacts).grip_force_n
             if grip <= 0:
-                raise RuntimeError(f"hold_grip: no thumb contact with command {u:.4f}")
+                raise GraspFailedError(f"hold_grip: no thumb contact with command {u:.4f}")
             if abs(grip - grip_force_n) <= tol * grip_force_n:
                 return u
             u = float(np.clip(u * grip_force_n / grip, -1.0, 1.0))
-        raise RuntimeError(
+        raise GraspFailedError(
             f"hold_grip: grip {grip:.3f} N after {max_iter} corrections, "
             f"expected {grip_force_n:.3f} N within {tol:.0%}"
         )

@@ -40,6 +40,7 @@ from typing import ClassVar
 import mujoco
 import numpy as np
 
+from sim.hand.errors import HandSpecError
 from sim.hand.objects import ObjectSpec
 
 HAND_XML = "hand.xml"
@@ -98,9 +99,10 @@ class MotorSpec:
                      "torque_constant_nm_a", "rotor_inertia_kg_m2"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"MotorSpec.{name}: expected a positive number, found {value!r}")
+                raise HandSpecError(
+                    f"MotorSpec.{name}: expected a positive number, found {value!r}")
         if not 0 < self.efficiency <= 1:
-            raise ValueError(
+            raise HandSpecError(
                 f"MotorSpec.efficiency: expected 0 < eta <= 1, found {self.efficiency}"
             )
 
@@ -176,17 +178,17 @@ class PadSpec:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.stiffness_n_m) and self.stiffness_n_m > 0):
-            raise ValueError(
+            raise HandSpecError(
                 f"PadSpec.stiffness_n_m: expected a positive stiffness in N/m, found "
                 f"{self.stiffness_n_m!r}"
             )
         if not (math.isfinite(self.damping_n_s_m) and self.damping_n_s_m >= 0):
-            raise ValueError(
+            raise HandSpecError(
                 f"PadSpec.damping_n_s_m: expected a damping >= 0 in N s/m, found "
                 f"{self.damping_n_s_m!r}"
             )
         if not (math.isfinite(self.travel_m) and 0 < self.travel_m <= 0.01):
-            raise ValueError(
+            raise HandSpecError(
                 f"PadSpec.travel_m: expected 0 < travel <= 0.01 m, found {self.travel_m!r}"
             )
 
@@ -249,7 +251,7 @@ def build_spec(obj: ObjectSpec, motor: MotorSpec | None = None,
     motor = motor or MotorSpec()
     pads = pads or PadSpec()
     if not 1e-4 <= timestep_s <= 0.005:
-        raise ValueError(f"timestep_s: expected 0.0001..0.005 s, found {timestep_s!r}")
+        raise HandSpecError(f"timestep_s: expected 0.0001..0.005 s, found {timestep_s!r}")
     xml = resources.files("sim.hand").joinpath("assets", HAND_XML).read_text()
     spec = mujoco.MjSpec.from_string(xml)
     spec.option.timestep = timestep_s
@@ -289,7 +291,7 @@ def _set_pads(spec: mujoco.MjSpec, pads: PadSpec, timestep_s: float) -> None:
         mass_kg = spec.geom(name).mass
         omega_dt = math.sqrt(stiffness / mass_kg) * timestep_s
         if omega_dt > 1.0:
-            raise ValueError(
+            raise HandSpecError(
                 f"PadSpec.stiffness_n_m: expected sqrt(k / m_pad) * dt <= 1 for a stable pad "
                 f"spring, found {omega_dt:.2f} on {name} (k = {stiffness} N/m, m_pad = "
                 f"{mass_kg} kg, dt = {timestep_s} s)"

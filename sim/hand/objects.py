@@ -19,6 +19,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from sim.errors import GriploopError
+
 SHAPES = ("sphere", "cylinder", "box")
 MASS_RANGE_KG = (0.02, 2.0)
 FRICTION_RANGE = (0.2, 1.5)
@@ -28,7 +30,7 @@ WIDTH_RANGE_M = (0.02, 0.12)
 HEIGHT_RANGE_M = (0.02, 0.25)
 
 
-class ObjectSpecError(ValueError):
+class ObjectSpecError(GriploopError, ValueError):
     """An object parameter is outside its valid range or of the wrong kind."""
 
 

@@ -22,11 +22,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import signal
 
+from sim.errors import GriploopError
+
 N_CHANNELS = 8
 INT8_MIN, INT8_MAX = -128, 127
 
 
-class ArmbandError(ValueError):
+class ArmbandError(GriploopError, ValueError):
     """Armband settings or inputs out of range."""
 
 

@@ -27,6 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sim.recording import RecordingError
+
 STAT_KEYS = ("rest_std_lsb", "active_rms_lsb", "median_frequency_hz", "adjacent_abs_r",
              "saturated_fraction", "flexor_extensor_ratio")
 
@@ -49,7 +51,7 @@ def _windows(n: int, fs_hz: float, window_ms: float, step_ms: float) -> np.ndarr
     win = int(round(window_ms * fs_hz / 1000.0))
     step = max(int(round(step_ms * fs_hz / 1000.0)), 1)
     if n < win:
-        raise ValueError(f"recording has {n} samples; expected at least one {window_ms} ms "
+        raise RecordingError(f"recording has {n} samples; expected at least one {window_ms} ms "
                          f"window ({win} samples)")
     starts = np.arange(0, n - win + 1, step)
     return starts[:, None] + np.arange(win)[None, :]
@@ -83,9 +85,9 @@ def emg_statistics(emg: np.ndarray, force_n: np.ndarray, fs_hz: float, *,
     x = np.asarray(emg)
     f = np.asarray(force_n, dtype=float)
     if x.ndim != 2 or x.shape[1] != 8:
-        raise ValueError(f"emg: expected shape (n_samples, 8), found {x.shape}")
+        raise RecordingError(f"emg: expected shape (n_samples, 8), found {x.shape}")
     if f.shape != (x.shape[0],):
-        raise ValueError(f"force_n: expected shape ({x.shape[0]},), found {f.shape}")
+        raise RecordingError(f"force_n: expected shape ({x.shape[0]},), found {f.shape}")
     saturated = float(np.mean((x <= -128) | (x >= 127)))
     x = x.astype(float)
     idx = _windows(x.shape[0], fs_hz, window_ms, step_ms)
@@ -96,7 +98,7 @@ def emg_statistics(emg: np.ndarray, force_n: np.ndarray, fs_hz: float, *,
     fw = f[idx].mean(axis=1)
     lo, hi = float(f.min()), float(f.max())
     if hi <= lo:
-        raise ValueError("force_n is constant; expected a recording with squeezes")
+        raise RecordingError("force_n is constant; expected a recording with squeezes")
     active = np.flatnonzero(fw >= lo + 0.7 * (hi - lo))
     flex = [c - 1 for c in FLEXOR_CHANNELS]
     ext = [c - 1 for c in EXTENSOR_CHANNELS]
@@ -123,7 +125,7 @@ def emg_statistics(emg: np.ndarray, force_n: np.ndarray, fs_hz: float, *,
 def recording_statistics(recording: object) -> dict[str, float]:
     """:func:`emg_statistics` of a :class:`~sim.recording.Recording` with measured force."""
     if recording.force_n is None:
-        raise ValueError(f"{recording.source}: no force column; active windows need the force")
+        raise RecordingError(f"{recording.source}: no force column; active windows need the force")
     return emg_statistics(recording.emg, recording.force_n, recording.fs_hz)
 
 

@@ -24,12 +24,14 @@ from typing import Any
 
 import numpy as np
 
+from sim.errors import GriploopError
+
 NOMINAL_R_REF_OHM = 1e3
 REFERENCE_FORCE_N = 10.0
 NOMINAL_ALPHA = 1.0
 
 
-class FSRError(ValueError):
+class FSRError(GriploopError, ValueError):
     """FSR settings or force input out of range."""
 
 

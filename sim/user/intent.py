@@ -20,8 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim.errors import GriploopError
 
-class ProfileError(ValueError):
+
+class ProfileError(GriploopError, ValueError):
     """An intent profile was asked for with impossible timing or levels."""
 
 

@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 from scipy import signal
 
+from sim.errors import GriploopError
 from sim.user.armband import FrontEnd
 from sim.user.emg import MuscleSignals
 from sim.user.emg_noise import fatigue_profile
@@ -48,7 +49,7 @@ _N_BASIS_WIDTHS = 4
 _MIN_ISI_FRACTION = 0.3  # shortest jittered interval, as a fraction of the mean
 
 
-class MotorUnitError(ValueError):
+class MotorUnitError(GriploopError, ValueError):
     """Motor-unit pool settings are out of range."""
 
 

@@ -19,6 +19,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 from scipy import signal
 
+from sim.errors import GriploopError
+
 MUSCLES = (
     "pronator_teres",
     "brachioradialis",
@@ -38,7 +40,7 @@ MUSCLE_ROLES = ("other", "other", "extensor", "extensor", "extensor", "flexor", 
 N_MUSCLES = len(MUSCLES)
 
 
-class MuscleParamsError(ValueError):
+class MuscleParamsError(GriploopError, ValueError):
     """Per-muscle parameters have the wrong length or an out-of-range value."""
 
 

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from sim.errors import GriploopError
 from sim.recording import Recording
 from sim.user.armband import Armband
 from sim.user.emg import EmgGenerator
@@ -63,7 +64,7 @@ _MUAP_WIDTH_MS = (1.4, 1.7)
 _MUAP_EXPONENT_FIT = (0.16, 0.77)
 
 
-class UnknownGeneratorError(LookupError):
+class UnknownGeneratorError(GriploopError, LookupError):
     """A generator name that is not one of :data:`GENERATORS`."""
 
 

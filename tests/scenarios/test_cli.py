@@ -58,7 +58,8 @@ def test_top_level_help_is_fast_and_imports_no_command() -> None:
             "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
             "print(time.perf_counter() - t, file=sys.stderr)\n"
             "heavy = [m for m in ('numpy', 'scenarios.cli.commands.sweep', 'mujoco', "
-            "'matplotlib.pyplot', 'sim') if m in sys.modules]\n"
+            "'matplotlib.pyplot', 'sim.hand', 'sim.user', 'control', 'gymnasium') "
+            "if m in sys.modules]\n"
             "assert not heavy, heavy\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True)
@@ -121,3 +122,43 @@ def test_sigterm_in_a_command_exits_143(monkeypatch, capsys) -> None:
     assert main(["export", "x.sqlite"]) == 143
     assert "stopped by SIGTERM" in capsys.readouterr().err
 
+
+
+def test_a_bug_is_not_reported_as_a_user_error(monkeypatch, capsys):
+    """A plain ValueError from inside (a bug, or numpy) is an internal error, exit 1."""
+    import scenarios.cli.commands.subjects as subjects
+
+    def broken(args):
+        raise ValueError("operands could not be broadcast together")
+
+    monkeypatch.setattr(subjects, "run", broken)
+    monkeypatch.delenv("GRIPLOOP_TRACEBACK", raising=False)
+    assert main(["subjects", "--n", "1", "--out", "unused"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "internal error: ValueError: operands" in err[0]
+    assert "GRIPLOOP_TRACEBACK=1" in err[0] and "test_cli.py:" in err[0]
+
+
+def test_every_deliberate_error_has_the_common_base():
+    """Each error class griploop defines subclasses GriploopError and a built-in."""
+    import importlib
+    import pkgutil
+
+    from sim.errors import GriploopError
+
+    found = []
+    for package in ("sim", "estimation", "controllers", "scenarios"):
+        root = importlib.import_module(package)
+        for info in pkgutil.walk_packages(root.__path__, package + "."):
+            if info.name.endswith(("__main__", "render_snapshot")):
+                continue
+            module = importlib.import_module(info.name)
+            for obj in vars(module).values():
+                if (isinstance(obj, type) and issubclass(obj, Exception)
+                        and obj.__module__ == info.name and obj.__name__.endswith("Error")):
+                    found.append(obj)
+    assert len(found) >= 25
+    for cls in found:
+        assert issubclass(cls, GriploopError), cls
+        assert any(b in cls.__mro__ for b in (ValueError, LookupError, RuntimeError, OSError)
+                   ) or cls is GriploopError, cls

@@ -99,15 +99,15 @@ def test_names_match_the_project():
 def test_object_and_subject_vocabulary_matches_sim():
     sim_objects = pytest.importorskip("sim.hand.objects")
     sim_subjects = pytest.importorskip("sim.user.subjects")
-    from scenarios.schema import ObjectSpec, SubjectSpec
+    from scenarios.schema import ObjectConfig, SubjectConfig
 
     assert set(OBJECTS) == set(sim_objects.LIBRARY)
     assert set(sim_objects.SHAPES) == {"sphere", "cylinder", "box"}
-    mass = ObjectSpec.model_fields["mass_kg"].metadata
-    friction = ObjectSpec.model_fields["friction"].metadata
+    mass = ObjectConfig.model_fields["mass_kg"].metadata
+    friction = ObjectConfig.model_fields["friction"].metadata
     assert (mass[0].ge, mass[1].le) == sim_objects.MASS_RANGE_KG
     assert (friction[0].ge, friction[1].le) == sim_objects.FRICTION_RANGE
-    generator = SubjectSpec.model_fields["generator"].annotation
+    generator = SubjectConfig.model_fields["generator"].annotation
     assert set(typing.get_args(generator)) == set(sim_subjects.GENERATORS)
 
 

@@ -13,7 +13,7 @@ from gymnasium.utils.env_checker import check_env
 import sim  # noqa: E402, F401  (registers the environment)
 from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.recording import Recording
-from sim.references import ReferenceError, StreamReference
+from sim.references import ReferenceSignalError, StreamReference
 
 
 def _p_controller(obs: np.ndarray, gain: float = 0.008, bias: float = 0.12) -> np.ndarray:
@@ -186,7 +186,7 @@ def test_reference_kinds() -> None:
     obs, *_ = env.step(np.zeros(1, dtype=np.float32))
     assert obs[0] == pytest.approx(7.5)
 
-    with pytest.raises(ReferenceError, match="reference"):
+    with pytest.raises(ReferenceSignalError, match="reference"):
         env.reset(options={"reference": "ten newtons"})
 
 
@@ -207,13 +207,13 @@ def test_constructor_validates() -> None:
 def test_reference_inputs_are_validated_at_the_boundary() -> None:
     from sim.references import ProfileReference, as_reference
 
-    with pytest.raises(ReferenceError, match="non-empty 1-D"):
+    with pytest.raises(ReferenceSignalError, match="non-empty 1-D"):
         as_reference(np.zeros((3, 2)), 0.01)
-    with pytest.raises(ReferenceError, match=">= 0 N"):
+    with pytest.raises(ReferenceSignalError, match=">= 0 N"):
         as_reference([1.0, -2.0], 0.01)
-    with pytest.raises(ReferenceError, match="no force_n"):
+    with pytest.raises(ReferenceSignalError, match="no force_n"):
         as_reference(Recording(emg=np.zeros((5, 8), np.int8), fs_hz=200.0), 0.01)
-    with pytest.raises(ReferenceError, match="pushed reference"):
+    with pytest.raises(ReferenceSignalError, match="pushed reference"):
         StreamReference().push(float("nan"))
     ref = ProfileReference(np.array([1.0, 2.0, 3.0]), 0.1)
     assert [ref.value(t) for t in (0.0, 0.1, 0.25, 9.0)] == [1.0, 2.0, 3.0, 3.0]

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from controllers.design_plant import object_for
 from scenarios.cli.commands.episode import ESTIMATOR_CHOICES
+from scenarios.cli.errors import UnknownChoiceError, UsageError
 from scenarios.runners.compare import DEFAULT_REFERENCES, compare_references, format_comparison
 
 
@@ -42,12 +43,12 @@ def run(args: argparse.Namespace) -> int:
     names = [n.strip() for n in args.estimators.split(",") if n.strip()]
     unknown = [n for n in names if n not in ESTIMATOR_CHOICES]
     if unknown or not names:
-        raise LookupError(f"--estimators: unknown {unknown or names}; expected names from "
+        raise UnknownChoiceError(f"--estimators: unknown {unknown or names}; expected names from "
                           f"{', '.join(ESTIMATOR_CHOICES)}")
     if args.mode not in ("free_run", "one_step"):
-        raise ValueError(f"--mode: expected free_run or one_step, found {args.mode!r}")
+        raise UsageError(f"--mode: expected free_run or one_step, found {args.mode!r}")
     if args.subjects < 1:
-        raise ValueError(f"--subjects: expected at least 1, found {args.subjects}")
+        raise UsageError(f"--subjects: expected at least 1, found {args.subjects}")
     obj = object_for(args.object, mass_kg=args.mass_kg, friction=args.friction)
     result = compare_references(obj, estimators=names, mode=args.mode,
                                 controller=args.controller,

@@ -12,6 +12,7 @@ import numpy as np
 from controllers.design import worst_case
 from estimation.registry import ESTIMATOR_NAMES
 from scenarios.cli.commands.margins import format_table
+from scenarios.cli.errors import UsageError
 from scenarios.runners.episode import ORACLE, episode_from_scenario
 from scenarios.runners.video import write_video
 from scenarios.schema import parse_scenario
@@ -74,7 +75,7 @@ def scenario_from_args(args: argparse.Namespace) -> Any:
 def run(args: argparse.Namespace) -> int:
     """Run ``griploop episode``; returns the exit status."""
     if args.video is not None and args.video.suffix.lower() != ".gif":
-        raise ValueError(f"--video: expected a .gif file, found {args.video.name!r}")
+        raise UsageError(f"--video: expected a .gif file, found {args.video.name!r}")
     scenario = scenario_from_args(args)
     result = episode_from_scenario(scenario, record_frames=args.video is not None)
     row, design = result.row, result.design

@@ -28,6 +28,7 @@ from controllers.design import (
 from controllers.design_plant import object_for
 from controllers.figures import margins_over_force_figure, save_loop_figures
 from controllers.registry import CONTROLLER_NAMES
+from scenarios.cli.errors import UnknownChoiceError, UsageError
 
 
 def parse_forces(text: str) -> list[float]:
@@ -35,10 +36,10 @@ def parse_forces(text: str) -> list[float]:
     try:
         forces = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        raise ValueError(
+        raise UsageError(
             f"--at-force: expected comma-separated forces in N, found {text!r}") from None
     if not forces or not all(np.isfinite(forces)):
-        raise ValueError(f"--at-force: expected comma-separated forces in N, found {text!r}")
+        raise UsageError(f"--at-force: expected comma-separated forces in N, found {text!r}")
     return forces
 
 
@@ -62,14 +63,14 @@ def add_design_options(p: argparse.ArgumentParser) -> None:
 def design_from_args(args: argparse.Namespace) -> ControllerDesign:
     """The design the shared options describe (library defaults where none are given)."""
     if args.controller not in CONTROLLER_NAMES:
-        raise LookupError(
+        raise UnknownChoiceError(
             f"--controller: expected one of {list(CONTROLLER_NAMES)}, found {args.controller!r}"
         )
     spec = dict(DEFAULT_SPECS[args.controller])
     shaping = {"phase_margin_deg": args.phase_margin_deg, "crossover_rad_s": args.crossover_rad_s}
     given = {k: v for k, v in shaping.items() if v is not None}
     if args.controller == "mpc" and given:
-        raise ValueError(
+        raise UsageError(
             f"mpc is specified by horizon and weights, found loop-shaping options {sorted(given)}"
         )
     spec.update(given)

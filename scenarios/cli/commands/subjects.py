@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from scenarios.cli.errors import UsageError
 from sim.user.subjects import GENERATORS, make_population
 
 
@@ -38,9 +39,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
     if args.n < 1:
-        raise ValueError(f"--n must be at least 1, found {args.n}")
+        raise UsageError(f"--n must be at least 1, found {args.n}")
     if args.seed < 0:
-        raise ValueError(f"--seed must be non-negative, found {args.seed}")
+        raise UsageError(f"--seed must be non-negative, found {args.seed}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for subject in make_population(args.n, args.seed):

@@ -9,7 +9,7 @@ from pathlib import Path
 from scenarios.execution.sweep import DEFAULT_TASK, SweepError, count_pending, iter_plan, run_sweep
 from scenarios.schema import (
     DEFAULT_MAX_SCENARIOS,
-    SweepSpec,
+    SweepConfig,
     check_size,
     design_size,
     iter_expanded,
@@ -133,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _dry_run(args: argparse.Namespace, spec: SweepSpec, cap: int | None) -> int:
+def _dry_run(args: argparse.Namespace, spec: SweepConfig, cap: int | None) -> int:
     """Print the design's size (counted, not expanded) and, for a runnable size, what is pending."""
     total = design_size(spec)
     if cap is not None and total > cap:
