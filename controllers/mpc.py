@@ -1,4 +1,4 @@
-"""Slip-aware linear MPC of grip force, solved as a QP through CasADi (``qpsol``).
+"""Slip-aware linear MPC of grip force, a condensed QP solved by DAQP (or osqp/proxqp).
 
 Prediction model: the sampled plant with its computation delay, augmented
 with a constant output disturbance ``d`` (offset-free tracking)::
@@ -13,7 +13,15 @@ subject to ``u_min <= u_k <= u_max``, ``|u_k - u_{k-1}| <= du_max`` (hard) and
 ``f_min - s_lo <= y_k <= f_max + s_hi``, ``s >= 0`` (soft, exact L1 penalty: the
 hard-bound solution whenever one exists), for the outputs ``y_k`` the first move
 can still change (those fixed by the delay are not constrained). The problem is
-condensed (``Y = Phi x0 + Gamma U``) and warm-started with the shifted plan.
+condensed (``Y = Phi x0 + Gamma U``) once per design (:class:`controllers.qp.CondensedQP`:
+the Hessian and constraint matrices are constant, the linear term and the bounds
+affine in the state, previous command, reference and force bounds).
+
+Solvers (``solver=``): ``"daqp"`` (default) first tries the unconstrained law
+``U* = K p`` and keeps it when it meets every constraint (it is then the QP's
+solution exactly), and otherwise calls DAQP directly, warm-started from the
+previous step's working set; ``"osqp"`` and ``"proxqp"`` solve the same QP
+through ``casadi.conic``, warm-started with the shifted plan (the reference).
 ``f_min`` is the slip bound (active while the reference asks to hold, ``r > 0``):
 by default sensed online (:class:`controllers.bounds.SensedSlipBound`: the
 load the digits carry and the slips felt, never the object's true mass or
@@ -33,7 +41,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-import casadi as ca
 import control
 import numpy as np
 
@@ -43,9 +50,20 @@ from controllers.bounds import ForceBounds, SensedSlipBound
 from controllers.errors import PlantError, SpecificationError
 from controllers.pid import _plant_dt
 from controllers.plant import check_plant, frequency_response, loop_plant
+from controllers.qp import (
+    FEASIBILITY_TOL,
+    CasadiSolver,
+    CondensedQP,
+    DaqpSolver,
+    make_solver,
+    prediction_matrices,
+)
 from controllers.report import DesignReport
 
-QP_SOLVERS = ("osqp", "qrqp", "proxqp")
+#: Selectable QP solvers: DAQP called directly (with the unconstrained fast path), or
+#: osqp / proxqp through ``casadi.conic``. (qrqp was dropped: it failed 672 of 2000
+#: closed-loop solves of this QP.)
+QP_SOLVERS = ("daqp", "osqp", "proxqp")
 _SLACK_TOL_N = 1e-3
 
 
@@ -70,6 +88,8 @@ class MPCStats:
         Solves that failed and used the fallback.
     n_softened : int
         Successful solves whose force bounds could not be met (slack above 1e-3 N).
+    n_fast : int
+        Solves answered by the unconstrained law (it met every constraint; daqp only).
     solve_times_s : list of float
         Wall time of every solve in seconds.
     fallbacks : list of FallbackEvent
@@ -78,19 +98,9 @@ class MPCStats:
     n_solves: int = 0
     n_failures: int = 0
     n_softened: int = 0
+    n_fast: int = 0
     solve_times_s: list[float] = field(default_factory=list)
     fallbacks: list[FallbackEvent] = field(default_factory=list)
-
-
-def _solver_options(solver: str) -> dict[str, Any]:
-    common: dict[str, Any] = {"error_on_fail": False}  # failures are read from stats()
-    if solver == "osqp":
-        return {**common, "warm_start_primal": True,
-                "osqp": {"verbose": False, "eps_abs": 1e-6, "eps_rel": 1e-6, "polish": True,
-                         "max_iter": 4000}}
-    if solver == "qrqp":
-        return {**common, "print_iter": False, "print_header": False, "print_info": False}
-    return {**common, "proxqp": {"eps_abs": 1e-7}}
 
 
 class MPC:
@@ -113,8 +123,9 @@ class MPC:
         Command amplitude limits.
     du_max : float
         Largest command change per control period.
-    solver : {"osqp", "qrqp", "proxqp"}
-        CasADi conic plugin.
+    solver : {"daqp", "osqp", "proxqp"}
+        QP solver: DAQP called directly after the unconstrained fast path
+        (default), or osqp / proxqp through ``casadi.conic`` (reference).
     computation_delay_samples : int
         Whole samples between measurement and actuation (part of the model).
     input_noise_std, disturbance_std_n, measurement_noise_std_n : float
@@ -140,7 +151,7 @@ class MPC:
         force_bounds: ForceBounds | None = None,
         u_limits: tuple[float, float] = COMMAND_LIMITS,
         du_max: float = 0.25,
-        solver: str = "osqp",
+        solver: str = "daqp",
         computation_delay_samples: int = 1,
         input_noise_std: float = 0.02,
         disturbance_std_n: float = 0.5,
@@ -193,25 +204,15 @@ class MPC:
         self.filter_gain_ = (pc / (self.C_ @ pc + rn)).ravel()
 
         self._build_unconstrained_law()
-        self._qp: Any = None  # built at the first solve: analysis needs only the law
+        # built at the first solve: analysis needs only the law
+        self._qp: DaqpSolver | CasadiSolver | None = None
         self.report_: DesignReport | None = None
         self.reset()
 
     # -- unconstrained law -------------------------------------------------
     def _prediction_matrices(self) -> tuple[np.ndarray, np.ndarray]:
         """``Y = Phi x0 + Gamma U`` for outputs y_1..y_N, shapes (N, nx) and (N, N)."""
-        n_h, nx = self.horizon, self.A_.shape[0]
-        phi = np.zeros((n_h, nx))
-        gamma = np.zeros((n_h, n_h))
-        a_pow = np.eye(nx)
-        markov = []
-        for k in range(n_h):
-            markov.append((self.C_ @ a_pow @ self.B_).item())
-            a_pow = self.A_ @ a_pow
-            phi[k] = (self.C_ @ a_pow).ravel()
-        for k in range(n_h):
-            gamma[k, : k + 1] = markov[k::-1]
-        return phi, gamma
+        return prediction_matrices(self.A_, self.B_, self.C_, self.horizon)
 
     def _build_unconstrained_law(self) -> None:
         n_h = self.horizon
@@ -232,47 +233,13 @@ class MPC:
 
     # -- QP ----------------------------------------------------------------
     def _build_qp(self) -> None:
-        """Condensed QP in the moves only (``Y = Phi x0 + Gamma U`` substituted).
-
-        Built with :func:`casadi.qpsol` rather than ``Opti.to_function``: the
-        latter hides the solver status (its ``stats()`` are unavailable), and
-        with ``error_on_fail`` it dumps the whole problem to the C++ stderr.
-        """
-        n_h, nx = self.horizon, self.A_.shape[0]
-        phi, gamma = self._prediction_matrices()
-        # outputs the first move can still change: skip the samples fixed by the delay
-        affected = np.nonzero(np.abs(gamma[:, 0]) > 1e-12 * np.abs(gamma).max())[0]
-        self.first_constrained_step_ = int(affected[0]) + 1 if affected.size else 1
-        u = ca.MX.sym("u", n_h)
-        s_lo = ca.MX.sym("s_lo")
-        s_hi = ca.MX.sym("s_hi")
-        x0 = ca.MX.sym("x0", nx)
-        u_prev = ca.MX.sym("u_prev")
-        ref = ca.MX.sym("ref")
-        y = ca.DM(phi) @ x0 + ca.DM(gamma) @ u
-        y_con = y[self.first_constrained_step_ - 1 :]
-        moves = u - ca.vertcat(u_prev, u[:-1])
-        cost = self.q_ * ca.sumsqr(y - ref) + self.rho_ * ca.sumsqr(moves)
-        cost += self.slack_weight * (s_lo + s_hi + s_lo**2 + s_hi**2)
-        n_con = y_con.shape[0]
-        self._qp = ca.qpsol(
-            "grip_mpc",
-            self.solver,
-            {
-                "x": ca.vertcat(u, s_lo, s_hi),
-                "p": ca.vertcat(x0, u_prev, ref),
-                "f": cost,
-                "g": ca.vertcat(moves, y_con + s_lo, y_con - s_hi),
-            },
-            _solver_options(self.solver),
-        )
-        self._lbx = np.concatenate([np.full(n_h, self.u_limits[0]), [0.0, 0.0]])
-        self._ubx = np.concatenate([np.full(n_h, self.u_limits[1]), [np.inf, np.inf]])
-        # force-bound rows get their bounds per solve (infinite when inactive)
-        self._lbg = np.concatenate([np.full(n_h, -self.du_max), np.full(2 * n_con, -np.inf)])
-        self._ubg = np.concatenate([np.full(n_h, self.du_max), np.full(2 * n_con, np.inf)])
-        self._lower_rows = slice(n_h, n_h + n_con)
-        self._upper_rows = slice(n_h + n_con, n_h + 2 * n_con)
+        """Condense the QP (:class:`controllers.qp.CondensedQP`) and set up its solver."""
+        self.qp_ = CondensedQP(self.A_, self.B_, self.C_, horizon=self.horizon, q=self.q_,
+                               rho=self.rho_, slack_weight=self.slack_weight,
+                               u_limits=self.u_limits, du_max=self.du_max)
+        self.first_constrained_step_ = self.qp_.first_constrained_step
+        self._qp = make_solver(self.qp_, self.solver)
+        self._params = np.zeros(self.A_.shape[0] + 2)
 
     # -- controller interface ----------------------------------------------
     def reset(self, u0: float = 0.0) -> None:
@@ -341,25 +308,31 @@ class MPC:
         f_lo, f_hi = self.bounds_for(reference_n)
         ref = float(np.clip(reference_n, f_lo, f_hi))
         self.last_reference_n = ref
-        self._lbg[self._lower_rows] = f_lo
-        self._ubg[self._upper_rows] = f_hi
         self.stats_.n_solves += 1
         start = time.perf_counter()
         reason = ""
-        params = np.concatenate([state, [self.last_u, ref]])
-        guess = np.concatenate([self._u_guess, [0.0, 0.0]])
+        params = self._params
+        nx = params.size - 2
+        params[:nx] = state
+        params[nx] = self.last_u
+        params[nx + 1] = ref
+        z: np.ndarray | None = None
         if not np.all(np.isfinite(params)):
             reason = "non-finite state estimate or reference"
         else:
-            sol = self._qp(x0=guess, p=params, lbx=self._lbx, ubx=self._ubx,
-                           lbg=self._lbg, ubg=self._ubg)
-            stats = self._qp.stats()
-            z = np.asarray(sol["x"], float).ravel()
+            if self.solver == "daqp":
+                z = self.qp_.unconstrained_if_feasible(params, f_lo, f_hi)
+            if z is not None:
+                self.stats_.n_fast += 1
+            else:
+                data = self.qp_.data(params, f_lo, f_hi)
+                guess = np.r_[self._u_guess, 0.0, 0.0]
+                z, reason = self._qp.solve(data, guess)
+                if not reason and not np.all(np.isfinite(z)):
+                    reason = f"{self.solver}: non-finite solution"
+                elif not reason and self.qp_.violation(z, data) > FEASIBILITY_TOL:
+                    reason = f"{self.solver}: returned an infeasible point"
             u_opt, s_lo, s_hi = z[: self.horizon], z[-2], z[-1]
-            if not stats.get("success", False):
-                reason = f"{self.solver}: {stats.get('return_status', 'failed')}"
-            elif not np.all(np.isfinite(z)):
-                reason = f"{self.solver}: non-finite solution"
         self.stats_.solve_times_s.append(time.perf_counter() - start)
         if reason:
             u = self._fallback(state, ref)
@@ -428,6 +401,15 @@ class MPC:
         )
 
 
+def solver_note(solver: str) -> str:
+    """One line naming how the MPC's QP is solved (for design reports)."""
+    if solver == "daqp":
+        return ("QP: condensed once per design, solved each step by the unconstrained law when "
+                "it meets every constraint, else by DAQP (dual active set, called directly, "
+                "warm-started from the last working set)")
+    return f"QP: condensed once per design, solved each step by {solver} through casadi.conic"
+
+
 def design_mpc(plant: control.LTI, **kwargs: Any) -> MPC:
     """Build an :class:`MPC` and attach a design report with its unconstrained loop's margins.
 
@@ -452,6 +434,7 @@ def design_mpc(plant: control.LTI, **kwargs: Any) -> MPC:
                     "gain_previous": controller.gain_previous_, "dt_s": controller.dt_s},
         plant=controller.plant_report_,
         margins=margins,
-        notes=["margins are those of the unconstrained law with its Kalman filter"],
+        notes=["margins are those of the unconstrained law with its Kalman filter",
+               solver_note(controller.solver)],
     )
     return controller

@@ -74,27 +74,27 @@ def test_failed_solve_falls_back_and_is_recorded(plant):
     assert u == event.action == u_prev  # undefined law: hold the last command
 
 
-def test_solver_failure_is_detected(plant):
-    mpc = MPC(plant, solver="osqp")
+@pytest.mark.parametrize("solver", ["daqp", "osqp"])
+def test_solver_failure_is_detected(plant, solver):
+    mpc = MPC(plant, solver=solver)
     mpc._build_qp()  # built lazily at the first solve otherwise
     mpc._qp = _failing(mpc._qp)
+    mpc.qp_.unconstrained_if_feasible = lambda *a: None  # force the solver (daqp's fast path)
     u = mpc.act({"time_s": 0.0, "reference_n": 5.0, "grip_force_n": 0.0})
     assert mpc.stats_.n_failures == 1
-    assert "osqp" in mpc.stats_.fallbacks[0].reason
+    assert solver in mpc.stats_.fallbacks[0].reason
     assert abs(u) <= mpc.du_max  # the fallback obeys the rate limit from u = 0
 
 
 class _failing:
-    """Wraps a qpsol Function and reports failure in its stats."""
+    """Wraps a QP solver and reports failure (the solution it returned is discarded)."""
 
-    def __init__(self, fn):
-        self.fn = fn
+    def __init__(self, solver):
+        self.solver = solver
 
-    def __call__(self, **kw):
-        return self.fn(**kw)
-
-    def stats(self):
-        return {"success": False, "return_status": "forced failure"}
+    def solve(self, data, guess=None):
+        z, _ = self.solver.solve(data, guess)
+        return z, f"{self.solver.name}: forced failure"
 
 
 def test_loop_margins_of_unconstrained_law_match_sweep(plant):
@@ -126,5 +126,5 @@ def test_deterministic(plant):
 
 
 def test_unknown_solver_lists_valid():
-    with pytest.raises(SpecificationError, match=r"valid: \['osqp', 'qrqp', 'proxqp'\]"):
+    with pytest.raises(SpecificationError, match=r"valid: \['daqp', 'osqp', 'proxqp'\]"):
         MPC(control.tf([1.0], [1.0, -0.5], DT_S), solver="ipopt")
