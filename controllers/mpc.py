@@ -37,7 +37,7 @@ recorded in :attr:`MPC.stats_`.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -207,6 +207,8 @@ class MPC:
         # built at the first solve: analysis needs only the law
         self._qp: DaqpSolver | CasadiSolver | None = None
         self.report_: DesignReport | None = None
+        # the predicted state, always written in place: an ObserverBank may hold it as a view
+        self._xp = np.zeros(self.A_.shape[0])
         self.reset()
 
     # -- unconstrained law -------------------------------------------------
@@ -241,10 +243,19 @@ class MPC:
         self._qp = make_solver(self.qp_, self.solver)
         self._params = np.zeros(self.A_.shape[0] + 2)
 
+    def __getstate__(self) -> dict[str, Any]:
+        """State for copy/pickle without the solver (DAQP's workspace cannot be copied).
+
+        The solver is set up again at the next solve (a cold start).
+        """
+        state = self.__dict__.copy()
+        state["_qp"] = None
+        return state
+
     # -- controller interface ----------------------------------------------
     def reset(self, u0: float = 0.0) -> None:
         """Zero the state estimate and the plan; the previous command is ``u0``."""
-        self._xp = np.zeros(self.A_.shape[0])
+        self._xp[:] = 0.0
         self.last_u = float(np.clip(u0, *self.u_limits))
         self._u_guess = np.full(self.horizon, self.last_u)
         self.stats_ = MPCStats()
@@ -266,7 +277,8 @@ class MPC:
         n = self.A_.shape[0] - 1
         a, b, c = self.A_[:n, :n], self.B_[:n, 0], self.C_[0, :n]
         x = np.linalg.solve(np.eye(n) - a, b * u) if n else np.zeros(0)
-        self._xp = np.concatenate([x, [obs.grip_force_n - float(c @ x)]])
+        self._xp[:n] = x
+        self._xp[n] = obs.grip_force_n - float(c @ x)
         self.last_u = u
         self._u_guess = np.full(self.horizon, u)
 
@@ -370,9 +382,14 @@ class MPC:
             u = self.solve(x_filt, obs.reference_n, time_s=obs.time_s)
         else:
             u = applied_u
-        self._xp = self.A_ @ x_filt + self.B_.ravel() * u
+        self._xp[:] = self.A_ @ x_filt + self.B_.ravel() * u
         self.last_u = u
         return u
+
+    @staticmethod
+    def observer_bank(designs: Sequence[Any]) -> ObserverBank | None:
+        """An :class:`ObserverBank` over ``designs`` if they can be batched, else ``None``."""
+        return ObserverBank.for_designs(designs)
 
     # -- analysis ----------------------------------------------------------
     def feedback_law(self) -> control.StateSpace:
@@ -399,6 +416,83 @@ class MPC:
         return self.feedback_law() * loop_plant(
             plant, self.dt_s, computation_delay_samples=self.computation_delay_samples
         )
+
+
+class ObserverBank:
+    """The Kalman filters of a bank of MPC designs, updated in one numpy operation.
+
+    A gain-scheduled MPC keeps every banked design's filter conditioned on the
+    applied command (:meth:`MPC.track`), so that any of them takes over
+    converged. Doing that design by design costs about 5 us each (20 designs:
+    0.1 ms a step); here the predicted states of all designs are the rows of one
+    array, shape (n_designs, nx), and each design's ``_xp`` is a view of its row,
+    so one batched update serves all of them and a design that takes over
+    simply continues from its row. For design ``i``::
+
+        e_i  = y - C_i xp_i
+        xp_i = A_i (xp_i + L_i e_i) + B_i clip(u)
+
+    which is :meth:`MPC.track` exactly (same operations, batched).
+
+    Parameters
+    ----------
+    designs : sequence of MPC
+        Same state dimension and command limits.
+    """
+
+    def __init__(self, designs: Sequence[MPC]) -> None:
+        self.designs = list(designs)
+        self.A = np.stack([d.A_ for d in self.designs])  # (k, nx, nx)
+        self.B = np.stack([d.B_.ravel() for d in self.designs])  # (k, nx)
+        self.C = np.stack([d.C_.ravel() for d in self.designs])  # (k, nx)
+        self.L = np.stack([d.filter_gain_ for d in self.designs])  # (k, nx)
+        self.u_limits = self.designs[0].u_limits
+        self.states = np.zeros_like(self.B)
+        self.bind()
+
+    @classmethod
+    def for_designs(cls, designs: Sequence[Any]) -> ObserverBank | None:
+        """A bank if every design is an MPC of one state size and one set of limits."""
+        if not designs or not all(isinstance(d, MPC) for d in designs):
+            return None
+        first = designs[0]
+        if any(d.A_.shape != first.A_.shape or d.u_limits != first.u_limits for d in designs):
+            return None
+        return cls(designs)
+
+    def bind(self) -> None:
+        """Make each design's state a view of its row (after a copy or unpickling broke it)."""
+        self.states = np.stack([d._xp for d in self.designs])
+        for j, d in enumerate(self.designs):
+            d._xp = self.states[j]
+
+    def track(self, grip_force_n: float, applied_u: float, *, skip: int | None = None) -> None:
+        """Update every design's filter with the measured force and the applied command.
+
+        Parameters
+        ----------
+        grip_force_n : float
+            Measured grip force, N.
+        applied_u : float
+            The command applied this step (clipped into the designs' limits).
+        skip : int, optional
+            A design left untouched (the active one, which updated itself in ``act``).
+        """
+        states = self.states
+        if any(d._xp.base is not states for d in self.designs):
+            self.bind()
+            states = self.states
+        u = min(max(float(applied_u), self.u_limits[0]), self.u_limits[1])
+        kept = states[skip].copy() if skip is not None else None
+        innovation = grip_force_n - np.einsum("ij,ij->i", self.C, states)
+        filtered = states + self.L * innovation[:, None]
+        np.einsum("ijk,ik->ij", self.A, filtered, out=states)
+        states += self.B * u
+        if kept is not None:
+            states[skip] = kept
+        for j, d in enumerate(self.designs):
+            if j != skip:
+                d.last_u = u
 
 
 def solver_note(solver: str) -> str:

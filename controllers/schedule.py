@@ -128,6 +128,10 @@ class ScheduledController:
             self._gains = [(d.kp, d.ki_per_s, d.kd_s) for d in self.designs]
             self._runner = copy.deepcopy(self.designs[0])
         self._alpha = min(1.0, self.dt_s / self.release_s)
+        # designs that can batch their tracking (the MPC's Kalman filters) do it in one step
+        make_bank = getattr(self.designs[0], "observer_bank", None)
+        self._bank = (make_bank(self.designs)
+                      if blend == "switch" and warm == "all" and make_bank else None)
         self.reset()
 
     # ------------------------------------------------------------------ schedule
@@ -193,11 +197,13 @@ class ScheduledController:
         if self.blend != "switch":
             return
         warm = self._neighbours()
+        if self._bank is not None:  # all inactive designs track in one batched update
+            self._bank.track(obs.grip_force_n, u, skip=self.index)
         for j in warm:
-            if j in self._warm:
-                self.designs[j].track(obs, u)
-            else:
+            if j not in self._warm:
                 self.designs[j].handover(obs, u)
+            elif self._bank is None:
+                self.designs[j].track(obs, u)
         self._warm = frozenset(warm)
 
     # ------------------------------------------------------------------ interface
