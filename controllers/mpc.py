@@ -425,9 +425,12 @@ class ObserverBank:
     applied command (:meth:`MPC.track`), so that any of them takes over
     converged. Doing that design by design costs about 5 us each (20 designs:
     0.1 ms a step); here the predicted states of all designs are the rows of one
-    array, shape (n_designs, nx), and each design's ``_xp`` is a view of its row,
-    so one batched update serves all of them and a design that takes over
-    simply continues from its row. For design ``i``::
+    array, shape (n_designs, nx_max), and each design's ``_xp`` is a view of
+    its row's first ``nx_i`` entries, so one batched update serves all of them
+    and a design that takes over simply continues from its row. Designs of
+    fewer states (the plant's order changes over force) are padded with zero
+    rows and columns of ``A_i`` and zero ``B_i, C_i, L_i``: the padding states
+    stay zero and do not touch the others. For design ``i``::
 
         e_i  = y - C_i xp_i
         xp_i = A_i (xp_i + L_i e_i) + B_i clip(u)
@@ -437,34 +440,40 @@ class ObserverBank:
     Parameters
     ----------
     designs : sequence of MPC
-        Same state dimension and command limits.
+        Same command limits.
     """
 
     def __init__(self, designs: Sequence[MPC]) -> None:
         self.designs = list(designs)
-        self.A = np.stack([d.A_ for d in self.designs])  # (k, nx, nx)
-        self.B = np.stack([d.B_.ravel() for d in self.designs])  # (k, nx)
-        self.C = np.stack([d.C_.ravel() for d in self.designs])  # (k, nx)
-        self.L = np.stack([d.filter_gain_ for d in self.designs])  # (k, nx)
+        self.sizes = [d.A_.shape[0] for d in self.designs]
+        k, nx = len(self.designs), max(self.sizes)
+        self.A = np.zeros((k, nx, nx))
+        self.B, self.C, self.L = (np.zeros((k, nx)) for _ in range(3))
+        for j, (d, n) in enumerate(zip(self.designs, self.sizes, strict=True)):
+            self.A[j, :n, :n] = d.A_
+            self.B[j, :n] = d.B_.ravel()
+            self.C[j, :n] = d.C_.ravel()
+            self.L[j, :n] = d.filter_gain_
         self.u_limits = self.designs[0].u_limits
-        self.states = np.zeros_like(self.B)
+        self.states = np.zeros((k, nx))
         self.bind()
 
     @classmethod
     def for_designs(cls, designs: Sequence[Any]) -> ObserverBank | None:
-        """A bank if every design is an MPC of one state size and one set of limits."""
+        """A bank if every design is an MPC and all have the same command limits."""
         if not designs or not all(isinstance(d, MPC) for d in designs):
             return None
-        first = designs[0]
-        if any(d.A_.shape != first.A_.shape or d.u_limits != first.u_limits for d in designs):
+        if any(d.u_limits != designs[0].u_limits for d in designs):
             return None
         return cls(designs)
 
     def bind(self) -> None:
         """Make each design's state a view of its row (after a copy or unpickling broke it)."""
-        self.states = np.stack([d._xp for d in self.designs])
-        for j, d in enumerate(self.designs):
-            d._xp = self.states[j]
+        states = np.zeros_like(self.states)
+        for j, (d, n) in enumerate(zip(self.designs, self.sizes, strict=True)):
+            states[j, :n] = d._xp
+            d._xp = states[j, :n]
+        self.states = states
 
     def track(self, grip_force_n: float, applied_u: float, *, skip: int | None = None) -> None:
         """Update every design's filter with the measured force and the applied command.

@@ -158,7 +158,9 @@ def test_daqp_mpc_closed_loop_equals_osqp(recorded):
 
 
 def _bank(plant, gains):
-    designs = [MPC(plant * g) for g in gains]
+    # every other design one order higher (an extra lag): the bank pads the smaller states
+    lag = control.tf([0.5], [1.0, -0.5], DT_S)
+    designs = [MPC(plant * g * (lag if i % 2 else 1)) for i, g in enumerate(gains)]
     return ScheduledController([10.0 * g for g in gains], designs, warm="all", name="mpc")
 
 
@@ -168,6 +170,7 @@ def test_bank_tracks_in_one_batch_as_each_design_would(plant):
     looped = _bank(plant, gains)
     looped._bank = None  # the design-by-design tracking
     assert batched._bank is not None
+    assert len(set(batched._bank.sizes)) == 2
     rng = np.random.default_rng(3)
     for k in range(300):
         ref = 5.0 if k < 100 else (25.0 if k < 200 else 8.0)
