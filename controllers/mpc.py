@@ -36,6 +36,7 @@ recorded in :attr:`MPC.stats_`.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -318,7 +319,7 @@ class MPC:
         if self._qp is None:
             self._build_qp()
         f_lo, f_hi = self.bounds_for(reference_n)
-        ref = float(np.clip(reference_n, f_lo, f_hi))
+        ref = min(max(float(reference_n), f_lo), f_hi)  # NaN stays NaN (reference first)
         self.last_reference_n = ref
         self.stats_.n_solves += 1
         start = time.perf_counter()
@@ -329,7 +330,7 @@ class MPC:
         params[nx] = self.last_u
         params[nx + 1] = ref
         z: np.ndarray | None = None
-        if not np.all(np.isfinite(params)):
+        if not math.isfinite(params.sum()):
             reason = "non-finite state estimate or reference"
         else:
             if self.solver == "daqp":
@@ -338,9 +339,9 @@ class MPC:
                 self.stats_.n_fast += 1
             else:
                 data = self.qp_.data(params, f_lo, f_hi)
-                guess = np.r_[self._u_guess, 0.0, 0.0]
+                guess = None if self.solver == "daqp" else np.r_[self._u_guess, 0.0, 0.0]
                 z, reason = self._qp.solve(data, guess)
-                if not reason and not np.all(np.isfinite(z)):
+                if not reason and not math.isfinite(z.sum()):
                     reason = f"{self.solver}: non-finite solution"
                 elif not reason and self.qp_.violation(z, data) > FEASIBILITY_TOL:
                     reason = f"{self.solver}: returned an infeasible point"
@@ -359,8 +360,8 @@ class MPC:
             self.stats_.n_softened += 1
         self._u_guess = np.concatenate([u_opt[1:], u_opt[-1:]])
         # project onto the hard limits: removes the solver's tolerance (~1e-6)
-        u = min(max(u_opt[0], self.last_u - self.du_max), self.last_u + self.du_max)
-        return float(np.clip(u, *self.u_limits))
+        u = min(max(float(u_opt[0]), self.last_u - self.du_max), self.last_u + self.du_max)
+        return min(max(u, self.u_limits[0]), self.u_limits[1])
 
     def act(self, observation: Observation | Mapping[str, Any]) -> float:
         """Estimate the state from the measured force, solve, and return the command."""
@@ -368,7 +369,8 @@ class MPC:
 
     def track(self, observation: Observation | Mapping[str, Any], applied_u: float) -> None:
         """Update the state estimate with a command applied by someone else (no solve)."""
-        self._advance(as_observation(observation), float(np.clip(applied_u, *self.u_limits)))
+        lo, hi = self.u_limits
+        self._advance(as_observation(observation), min(max(float(applied_u), lo), hi))
 
     def _advance(self, obs: Observation, applied_u: float | None) -> float:
         if self.slip_sensing is not None and applied_u is None:
@@ -488,7 +490,7 @@ class ObserverBank:
             A design left untouched (the active one, which updated itself in ``act``).
         """
         states = self.states
-        if any(d._xp.base is not states for d in self.designs):
+        if self.designs[0]._xp.base is not states:  # a copy or unpickling (all at once)
             self.bind()
             states = self.states
         u = min(max(float(applied_u), self.u_limits[0]), self.u_limits[1])
@@ -499,9 +501,8 @@ class ObserverBank:
         states += self.B * u
         if kept is not None:
             states[skip] = kept
-        for j, d in enumerate(self.designs):
-            if j != skip:
-                d.last_u = u
+        for d in self.designs:  # the skipped (active) design applied this very command
+            d.last_u = u
 
 
 def solver_note(solver: str) -> str:

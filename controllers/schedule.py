@@ -132,6 +132,8 @@ class ScheduledController:
         make_bank = getattr(self.designs[0], "observer_bank", None)
         self._bank = (make_bank(self.designs)
                       if blend == "switch" and warm == "all" and make_bank else None)
+        every = frozenset(range(len(self.designs)))
+        self._all_but = [every - {i} for i in range(len(self.designs))]
         self.reset()
 
     # ------------------------------------------------------------------ schedule
@@ -196,14 +198,20 @@ class ScheduledController:
         """Neighbours track the applied command; newcomers start from it."""
         if self.blend != "switch":
             return
-        warm = self._neighbours()
         if self._bank is not None:  # all inactive designs track in one batched update
             self._bank.track(obs.grip_force_n, u, skip=self.index)
+            warm = self._all_but[self.index]
+            if warm is not self._warm:
+                for j in warm - self._warm:
+                    self.designs[j].handover(obs, u)
+                self._warm = warm
+            return
+        warm = self._neighbours()
         for j in warm:
-            if j not in self._warm:
-                self.designs[j].handover(obs, u)
-            elif self._bank is None:
+            if j in self._warm:
                 self.designs[j].track(obs, u)
+            else:
+                self.designs[j].handover(obs, u)
         self._warm = frozenset(warm)
 
     # ------------------------------------------------------------------ interface
