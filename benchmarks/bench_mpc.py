@@ -26,9 +26,9 @@ Run: .venv/bin/python benchmarks/bench_mpc.py
 from __future__ import annotations
 
 import platform
-from importlib import metadata
 import sys
 import time
+from importlib import metadata
 from pathlib import Path
 
 import daqp
