@@ -39,7 +39,9 @@ had if it had been in charge, and the command continues without a bump and
 without losing the loop's dynamics (restarting the new design from the last
 command instead gave 50-64 % overshoot on a 5 -> 6 N step, against 3-7 % for
 the fixed designs). A design that was not a neighbour takes over from the
-last command (``handover``).
+last command (``handover``). With ``warm="all"`` (the MPC) every inactive design
+tracks; designs that offer ``observer_bank`` (:class:`controllers.mpc.ObserverBank`)
+do so in one batched update rather than one call each.
 
 The controller the loop runs at a force ``F`` is :meth:`controller_at` ``(F)``:
 the interpolated gains, or the design of ``F``'s cell. Margins at ``F`` are
