@@ -224,3 +224,14 @@ def test_episode_with_daqp_matches_osqp(monkeypatch):
     assert np.max(np.abs(tr_d["grip_force_n"] - tr_o["grip_force_n"])) <= 0.05
     held = (t > 3.0) & (t < 3.5)
     assert np.mean(tr_d["grip_force_n"][held]) == pytest.approx(6.0, abs=0.3)
+
+
+def test_fast_path_gain_is_the_analytic_law(plant):
+    # the fast path's first row and the law used for analysis and fallback are one law
+    mpc = MPC(plant)
+    mpc._build_qp()
+    first = mpc.qp_.gain[0]
+    nx = mpc.A_.shape[0]
+    assert first[:nx] == pytest.approx(mpc.gain_state_, rel=1e-9, abs=1e-12)
+    assert first[nx] == pytest.approx(mpc.gain_previous_, rel=1e-9)
+    assert first[nx + 1] == pytest.approx(mpc.gain_reference_, rel=1e-9)
