@@ -29,7 +29,9 @@ friction); ``f_max`` is the user's force limit (a "fragile" setting; none by
 default). A fixed :class:`~controllers.bounds.ForceBounds` can be given too. The
 state is estimated by a steady-state Kalman filter.
 
-A solve that fails (solver status, non-finite result) falls back to the
+A solve that fails (solver status, non-finite result, or a returned point
+violating a constraint by more than :data:`controllers.qp.FEASIBILITY_TOL`:
+an infeasible QP is a failure, never a silent move) falls back to the
 unconstrained law clipped to the amplitude and rate limits; every fallback is
 recorded in :attr:`MPC.stats_`.
 """
