@@ -56,7 +56,7 @@ from typing import Any, Literal
 import control
 import numpy as np
 
-from controllers.base import Observation, as_observation
+from controllers.base import Observation, as_observation, controller_stats
 from controllers.errors import SpecificationError
 
 
@@ -261,6 +261,14 @@ class ScheduledController:
         self.last_u = float(u)
         self.last_reference_n = float(obs.reference_n)
         self._follow(obs, float(u))
+
+    def stats(self) -> dict[str, float]:
+        """Run-time counters summed over the bank's designs (``{}`` if none reports any)."""
+        total: dict[str, float] = {}
+        for d in self.designs:
+            for key, value in controller_stats(d).items():
+                total[key] = total.get(key, 0) + value
+        return total
 
     def loop(self, plant: control.LTI, force_n: float | None = None) -> control.LTI:
         """Open loop at ``force_n`` (default: the present scheduling signal)."""
