@@ -29,7 +29,7 @@ class RegistrationError(GriploopError, ValueError):
     """A registration is malformed (bad reference) or would silently replace another."""
 
 
-class UnresolvableEntryError(GriploopError, ImportError):
+class UnresolvableEntryError(GriploopError, LookupError):
     """A registered ``"module:attribute"`` reference cannot be imported."""
 
 
