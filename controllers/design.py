@@ -26,6 +26,7 @@ import numpy as np
 
 from controllers.analysis import LoopMargins, loop_margins, state_space_dict
 from controllers.approach import ContactGate
+from controllers.base import Controller
 from controllers.bounds import SensedSlipBound
 from controllers.design_plant import (
     DEFAULT_FORCE_GRID_N,
@@ -62,7 +63,7 @@ def __getattr__(attr: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
 
 
-def controller_map(controller: Any) -> control.StateSpace:
+def controller_map(controller: Controller) -> control.StateSpace:
     """Discrete map from force error (N) to the command the hand receives, delay included.
 
     For the MPC this is its unconstrained feedback law (from ``-y``) with its
@@ -177,7 +178,7 @@ class ControllerDesign:
     """
 
     kind: str
-    controller: Any
+    controller: Controller | None
     core: ScheduledController
     family: PlantFamily
     spec: dict[str, Any]
@@ -476,7 +477,7 @@ def design_for_object(
                            force_max_n=None if force_max_n is None else limit)
     design = ControllerDesign(kind=kind, controller=None, core=core, family=family,
                               spec=public_spec, scheduled=bool(scheduled), notes=notes)
-    controller: Any = ContactGate(core, closing_command=closing_command,
+    controller: Controller = ContactGate(core, closing_command=closing_command,
                                   feedforward=design.feedforward, dt_s=dt)
     if slip_reflex:
         controller = SlipReflex(controller, dt_s=dt, max_force_n=limit, **dict(slip_reflex))
