@@ -1,59 +1,53 @@
 """What the prosthesis does with the force estimate: controllers and loop analysis.
 
-Every controller has ``reset()``, ``act(observation) -> command`` (normalized
-motor command in -1..1) and ``loop(plant) -> control.LTI`` (the open loop
-``C P z**-d`` with sample-and-hold and computation delay), and is designed
-from a specification (phase margin, crossover) with a ``report_``.
+Every controller satisfies :class:`controllers.base.Controller`: ``reset()``,
+``act(observation) -> command`` (normalized motor command in -1..1) and
+``loop(plant) -> control.LTI`` (the open loop ``C P z**-d`` with sample-and-hold
+and computation delay), and is designed from a specification (phase margin,
+crossover) with a ``report_``. Controller kinds are named in
+:mod:`controllers.registry` (:func:`~controllers.registry.register_controller`);
+:mod:`controllers.design` designs a kind over an object's force range and
+schedules it, :mod:`controllers.analysis` and :mod:`controllers.measure` give
+its margins, predicted and measured.
+
+May import: numpy, scipy, python-control, casadi/OSQP, matplotlib (figures), and
+:mod:`sim` (the hand, for plants and loop measurement; :mod:`sim.errors`,
+:mod:`sim.registry`). Never :mod:`estimation` or :mod:`scenarios`.
+
+The public names below are imported on first use, so that ``import
+controllers.registry`` (listing the controller kinds) does not import
+python-control.
 """
 
-from controllers.analysis import LoopMargins, loop_margins, sweep_margins
-from controllers.approach import ContactGate
-from controllers.base import Observation, as_observation
-from controllers.bounds import ForceBounds, force_bounds, slip_threshold_n
-from controllers.errors import (
-    IdentificationError,
-    PlantError,
-    SpecificationError,
-    UnknownControllerError,
-)
-from controllers.figures import save_loop_figures
-from controllers.identify import IdentifiedPlant, identify_low_order
-from controllers.lead_lag import LinearController, design_lead_lag
-from controllers.mpc import MPC, design_mpc
-from controllers.pid import PID, design_pid
-from controllers.plant import PlantReport, check_plant, loop_plant
-from controllers.reflex import SlipReflex
-from controllers.registry import CONTROLLER_NAMES, design_controller
-from controllers.report import DesignReport
+#: Public names, imported on first use: ``name -> module``.
+_LAZY = {
+    "LoopMargins": "controllers.analysis", "loop_margins": "controllers.analysis",
+    "sweep_margins": "controllers.analysis",
+    "ContactGate": "controllers.approach",
+    "Controller": "controllers.base", "Observation": "controllers.base",
+    "as_observation": "controllers.base",
+    "ForceBounds": "controllers.bounds", "force_bounds": "controllers.bounds",
+    "slip_threshold_n": "controllers.bounds",
+    "IdentificationError": "controllers.errors", "PlantError": "controllers.errors",
+    "SpecificationError": "controllers.errors", "UnknownControllerError": "controllers.errors",
+    "save_loop_figures": "controllers.figures",
+    "IdentifiedPlant": "controllers.identify", "identify_low_order": "controllers.identify",
+    "LinearController": "controllers.lead_lag", "design_lead_lag": "controllers.lead_lag",
+    "MPC": "controllers.mpc", "design_mpc": "controllers.mpc",
+    "PID": "controllers.pid", "design_pid": "controllers.pid",
+    "PlantReport": "controllers.plant", "check_plant": "controllers.plant",
+    "loop_plant": "controllers.plant", "plant_dt": "controllers.plant",
+    "SlipReflex": "controllers.reflex",
+    "CONTROLLER_NAMES": "controllers.registry", "design_controller": "controllers.registry",
+    "register_controller": "controllers.registry",
+    "DesignReport": "controllers.report",
+}
+__all__ = sorted(_LAZY)
 
-__all__ = [
-    "CONTROLLER_NAMES",
-    "ContactGate",
-    "DesignReport",
-    "ForceBounds",
-    "IdentificationError",
-    "IdentifiedPlant",
-    "LinearController",
-    "LoopMargins",
-    "MPC",
-    "Observation",
-    "PID",
-    "PlantError",
-    "PlantReport",
-    "SlipReflex",
-    "SpecificationError",
-    "UnknownControllerError",
-    "as_observation",
-    "check_plant",
-    "design_controller",
-    "design_lead_lag",
-    "design_mpc",
-    "design_pid",
-    "force_bounds",
-    "identify_low_order",
-    "loop_margins",
-    "loop_plant",
-    "save_loop_figures",
-    "slip_threshold_n",
-    "sweep_margins",
-]
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'controllers' has no attribute {name!r}")

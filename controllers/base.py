@@ -8,7 +8,10 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+
+if TYPE_CHECKING:
+    import control
 
 COMMAND_LIMITS = (-1.0, 1.0)
 
@@ -111,3 +114,35 @@ def as_observation(obs: Observation | Mapping[str, Any]) -> Observation:
             f"(found {sorted(obs)})"
         )
     return Observation(**{k: obs[k] for k in _FIELDS if k in obs})
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """What every force controller provides (PID, lead-lag, MPC, scheduled banks, wrappers).
+
+    Attributes
+    ----------
+    dt_s : float
+        Control period, s.
+    """
+
+    dt_s: float
+
+    def reset(self, u0: float = 0.0) -> None:
+        """Return to the initial state with the command ``u0`` (-1..1) applied."""
+
+    def act(self, observation: Observation | Mapping[str, Any]) -> float:
+        """The motor command (-1..1) for this control step."""
+
+    def loop(self, plant: control.LTI) -> control.LTI:
+        """Open loop ``C P z**-d`` with sample-and-hold and computation delay."""
+
+
+def controller_stats(controller: object) -> dict[str, float]:
+    """Run-time counters of a controller (e.g. the MPC's QP solves and failures).
+
+    A controller reports them with a ``stats() -> dict`` method; one without
+    reports none (``{}``).
+    """
+    stats = getattr(controller, "stats", None)
+    return dict(stats()) if callable(stats) else {}

@@ -26,6 +26,7 @@ import numpy as np
 
 from controllers.analysis import LoopMargins, loop_margins, state_space_dict
 from controllers.approach import ContactGate
+from controllers.base import Controller
 from controllers.bounds import SensedSlipBound
 from controllers.design_plant import (
     DEFAULT_FORCE_GRID_N,
@@ -36,28 +37,33 @@ from controllers.design_plant import (
     operating_point,
     plant_family,
 )
-from controllers.errors import PlantError, SpecificationError, UnknownControllerError
-from controllers.mpc import MPC
+from controllers.errors import PlantError, SpecificationError
 from controllers.plant import delay
 from controllers.plant_cache import cached_family
 from controllers.reflex import SlipReflex
-from controllers.registry import CONTROLLER_NAMES, design_controller
+from controllers.registry import (
+    bank_designer,
+    controller_info,
+    controller_names,
+    default_spec,
+    design_controller,
+)
 from controllers.schedule import ScheduledController
 from sim.hand.objects import ObjectSpec
 
-#: Default specification of each controller family, shared by the library and the CLI.
-DEFAULT_SPECS: dict[str, dict[str, Any]] = {
-    "pid": {"phase_margin_deg": 60.0, "crossover_rad_s": 30.0},
-    "lead_lag": {"phase_margin_deg": 60.0, "crossover_rad_s": 30.0, "lag_ratio": 2.0},
-    "mpc": {"horizon": 20},
-}
 #: Crossover used when a specification gives neither crossover nor bandwidth, rad/s.
 DEFAULT_CROSSOVER_RAD_S = 30.0
 #: Lag-to-crossover ratio of the lead-lag design (see docs/CONTROL.md).
-LEAD_LAG_RATIO = 2.0
+LEAD_LAG_RATIO = float(default_spec("lead_lag")["lag_ratio"])
 
 
-def controller_map(controller: Any) -> control.StateSpace:
+def __getattr__(attr: str) -> Any:
+    if attr == "DEFAULT_SPECS":  # default specification of every registered kind
+        return {name: default_spec(name) for name in controller_names()}
+    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
+
+
+def controller_map(controller: Controller) -> control.StateSpace:
     """Discrete map from force error (N) to the command the hand receives, delay included.
 
     For the MPC this is its unconstrained feedback law (from ``-y``) with its
@@ -172,7 +178,7 @@ class ControllerDesign:
     """
 
     kind: str
-    controller: Any
+    controller: Controller | None
     core: ScheduledController
     family: PlantFamily
     spec: dict[str, Any]
@@ -326,23 +332,35 @@ def _crossover_for_bandwidth(kind: str, plant: control.LTI, phase_margin_deg: fl
 
 
 def _design_at(kind: str, plant: DesignPlant, *, phase_margin_deg: float,
-               crossover_rad_s: float | None, bandwidth_rad_s: float | None, horizon: int,
-               lag_ratio: float, slip_sensing: SensedSlipBound | None, force_max_n: float
+               crossover_rad_s: float | None, bandwidth_rad_s: float | None,
+               options: dict[str, Any], slip_sensing: SensedSlipBound | None, force_max_n: float
                ) -> tuple[Any, dict]:
     """One design on one plant; returns the controller and its public spec."""
-    if kind == "mpc":
-        spec: dict[str, Any] = {"horizon": int(horizon)}
-        core = MPC(plant.model, horizon=int(horizon), slip_sensing=slip_sensing,
-                   force_max_n=force_max_n)
+    info = controller_info(kind)
+    if not info["shaping"]:
+        spec: dict[str, Any] = dict(options)
+        extra = ({"slip_sensing": slip_sensing, "force_max_n": force_max_n}
+                 if info["slip_sensing"] else {})
+        core = bank_designer(kind)(plant.model, **info["fixed"], **spec, **extra)
+        if getattr(core, "solver", None) is not None:  # a QP-based design names its solver
+            spec["solver"] = core.solver
         return core, spec
-    extra = {"structure": "pi"} if kind == "pid" else {"lag_ratio": float(lag_ratio)}
+    extra = {**info["fixed"], **options}
     if bandwidth_rad_s is not None:
         wc = _crossover_for_bandwidth(kind, plant.model, phase_margin_deg,
                                       float(bandwidth_rad_s), extra)
     else:
         wc = DEFAULT_CROSSOVER_RAD_S if crossover_rad_s is None else float(crossover_rad_s)
     spec = {"phase_margin_deg": float(phase_margin_deg), "crossover_rad_s": wc, **extra}
-    return design_controller(kind, plant.model, **spec), spec
+    return bank_designer(kind)(plant.model, **spec), spec
+
+
+def _kind_options(kind: str, given: dict[str, Any]) -> dict[str, Any]:
+    """The kind's own options (not loop shaping): its defaults updated by ``given``."""
+    info = controller_info(kind)
+    out = {k: v for k, v in info["defaults"].items() if k in info["options"]}
+    out.update({k: v for k, v in given.items() if k in info["options"] and v is not None})
+    return out
 
 
 def design_for_object(
@@ -353,8 +371,8 @@ def design_for_object(
     phase_margin_deg: float = 60.0,
     crossover_rad_s: float | None = None,
     bandwidth_rad_s: float | None = None,
-    horizon: int = 20,
-    lag_ratio: float = LEAD_LAG_RATIO,
+    horizon: int | None = None,
+    lag_ratio: float | None = None,
     safety_factor: float = 1.5,
     slip_reflex: dict[str, float] | None = None,
     closing_command: float = 0.2,
@@ -362,6 +380,7 @@ def design_for_object(
     operating_force_n: float | None = None,
     force_max_n: float | None = None,
     forces_n: tuple[float, ...] = DEFAULT_FORCE_GRID_N,
+    **kind_options: Any,
 ) -> ControllerDesign:
     """Design a force controller for ``obj`` from a specification.
 
@@ -369,8 +388,9 @@ def design_for_object(
     ----------
     obj : ObjectSpec
         The grasped object; its plant family is linearized over ``forces_n``.
-    kind : {"pid", "lead_lag", "mpc"}
-        Controller family.
+    kind : str
+        Controller kind registered in :mod:`controllers.registry` (``"pid"``,
+        ``"lead_lag"``, ``"mpc"``, ...).
     control_dt_s : float
         Control period, s.
     phase_margin_deg : float
@@ -378,10 +398,11 @@ def design_for_object(
     crossover_rad_s, bandwidth_rad_s : float, optional
         Target gain crossover or closed-loop bandwidth (PID and lead-lag), rad/s;
         neither: :data:`DEFAULT_CROSSOVER_RAD_S`.
-    horizon : int
-        MPC horizon in control periods.
-    lag_ratio : float
-        Lead-lag: crossover over the integral corner ``wc / wl``.
+    horizon : int, optional
+        MPC horizon in control periods (default: the registered default, 20).
+    lag_ratio : float, optional
+        Lead-lag: crossover over the integral corner ``wc / wl`` (default:
+        the registered default, :data:`LEAD_LAG_RATIO`).
     safety_factor : float
         Grip over the *sensed* slip threshold for the MPC's lower bound
         (:class:`controllers.bounds.SensedSlipBound`).
@@ -401,23 +422,26 @@ def design_for_object(
         the reflex's ceiling. ``None``: no limit.
     forces_n : tuple of float
         The design grid, N.
+    **kind_options
+        Further options of the kind (its registered ``options``); options of
+        other kinds are ignored.
 
     Raises
     ------
-    LookupError
+    UnknownControllerError
         Unknown ``kind`` (lists the valid ones).
     SpecificationError
         Specification the plant cannot meet at any grid force.
     PlantError
         No usable plant.
     """
-    if kind not in CONTROLLER_NAMES:
-        raise UnknownControllerError(
-            f"unknown controller {kind!r}; expected one of {list(CONTROLLER_NAMES)}")
+    info = controller_info(kind)
+    options = _kind_options(kind, {"horizon": horizon, "lag_ratio": lag_ratio, **kind_options})
     dt = float(control_dt_s)
     family = cached_plant_family(obj, dt, tuple(float(f) for f in forces_n))
     limit = float("inf") if force_max_n is None else float(force_max_n)
-    sensing = SensedSlipBound(safety_factor=safety_factor, dt_s=dt) if kind == "mpc" else None
+    sensing = (SensedSlipBound(safety_factor=safety_factor, dt_s=dt) if info["slip_sensing"]
+               else None)
     if scheduled:
         points = [(p.force_n, p.plant) for p in family.usable]
     else:
@@ -431,8 +455,8 @@ def design_for_object(
         try:
             core, spec = _design_at(kind, plant, phase_margin_deg=phase_margin_deg,
                                     crossover_rad_s=crossover_rad_s,
-                                    bandwidth_rad_s=bandwidth_rad_s, horizon=horizon,
-                                    lag_ratio=lag_ratio, slip_sensing=sensing,
+                                    bandwidth_rad_s=bandwidth_rad_s, options=options,
+                                    slip_sensing=sensing,
                                     force_max_n=limit)
         except (ValueError, np.linalg.LinAlgError) as exc:  # Specification/PlantError too
             last_error = exc if isinstance(exc, SpecificationError) else SpecificationError(
@@ -443,21 +467,19 @@ def design_for_object(
         forces.append(force)
     if not designs:
         raise last_error or SpecificationError(f"{kind}: no design on any grid force")
-    core = ScheduledController(forces, designs, name=kind,
-                               blend="interpolate" if kind == "pid" else "switch",
-                               warm={"mpc": "all", "lead_lag": "none"}.get(kind, "neighbours"))
+    core = ScheduledController(forces, designs, name=kind, blend=info["blend"], warm=info["warm"])
     public_spec = {**spec, "scheduled": bool(scheduled),
                    "design_forces_n": [float(f) for f in forces],
                    "schedule_signal": "measured grip force (attack-release filter)"}
-    if crossover_rad_s is None and bandwidth_rad_s is not None and kind != "mpc":
+    if crossover_rad_s is None and bandwidth_rad_s is not None and info["shaping"]:
         public_spec["crossover_rad_s"] = "per design force"
-    if kind == "mpc":
+    if sensing is not None:
         public_spec.update(slip_bound="sensed load / (2 mu_hat)", safety_factor=safety_factor,
                            friction_prior=sensing.friction_prior,
                            force_max_n=None if force_max_n is None else limit)
     design = ControllerDesign(kind=kind, controller=None, core=core, family=family,
                               spec=public_spec, scheduled=bool(scheduled), notes=notes)
-    controller: Any = ContactGate(core, closing_command=closing_command,
+    controller: Controller = ContactGate(core, closing_command=closing_command,
                                   feedforward=design.feedforward, dt_s=dt)
     if slip_reflex:
         controller = SlipReflex(controller, dt_s=dt, max_force_n=limit, **dict(slip_reflex))

@@ -22,8 +22,8 @@ import numpy as np
 from controllers.analysis import loop_margins
 from controllers.base import COMMAND_LIMITS, Observation, as_observation
 from controllers.errors import SpecificationError
-from controllers.pid import _plant_dt, required_controller_phase
-from controllers.plant import check_plant, loop_plant
+from controllers.pid import required_controller_phase
+from controllers.plant import check_plant, loop_plant, plant_dt
 from controllers.report import DesignReport
 
 
@@ -235,7 +235,7 @@ def design_lead_lag(
         If the lead needed exceeds ``n_lead_stages * max_stage_lead_deg``.
     """
     plant_report = check_plant(plant)
-    dt = _plant_dt(plant, dt_s)
+    dt = plant_dt(plant, dt_s)
     wc = float(crossover_rad_s)
     theta, gain = required_controller_phase(
         plant, phase_margin_deg, wc, dt, computation_delay_samples

@@ -51,8 +51,7 @@ from controllers.analysis import loop_margins
 from controllers.base import COMMAND_LIMITS, Observation, as_observation
 from controllers.bounds import ForceBounds, SensedSlipBound
 from controllers.errors import PlantError, SpecificationError
-from controllers.pid import _plant_dt
-from controllers.plant import check_plant, frequency_response, loop_plant
+from controllers.plant import check_plant, frequency_response, loop_plant, plant_dt
 from controllers.qp import (
     FEASIBILITY_TOL,
     CasadiSolver,
@@ -172,7 +171,7 @@ class MPC:
         if du_max <= 0:
             raise SpecificationError(f"MPC: expected du_max > 0, found {du_max}")
         self.plant_report_ = check_plant(plant)
-        self.dt_s = _plant_dt(plant, dt_s)
+        self.dt_s = plant_dt(plant, dt_s)
         self.horizon = int(horizon)
         self.rate_weight = float(rate_weight)
         self.force_bounds = force_bounds
@@ -266,6 +265,13 @@ class MPC:
         self.last_reference_n = 0.0
         if self.slip_sensing is not None:
             self.slip_sensing.reset()
+
+    def stats(self) -> dict[str, float]:
+        """Counters of the run since :meth:`reset`: QP ``n_solves``, ``n_failures``
+        (fallbacks to the unconstrained law), ``n_softened`` and ``n_fast`` (steps
+        answered by the checked unconstrained law)."""
+        return {"n_solves": self.stats_.n_solves, "n_failures": self.stats_.n_failures,
+                "n_softened": self.stats_.n_softened, "n_fast": self.stats_.n_fast}
 
     def handover(self, observation: Observation | Mapping[str, Any], u: float) -> None:
         """Take over at command ``u``: the state estimate is the steady state of ``u``.

@@ -24,8 +24,8 @@ import scipy.optimize
 
 from controllers.analysis import loop_margins
 from controllers.base import COMMAND_LIMITS, Observation, as_observation
-from controllers.errors import PlantError, SpecificationError
-from controllers.plant import check_plant, frequency_response, loop_plant
+from controllers.errors import SpecificationError
+from controllers.plant import check_plant, frequency_response, loop_plant, plant_dt
 from controllers.report import DesignReport
 
 
@@ -186,14 +186,6 @@ class PID:
         )
 
 
-def _plant_dt(plant: control.LTI, dt_s: float | None) -> float:
-    if plant.isdtime(strict=True):
-        return float(plant.dt)
-    if dt_s is None:
-        raise PlantError("design: a continuous plant needs dt_s (the control period)")
-    return float(dt_s)
-
-
 def required_controller_phase(
     plant: control.LTI,
     phase_margin_deg: float,
@@ -289,7 +281,7 @@ def design_pid(
     if structure not in ("pi", "pid"):
         raise SpecificationError(f"structure must be 'pi' or 'pid', found {structure!r}")
     plant_report = check_plant(plant)
-    dt = _plant_dt(plant, dt_s)
+    dt = plant_dt(plant, dt_s)
     wc = float(crossover_rad_s)
     theta, gain = required_controller_phase(
         plant, phase_margin_deg, wc, dt, computation_delay_samples

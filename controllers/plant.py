@@ -23,6 +23,28 @@ _INTEGRATOR_TOL = 1e-6
 _PBH_RTOL = 1e-9
 
 
+def plant_dt(plant: control.LTI, dt_s: float | None) -> float:
+    """The control period of a design: the plant's own sample time, else ``dt_s``.
+
+    Parameters
+    ----------
+    plant : control.LTI
+        Design plant, discrete (its ``dt`` wins) or continuous.
+    dt_s : float or None
+        Control period, s, for a continuous plant.
+
+    Raises
+    ------
+    PlantError
+        A continuous plant and no ``dt_s``.
+    """
+    if plant.isdtime(strict=True):
+        return float(plant.dt)
+    if dt_s is None:
+        raise PlantError("design: a continuous plant needs dt_s (the control period)")
+    return float(dt_s)
+
+
 @dataclass(frozen=True)
 class PlantReport:
     """What :func:`check_plant` found.

@@ -1,40 +1,180 @@
-"""Controllers by name, each designed from a specification."""
+"""Controller kinds by name: how each designs itself and which specification it accepts.
+
+A controller kind is registered once with :func:`register_controller`: the
+function that designs one controller on one plant (by ``"module:attribute"``
+reference, imported on first use), the specification options it accepts, their
+defaults, and how a bank of its designs is scheduled over grip force
+(:class:`controllers.schedule.ScheduledController`). Everything else reads the
+registry: :func:`controllers.design.design_for_object`, the scenario schema's
+``controller.kind`` and the CLI's ``--controller`` choices.
+
+Two families of specification:
+
+- loop shaping (``shaping=True``): ``phase_margin_deg`` with ``crossover_rad_s``
+  or ``bandwidth_rad_s``; the design function is called as
+  ``design(plant, phase_margin_deg=..., crossover_rad_s=..., **fixed, **options)``
+  (PID, lead-lag);
+- model predictive (``shaping=False``): the kind's own options (e.g. ``horizon``)
+  plus the slip sensing and force limit of the grasp (MPC).
+
+Importing this module imports neither python-control nor any controller module.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any
-
-import control
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
 
 from controllers.errors import UnknownControllerError
-from controllers.lead_lag import design_lead_lag
-from controllers.mpc import design_mpc
-from controllers.pid import design_pid
+from sim.registry import RegistrationError, Registry
 
-DESIGNS: dict[str, Callable[..., Any]] = {
-    "pid": design_pid,
-    "lead_lag": design_lead_lag,
-    "mpc": design_mpc,
-}
-CONTROLLER_NAMES = tuple(DESIGNS)
+if TYPE_CHECKING:
+    import control
+
+    from controllers.base import Controller
+
+#: Options of a loop-shaping specification (every ``shaping=True`` kind accepts them).
+LOOP_SHAPING_OPTIONS = ("phase_margin_deg", "crossover_rad_s", "bandwidth_rad_s")
+
+_REGISTRY = Registry("controller", UnknownControllerError)
 
 
-def design_controller(name: str, plant: control.LTI, **spec: Any) -> Any:
+def register_controller(
+    name: str,
+    design: Callable[..., Controller] | str,
+    *,
+    shaping: bool = True,
+    options: tuple[str, ...] = (),
+    defaults: Mapping[str, Any] | None = None,
+    fixed: Mapping[str, Any] | None = None,
+    bank_design: Callable[..., Controller] | str | None = None,
+    blend: str = "switch",
+    warm: str = "neighbours",
+    slip_sensing: bool = False,
+    specified_by: str | None = None,
+    replace: bool = False,
+) -> None:
+    """Register a controller kind.
+
+    Parameters
+    ----------
+    name : str
+        Name used in scenarios (``controller.kind``), sweeps and the CLI.
+    design : callable or str
+        ``design(plant, **spec) -> Controller`` on one design plant (command
+        -1..1 to grip force, N), or its ``"package.module:attribute"`` reference.
+    shaping : bool
+        Specified by loop shaping (:data:`LOOP_SHAPING_OPTIONS`); otherwise
+        by ``options`` only.
+    options : tuple of str
+        Specification options of this kind besides the loop-shaping ones
+        (e.g. ``("lag_ratio",)``, ``("horizon",)``).
+    defaults : mapping, optional
+        Default specification (what the CLI and the library start from).
+    fixed : mapping, optional
+        Keyword arguments always passed to ``design`` (e.g. ``structure="pi"``).
+    bank_design : callable or str, optional
+        What builds each design of a scheduled bank, if not ``design`` (e.g. a
+        constructor that skips the per-design report).
+    blend, warm : str
+        :class:`~controllers.schedule.ScheduledController` settings of the bank.
+    slip_sensing : bool
+        The design takes ``slip_sensing`` (a sensed slip bound) and ``force_max_n``.
+    specified_by : str, optional
+        How the kind is specified, for messages (default: its options).
+    replace : bool
+        Allow replacing an existing registration.
+
+    Raises
+    ------
+    sim.registry.RegistrationError
+        Malformed reference, or ``name`` already registered.
+    """
+    options = tuple(options)
+    accepted = (*LOOP_SHAPING_OPTIONS, *options) if shaping else options
+    unknown = sorted(set(defaults or {}) - set(accepted))
+    if unknown:
+        raise RegistrationError(f"controller {name}: defaults {unknown} are not among its "
+                                f"options {list(accepted)}")
+    _REGISTRY.register(
+        name, design, replace=replace, shaping=bool(shaping), options=options,
+        accepted=accepted, defaults=dict(defaults or {}), fixed=dict(fixed or {}),
+        bank_design=bank_design, blend=blend, warm=warm, slip_sensing=bool(slip_sensing),
+        specified_by=specified_by or " and ".join(accepted) or "no options",
+    )
+
+
+def unregister_controller(name: str) -> None:
+    """Remove a controller kind (no effect if absent)."""
+    _REGISTRY.unregister(name)
+
+
+def controller_names() -> tuple[str, ...]:
+    """Every registered controller kind, in registration order."""
+    return _REGISTRY.names()
+
+
+def controller_info(name: str) -> Mapping[str, Any]:
+    """Metadata of a controller kind (see :func:`register_controller`).
+
+    Raises
+    ------
+    UnknownControllerError
+        ``name`` is not registered; the message lists the valid names.
+    """
+    return _REGISTRY.info(name)
+
+
+def default_spec(name: str) -> dict[str, Any]:
+    """A fresh copy of the default specification of ``name``."""
+    return dict(controller_info(name)["defaults"])
+
+
+def check_options(name: str, given: Mapping[str, Any]) -> None:
+    """Refuse specification options that ``name`` does not take.
+
+    Parameters
+    ----------
+    name : str
+        Controller kind.
+    given : mapping
+        Options the user set (``None`` values count as not set).
+
+    Raises
+    ------
+    UnknownControllerError
+        Unknown kind.
+    SpecificationError
+        An option outside the kind's accepted ones; the message says how the
+        kind is specified and lists the refused options.
+    """
+    from controllers.errors import SpecificationError
+
+    info = controller_info(name)
+    refused = sorted(k for k, v in given.items() if v is not None and k not in info["accepted"])
+    if refused:
+        what = "loop-shaping options" if set(refused) <= set(LOOP_SHAPING_OPTIONS) else "options"
+        raise SpecificationError(f"{name} is specified by {info['specified_by']}, "
+                                 f"found {what} {refused}")
+
+
+def design_controller(name: str, plant: control.LTI, **spec: Any) -> Controller:
     """Design the controller registered as ``name`` for ``plant`` from ``spec``.
 
     Parameters
     ----------
-    name : {"pid", "lead_lag", "mpc"}
+    name : str
+        One of :func:`controller_names` (``"pid"``, ``"lead_lag"``, ``"mpc"``, ...).
     plant : control.LTI
         Design plant, command (-1..1) to grip force (N).
     **spec
-        Keyword arguments of :func:`~controllers.pid.design_pid`,
-        :func:`~controllers.lead_lag.design_lead_lag` or :class:`~controllers.mpc.MPC`.
+        Keyword arguments of the kind's design function, e.g.
+        :func:`~controllers.pid.design_pid`, :func:`~controllers.lead_lag.design_lead_lag`
+        or :func:`~controllers.mpc.design_mpc`.
 
     Returns
     -------
-    controller
+    Controller
         With ``reset()``, ``act(observation)``, ``loop(plant)`` and ``report_``.
 
     Raises
@@ -42,8 +182,34 @@ def design_controller(name: str, plant: control.LTI, **spec: Any) -> Any:
     UnknownControllerError
         If ``name`` is not registered; the message lists the valid names.
     """
-    if name not in DESIGNS:
-        raise UnknownControllerError(
-            f"controller: expected one of {list(CONTROLLER_NAMES)}, found {name!r}"
-        )
-    return DESIGNS[name](plant, **spec)
+    return _REGISTRY.get(name)(plant, **spec)
+
+
+def bank_designer(name: str) -> Callable[..., Controller]:
+    """What builds each design of a scheduled bank of ``name`` (imported on first use)."""
+    entry = _REGISTRY.entry(name)
+    bank = entry.info["bank_design"]
+    if bank is None:
+        return entry.resolve()
+    from sim.registry import Entry
+
+    return Entry(name, bank).resolve()
+
+
+def __getattr__(attr: str) -> Any:
+    if attr == "CONTROLLER_NAMES":  # the kinds registered so far
+        return controller_names()
+    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
+
+
+register_controller("pid", "controllers.pid:design_pid", fixed={"structure": "pi"},
+                    defaults={"phase_margin_deg": 60.0, "crossover_rad_s": 30.0},
+                    blend="interpolate", warm="neighbours")
+register_controller("lead_lag", "controllers.lead_lag:design_lead_lag", options=("lag_ratio",),
+                    defaults={"phase_margin_deg": 60.0, "crossover_rad_s": 30.0,
+                              "lag_ratio": 2.0},
+                    blend="switch", warm="none")
+register_controller("mpc", "controllers.mpc:design_mpc", shaping=False, options=("horizon",),
+                    defaults={"horizon": 20}, bank_design="controllers.mpc:MPC",
+                    blend="switch", warm="all", slip_sensing=True,
+                    specified_by="horizon and weights")

@@ -58,7 +58,7 @@ from typing import Any, Literal
 import control
 import numpy as np
 
-from controllers.base import Observation, as_observation
+from controllers.base import Controller, Observation, as_observation, controller_stats
 from controllers.errors import SpecificationError
 
 
@@ -88,7 +88,7 @@ class ScheduledController:
         Registered name of the controller family.
     """
 
-    def __init__(self, forces_n: Sequence[float], designs: Sequence[Any], *,
+    def __init__(self, forces_n: Sequence[float], designs: Sequence[Controller], *,
                  blend: Literal["interpolate", "switch"] = "switch", release_s: float = 0.2,
                  hysteresis: float = 0.03,
                  warm: Literal["neighbours", "all", "none"] = "neighbours",
@@ -140,7 +140,7 @@ class ScheduledController:
 
     # ------------------------------------------------------------------ schedule
     @property
-    def active(self) -> Any:
+    def active(self) -> Controller:
         """The controller computing the command now."""
         return self._runner if self.blend == "interpolate" else self.designs[self.index]
 
@@ -159,7 +159,7 @@ class ScheduledController:
         a, b = self._gains[j], self._gains[j + 1]
         return (a[0] + w * (b[0] - a[0]), a[1] + w * (b[1] - a[1]), a[2] + w * (b[2] - a[2]))
 
-    def controller_at(self, force_n: float) -> Any:
+    def controller_at(self, force_n: float) -> Controller:
         """The linear controller the loop runs at a steady ``force_n`` (for analysis)."""
         if self.blend == "interpolate":
             pid = copy.deepcopy(self.designs[0])
@@ -277,6 +277,14 @@ class ScheduledController:
         self.last_u = float(u)
         self.last_reference_n = float(obs.reference_n)
         self._follow(obs, float(u))
+
+    def stats(self) -> dict[str, float]:
+        """Run-time counters summed over the bank's designs (``{}`` if none reports any)."""
+        total: dict[str, float] = {}
+        for d in self.designs:
+            for key, value in controller_stats(d).items():
+                total[key] = total.get(key, 0) + value
+        return total
 
     def loop(self, plant: control.LTI, force_n: float | None = None) -> control.LTI:
         """Open loop at ``force_n`` (default: the present scheduling signal)."""

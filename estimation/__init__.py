@@ -1,65 +1,49 @@
-"""What the prosthesis computes from sEMG: features, identification, filters, baselines, metrics."""
+"""What the prosthesis computes from sEMG: features, identification, filters, baselines, metrics.
 
-from estimation.features import (
-    FEATURES,
-    PAPER_CHANNELS,
-    FeatureError,
-    FeatureSet,
-    align_to_windows,
-    emg_features,
-    extract_features,
-)
+:mod:`estimation.features` windows sEMG into MAV/RMS/WL features,
+:mod:`estimation.state_space` and :mod:`estimation.kalman` identify the paper's
+state-space model and its Kalman predictor, :mod:`estimation.baselines` and
+:mod:`estimation.deployable` hold the other estimators, :mod:`estimation.metrics`
+and :mod:`estimation.evaluation` score them as the paper does, and
+:mod:`estimation.registry` names them (:func:`~estimation.registry.register_estimator`).
+:mod:`estimation.protocols` states what an estimator and its stream provide.
 
-__all__ = [
-    "FEATURES",
-    "PAPER_CHANNELS",
-    "FeatureError",
-    "FeatureSet",
-    "align_to_windows",
-    "emg_features",
-    "extract_features",
-]
+May import: numpy, scipy, scikit-learn, python-control, and :mod:`sim` only for
+the types it exchanges (:class:`sim.recording.Recording`, :mod:`sim.errors`,
+:mod:`sim.registry`). Never :mod:`controllers` or :mod:`scenarios`.
 
-# Force estimation (issue 3): identification, filters, baselines, metrics, protocol.
-from estimation.base import ForceEstimator  # noqa: E402
-from estimation.errors import (  # noqa: E402
-    ConstantInputError,
-    EstimationInputError,
-    InsufficientDataError,
-    ModeError,
-    RiccatiError,
-    UnknownEstimatorError,
-    UnstableModelError,
-)
-from estimation.evaluation import aggregate, evaluate_subject  # noqa: E402
-from estimation.kalman import SteadyStateKalman, design_kalman  # noqa: E402
-from estimation.metrics import nrmse_fit, r2_score, rmse, total_variation_rate  # noqa: E402
-from estimation.order import OrderSelection, select_order  # noqa: E402
-from estimation.pipeline import ForcePipeline  # noqa: E402
-from estimation.registry import ESTIMATOR_NAMES, make_estimator  # noqa: E402
-from estimation.state_space import SSEstimator  # noqa: E402
+The public names below are imported on first use, so that ``import
+estimation.registry`` (listing the estimator names) does not import scikit-learn.
+"""
 
-__all__ += [
-    "ESTIMATOR_NAMES",
-    "ConstantInputError",
-    "EstimationInputError",
-    "ForceEstimator",
-    "ForcePipeline",
-    "InsufficientDataError",
-    "ModeError",
-    "OrderSelection",
-    "RiccatiError",
-    "SSEstimator",
-    "SteadyStateKalman",
-    "UnknownEstimatorError",
-    "UnstableModelError",
-    "aggregate",
-    "design_kalman",
-    "evaluate_subject",
-    "make_estimator",
-    "nrmse_fit",
-    "r2_score",
-    "rmse",
-    "select_order",
-    "total_variation_rate",
-]
+#: Public names, imported on first use: ``name -> module``.
+_LAZY = {
+    "FEATURES": "estimation.features", "PAPER_CHANNELS": "estimation.features",
+    "FeatureError": "estimation.features", "FeatureSet": "estimation.features",
+    "align_to_windows": "estimation.features", "emg_features": "estimation.features",
+    "extract_features": "estimation.features",
+    "ForceEstimator": "estimation.base",
+    "ConstantInputError": "estimation.errors", "EstimationInputError": "estimation.errors",
+    "InsufficientDataError": "estimation.errors", "ModeError": "estimation.errors",
+    "RiccatiError": "estimation.errors", "UnstableModelError": "estimation.errors",
+    "UnknownEstimatorError": "estimation.registry",
+    "aggregate": "estimation.evaluation", "evaluate_subject": "estimation.evaluation",
+    "SteadyStateKalman": "estimation.kalman", "design_kalman": "estimation.kalman",
+    "nrmse_fit": "estimation.metrics", "r2_score": "estimation.metrics",
+    "rmse": "estimation.metrics", "total_variation_rate": "estimation.metrics",
+    "OrderSelection": "estimation.order", "select_order": "estimation.order",
+    "ForcePipeline": "estimation.pipeline",
+    "ESTIMATOR_NAMES": "estimation.registry", "make_estimator": "estimation.registry",
+    "register_estimator": "estimation.registry",
+    "Estimator": "estimation.protocols", "Stream": "estimation.protocols",
+    "SSEstimator": "estimation.state_space",
+}
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'estimation' has no attribute {name!r}")

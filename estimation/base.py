@@ -83,6 +83,18 @@ class ForceEstimator(RegressorMixin, BaseEstimator):
         check_is_fitted(self)
         return resolve_mode(mode, tuple(self.modes), y, type(self).__name__)
 
+    def divergence(self, mode: str) -> str | None:
+        """Why running the fitted estimator in ``mode`` would diverge, or ``None``.
+
+        The default reads ``stable_`` and ``poles_`` (identified linear models):
+        an unstable model diverges in ``free_run``, where no measured force
+        corrects it.
+        """
+        if mode != DEPLOYABLE_MODE or getattr(self, "stable_", True) is not False:
+            return None
+        poles = np.round(np.abs(np.asarray(getattr(self, "poles_", []))), 3).tolist()
+        return f"identified model is unstable (poles {poles}); free run would diverge"
+
     def score(self, X: np.ndarray, y: np.ndarray, sample_weight: np.ndarray | None = None,
               *, mode: str | None = None) -> float:
         """R^2 of the estimate (:func:`sklearn.metrics.r2_score`).

@@ -12,6 +12,7 @@ import numpy as np
 import scipy.sparse
 from sklearn.exceptions import DataConversionWarning
 
+from estimation.registry import UnknownEstimatorError  # noqa: F401  (defined where it is raised)
 from sim.errors import GriploopError
 
 
@@ -37,10 +38,6 @@ class RiccatiError(GriploopError, ValueError):
 
 class ModeError(GriploopError, ValueError):
     """An estimator was asked for a prediction mode it does not support."""
-
-
-class UnknownEstimatorError(GriploopError, LookupError):
-    """An estimator name is not in the registry."""
 
 
 MODES = ("one_step", "free_run")

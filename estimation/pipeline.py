@@ -14,12 +14,17 @@ Normalization (min-max to 0..1, the paper's preprocessing) is learned in
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
 from estimation.base import ForceEstimator, resolve_mode
 from estimation.errors import check_features, check_target
 from estimation.normalize import MinMaxScaling
+
+if TYPE_CHECKING:
+    from estimation.protocols import Estimator, Stream
 
 
 class ForcePipeline(ForceEstimator):
@@ -45,7 +50,7 @@ class ForcePipeline(ForceEstimator):
         The wrapped estimator's supported modes.
     """
 
-    def __init__(self, estimator: object) -> None:
+    def __init__(self, estimator: Estimator) -> None:
         self.estimator = estimator
 
     @property
@@ -85,7 +90,13 @@ class ForcePipeline(ForceEstimator):
         y_hat = self.estimator.predict(self.scaling_.transform_u(U), y_norm, mode=mode)
         return self.scaling_.inverse_y(y_hat)
 
-    def streaming(self, mode: str = "one_step", **options: object) -> object:
+    def divergence(self, mode: str) -> str | None:
+        """Why the wrapped estimator would diverge in ``mode``, or ``None``
+        (:meth:`estimation.base.ForceEstimator.divergence`)."""
+        check = getattr(self.estimator, "divergence", None)
+        return None if check is None else check(mode)
+
+    def streaming(self, mode: str = "one_step", **options: object) -> Stream:
         """A stream taking raw features and the force in N, returning N.
 
         ``options`` go to the estimator's ``streaming`` (e.g. ``period_s``, the

@@ -1,4 +1,4 @@
-"""Estimators by name: ``make_estimator(name, **params)``.
+"""Estimators by name: ``make_estimator(name, **params)`` and :func:`register_estimator`.
 
 ============  ==============================================================
 name          estimator (modes)
@@ -19,49 +19,147 @@ ss_sim        paper SS structure refined on the free-run simulation error (free_
 Every estimator is a scikit-learn regressor (:class:`estimation.base.ForceEstimator`):
 ``clone``, ``get_params`` / ``set_params``, ``score`` and ``cross_val_score`` work on
 the bare estimators and on the :class:`~estimation.pipeline.ForcePipeline` that
-``make_estimator`` returns (its parameters are ``estimator__<name>``). A new
-estimator subclasses ``ForceEstimator`` and is added to ``_FACTORIES``.
+``make_estimator`` returns (its parameters are ``estimator__<name>``).
+
+A new estimator is a module with a class satisfying
+:class:`estimation.protocols.Estimator` plus one call::
+
+    register_estimator("my_est", "mypackage.my_est:MyEstimator", modes=("free_run",))
+
+Registrations by ``"module:attribute"`` are imported when the estimator is first
+built, so listing the names (:func:`estimator_names`, the scenario schema, the
+CLI's choices) imports neither scikit-learn nor any estimator module.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
 
-from estimation.baselines import LDAQPF, MLPBaseline, NARXBaseline, Persistence, SingleFeatureLinear
-from estimation.deployable import BoostedLogRidge, LogRidge
-from estimation.errors import UnknownEstimatorError
-from estimation.latent_kf import LatentKalman
-from estimation.pipeline import ForcePipeline
-from estimation.ss_sim import SimulationErrorSS
-from estimation.state_space import SSEstimator
+from sim.errors import GriploopError
+from sim.registry import Registry
 
-_FACTORIES: dict[str, Callable[..., object]] = {
-    "ss_kf": lambda **kw: SSEstimator(kalman=True, **kw),
-    "ss": lambda **kw: SSEstimator(kalman=False, **kw),
-    "mlp": MLPBaseline,
-    "narx": NARXBaseline,
-    "lda_qpf": LDAQPF,
-    "latent_kf": LatentKalman,
-    "persistence": Persistence,
-    "features_mav": lambda **kw: SingleFeatureLinear(feature="mav", **kw),
-    "features_rms": lambda **kw: SingleFeatureLinear(feature="rms", **kw),
-    "features_wl": lambda **kw: SingleFeatureLinear(feature="wl", **kw),
-    "ridge": LogRidge,
-    "gbt": BoostedLogRidge,
-    "ss_sim": SimulationErrorSS,
-}
+if TYPE_CHECKING:
+    from estimation.protocols import Estimator
 
-#: Every registered estimator name, in the JSON contract's order.
-ESTIMATOR_NAMES = tuple(_FACTORIES)
+MODES = ("one_step", "free_run")
 
 
-def make_estimator(name: str, *, normalize: bool = True, **params: object) -> object:
+class UnknownEstimatorError(GriploopError, LookupError):
+    """An estimator name is not in the registry."""
+
+
+_REGISTRY = Registry("estimator", UnknownEstimatorError)
+
+
+def register_estimator(
+    name: str,
+    factory: Callable[..., Estimator] | str,
+    *,
+    modes: tuple[str, ...] = MODES,
+    params: Mapping[str, Any] | None = None,
+    order_params: tuple[str, ...] = (),
+    takes_seed: bool = False,
+    takes_dt: bool = False,
+    neural: bool = False,
+    paper: bool = False,
+    deployable: bool = False,
+    label: str | None = None,
+    replace: bool = False,
+) -> None:
+    """Register an estimator under ``name``.
+
+    Parameters
+    ----------
+    name : str
+        Name used in scenarios, sweeps and the CLI.
+    factory : callable or str
+        Class or function ``factory(**hyperparameters) -> Estimator``, or its
+        ``"package.module:attribute"`` reference (imported on first use).
+    modes : tuple of str
+        Prediction modes it supports (``"one_step"``, ``"free_run"``).
+    params : mapping, optional
+        Fixed keyword arguments always passed to ``factory`` (e.g. ``kalman=True``).
+    order_params : tuple of str
+        Hyperparameters that take the model order of an evaluation (e.g.
+        ``("order",)`` for a state-space model, ``("hidden", "delays")``).
+    takes_seed : bool
+        It takes ``random_state`` (an int drawn per subject).
+    takes_dt : bool
+        It takes the feature period ``dt_s`` (s).
+    neural : bool
+        It takes the network options of an evaluation (epochs, patience).
+    paper : bool
+        A column of the paper's Tables 2 and 3 (in registration order).
+    deployable : bool
+        Needs no force sensor at run time and is built to be deployed.
+    label : str, optional
+        Short upper-case label of printed tables (default: ``name.upper()``).
+    replace : bool
+        Allow replacing an existing registration.
+
+    Raises
+    ------
+    sim.registry.RegistrationError
+        Malformed reference, unknown mode, or ``name`` already registered.
+    """
+    from sim.registry import RegistrationError
+
+    bad = [m for m in modes if m not in MODES]
+    if not modes or bad:
+        raise RegistrationError(f"estimator {name}: modes must be a non-empty subset of {MODES} "
+                                f"(found {tuple(modes)})")
+    _REGISTRY.register(
+        name, factory, replace=replace, modes=tuple(modes), params=dict(params or {}),
+        order_params=tuple(order_params), takes_seed=bool(takes_seed), takes_dt=bool(takes_dt),
+        neural=bool(neural), paper=bool(paper), deployable=bool(deployable),
+        label=label or name.upper(),
+    )
+
+
+def unregister_estimator(name: str) -> None:
+    """Remove ``name`` from the registry (no effect if absent)."""
+    _REGISTRY.unregister(name)
+
+
+def estimator_names() -> tuple[str, ...]:
+    """Every registered estimator name, in registration order."""
+    return _REGISTRY.names()
+
+
+def estimator_info(name: str) -> Mapping[str, Any]:
+    """Metadata of a registered estimator (see :func:`register_estimator`).
+
+    Raises
+    ------
+    UnknownEstimatorError
+        ``name`` is not registered; the message lists the valid names.
+    """
+    return _REGISTRY.info(name)
+
+
+def paper_estimators() -> tuple[str, ...]:
+    """Estimators of the paper's Tables 2 and 3, in the paper's column order."""
+    return _REGISTRY.where(paper=True)
+
+
+def deployable_estimators() -> tuple[str, ...]:
+    """Estimators that need no force sensor at run time and are built to be deployed."""
+    return _REGISTRY.where(deployable=True)
+
+
+def estimator_label(name: str) -> str:
+    """Short table label of ``name`` (``name`` itself when it is not registered)."""
+    return str(_REGISTRY.info(name)["label"]) if name in _REGISTRY else name
+
+
+def make_estimator(name: str, *, normalize: bool = True, **params: Any) -> Estimator:
     """A fresh estimator by name.
 
     Parameters
     ----------
     name : str
-        One of :data:`ESTIMATOR_NAMES`.
+        One of :func:`estimator_names`.
     normalize : bool
         Wrap in :class:`~estimation.pipeline.ForcePipeline` (raw features and
         newtons in and out). ``False`` returns the bare normalized-unit estimator.
@@ -73,11 +171,42 @@ def make_estimator(name: str, *, normalize: bool = True, **params: object) -> ob
     UnknownEstimatorError
         ``name`` is not registered; the message lists the valid names.
     """
-    try:
-        factory = _FACTORIES[name]
-    except KeyError:
-        raise UnknownEstimatorError(
-            f"unknown estimator {name!r}; expected one of {', '.join(ESTIMATOR_NAMES)}"
-        ) from None
-    est = factory(**params)
-    return ForcePipeline(est) if normalize else est
+    entry = _REGISTRY.entry(name)
+    est = entry.resolve()(**entry.info["params"], **params)
+    if not normalize:
+        return est
+    from estimation.pipeline import ForcePipeline
+
+    return ForcePipeline(est)
+
+
+def __getattr__(attr: str) -> Any:
+    if attr == "ESTIMATOR_NAMES":  # the names registered so far
+        return estimator_names()
+    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
+
+
+register_estimator("ss_kf", "estimation.state_space:SSEstimator", params={"kalman": True},
+                   order_params=("order",), takes_dt=True, paper=True, label="SS_KF")
+register_estimator("ss", "estimation.state_space:SSEstimator", params={"kalman": False},
+                   order_params=("order",), takes_dt=True, label="SS")
+register_estimator("mlp", "estimation.baselines.mlp:MLPBaseline", order_params=("hidden",),
+                   takes_seed=True, takes_dt=True, neural=True, paper=True, label="MLP")
+register_estimator("narx", "estimation.baselines.narx:NARXBaseline",
+                   order_params=("hidden", "delays"), takes_seed=True, takes_dt=True,
+                   neural=True, paper=True, label="NARX")
+register_estimator("lda_qpf", "estimation.baselines.lda_qpf:LDAQPF", paper=True,
+                   label="LDA_QPF")
+register_estimator("latent_kf", "estimation.latent_kf:LatentKalman", label="LATENT_KF")
+register_estimator("persistence", "estimation.baselines.persistence:Persistence",
+                   modes=("one_step",), label="PERSIST")
+for _feature in ("mav", "rms", "wl"):
+    register_estimator(f"features_{_feature}",
+                       "estimation.baselines.single_feature:SingleFeatureLinear",
+                       params={"feature": _feature}, label=f"F_{_feature.upper()}")
+register_estimator("ridge", "estimation.deployable:LogRidge", takes_dt=True, deployable=True,
+                   label="RIDGE")
+register_estimator("gbt", "estimation.deployable:BoostedLogRidge", takes_seed=True,
+                   takes_dt=True, deployable=True, label="GBT")
+register_estimator("ss_sim", "estimation.ss_sim:SimulationErrorSS", modes=("free_run",),
+                   takes_dt=True, deployable=True, label="SS_SIM")

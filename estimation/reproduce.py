@@ -29,18 +29,18 @@ from estimation.evaluation import aggregate, evaluate_subject, split_index
 from estimation.features import PAPER_CHANNELS, extract_features
 from estimation.order import select_order
 from estimation.paper import PAPER_ORDER, SECTION_4_2, TABLE2_SUMMARY, TABLE3
-from estimation.registry import ESTIMATOR_NAMES
+from estimation.registry import (
+    deployable_estimators,
+    estimator_info,
+    estimator_label,
+    estimator_names,
+    paper_estimators,
+)
 
-#: Paper Table 2/3 estimators, in the paper's column order.
-PAPER_ESTIMATORS = ("ss_kf", "mlp", "narx", "lda_qpf")
-#: Estimators that need no force sensor at run time and are built to be deployed.
-DEPLOYABLE_ESTIMATORS = ("ridge", "gbt", "ss_sim")
-_LABELS = {"ss_kf": "SS_KF", "mlp": "MLP", "narx": "NARX", "lda_qpf": "LDA_QPF", "ss": "SS",
-           "latent_kf": "LATENT_KF", "persistence": "PERSIST", "features_mav": "F_MAV",
-           "features_rms": "F_RMS", "features_wl": "F_WL", "ridge": "RIDGE", "ss_sim": "SS_SIM",
-           "gbt": "GBT"}
-_SEEDED = ("mlp", "narx")
-_TIMED = ("ss_kf", "ss", "mlp", "narx", "ridge", "gbt", "ss_sim")  # hyperparameter dt_s
+#: Paper Table 2/3 estimators, in the paper's column order (``register_estimator(paper=True)``).
+PAPER_ESTIMATORS = paper_estimators()
+#: Estimators that need no force sensor at run time (``register_estimator(deployable=True)``).
+DEPLOYABLE_ESTIMATORS = deployable_estimators()
 
 
 def parse_channels(spec: str | Sequence[int | str] | None) -> list[int | str] | None:
@@ -124,19 +124,17 @@ def estimator_params(names: Sequence[str], rng: np.random.Generator, order: int,
     """Hyperparameters per estimator: SS order and sample time, NARX delays, NN seeds."""
     params: dict[str, dict] = {}
     for name in names:
+        info = estimator_info(name)
         p: dict = {}
-        if name in ("ss_kf", "ss"):
+        if "order" in info["order_params"]:
             p["order"] = order
-        if name in _TIMED:
+        if info["takes_dt"]:
             p["dt_s"] = dt_s
-        if name == "gbt":
+        if info["takes_seed"]:
             p["random_state"] = int(rng.integers(0, 2**31 - 1))
-        if name in _SEEDED:
-            p["random_state"] = int(rng.integers(0, 2**31 - 1))
-            p["hidden"] = order
+        p.update({k: order for k in info["order_params"] if k != "order"})
+        if info["neural"]:
             p.update(nn_params or {})
-        if name == "narx":
-            p["delays"] = order
         params[name] = p
     return params
 
@@ -147,7 +145,7 @@ def run_reproduction(
     *,
     generator: str = "noise",
     order: int = PAPER_ORDER,
-    estimators: Sequence[str] = ESTIMATOR_NAMES,
+    estimators: Sequence[str] | None = None,
     orders: Sequence[int] = tuple(range(1, 13)),
     nn_params: dict | None = None,
     channels: str | Sequence[int | str] | None = PAPER_CHANNELS,
@@ -165,7 +163,8 @@ def run_reproduction(
     order : int
         SS order used for the tables (paper: 4); NARX delays and hidden units follow it.
     estimators : sequence of str
-        Registry names to evaluate (must include ``"ss_kf"`` for the ``model`` entry).
+        Registry names to evaluate (must include ``"ss_kf"`` for the ``model`` entry);
+        ``None``: every registered estimator.
     orders : sequence of int
         Candidate orders for the per-subject AIC curve (paper: 1..12).
     nn_params : dict, optional
@@ -181,6 +180,7 @@ def run_reproduction(
     from sim.user.subjects import make_population  # the only dependency on the subject API
 
     channels = parse_channels(channels)
+    estimators = estimator_names() if estimators is None else tuple(estimators)
 
     # Every matrix here is tiny: BLAS threads only add overhead (and noise in timings).
     with threadpool_limits(limits=1, user_api="blas"):
@@ -233,7 +233,7 @@ def _run(make_population: object, n_subjects: int, seed: int, generator: str, or
                         "identification_fraction": 0.5, "estimators": list(estimators),
                         "nn_params": nn_params or {}}
     result["nn_epochs"] = {name: [s[name]["info"].get("n_epochs") for s in per_subject]
-                           for name in estimators if name in _SEEDED}
+                           for name in estimators if estimator_info(name)["neural"]}
     result["training"] = training
     return to_jsonable(result)
 
@@ -259,7 +259,7 @@ def format_table2(result: dict, mode: str) -> str:
     """Paper Table 2 (per-subject R^2 / NRMSE) in one mode, with the paper's rows below."""
     est = result["estimators"]
     names = [n for n in PAPER_ESTIMATORS if n in est and mode in est[n]]
-    head = f"{'':10s}" + "".join(f"{_LABELS[n] + ' R2':>11s}{'NRMSE':>8s}" for n in names)
+    head = f"{'':10s}" + "".join(f"{estimator_label(n) + ' R2':>11s}{'NRMSE':>8s}" for n in names)
     lines = [f"Table 2 ({mode}) -- ours, virtual subjects", head]
     n_sub = len(est[names[0]][mode]["per_subject"]) if names else 0
     for i in range(n_sub):
@@ -282,7 +282,7 @@ def format_table2(result: dict, mode: str) -> str:
         lines.append(row)
     unstable = [n for n in names if est[n][mode]["n_ok"] < n_sub]
     for n in unstable:
-        lines.append(f"  {_LABELS[n]}: {n_sub - est[n][mode]['n_ok']} subject(s) unstable, "
+        lines.append(f"  {estimator_label(n)}: {n_sub - est[n][mode]['n_ok']} subject(s) unstable, "
                      "excluded from the mean")
     return "\n".join(lines)
 
@@ -298,7 +298,7 @@ def format_others(result: dict, mode: str) -> str:
         if n in PAPER_ESTIMATORS or mode not in est[n]:
             continue
         e = est[n][mode]
-        line = (f"  {_LABELS.get(n, n):10s} R2 {_fmt(e['r2_mean'], 7)} +/- {_fmt(e['r2_sd'], 6)}"
+        line = (f"  {estimator_label(n):10s} R2 {_fmt(e['r2_mean'], 7)} +/- {_fmt(e['r2_sd'], 6)}"
                 f" (min {_fmt(e.get('r2_min'), 6, 3)})"
                 f"  NRMSE {_fmt(e['nrmse_mean'], 7)} +/- {_fmt(e['nrmse_sd'], 6)}"
                 f"  RMSE {_fmt(e['rmse_n_mean'], 6, 2)} N")
@@ -322,7 +322,7 @@ def format_table3(result: dict) -> str:
             continue
         t, p = timing[n], TABLE3[n]
         if t["train_ms_mean"] is None:
-            lines.append(f"{_LABELS[n]:9s} failed on every subject")
+            lines.append(f"{estimator_label(n):9s} failed on every subject")
             continue
         loop = t["step_us_median"]
         loop_ms = "n/a" if loop is None else f"{loop / 1e3:.5f}"
@@ -333,13 +333,13 @@ def format_table3(result: dict) -> str:
             ours = "-/-/-"
         paper_p = f"{p['controllable']}/{p['observable']}/{p['stable']}"
         lines.append(
-            f"{_LABELS[n]:9s}{t['train_ms_mean']:>11.2f} +/- {t['train_ms_sd']:<7.2f}"
+            f"{estimator_label(n):9s}{t['train_ms_mean']:>11.2f} +/- {t['train_ms_sd']:<7.2f}"
             f"{p['train_ms'][0]:>9.2f} +/- {p['train_ms'][1]:<6.2f}{loop_ms:>11s}"
             f"{p['loop_ms'][0]:>10.5f} +/- {p['loop_ms'][1]:<5.4f}{ours:>22s}{paper_p:>14s}"
         )
     epochs = result.get("nn_epochs", {})
     for n, counts in epochs.items():
-        lines.append(f"  {_LABELS[n]} epochs (early stop on a validation split of the "
+        lines.append(f"  {estimator_label(n)} epochs (early stop on a validation split of the "
                      f"identification half): {counts}")
     return "\n".join(lines)
 
@@ -356,7 +356,7 @@ def recommendation(result: dict) -> str:
     b = free[best]
     ref = est.get("ss_kf", {}).get("one_step", {}).get("r2_mean")
     ss_free = est.get("ss_kf", {}).get("free_run", {}).get("r2_mean")
-    label = _LABELS.get(best, best)
+    label = estimator_label(best)
     channels = result.get("config", {}).get("channels", result.get("recording", {}).get(
         "channels"))
     on = "" if channels is None else (
@@ -383,7 +383,7 @@ def format_deployable(result: dict) -> str:
     for n in names:
         e, t = est[n]["free_run"], timing[n]
         tag = " *" if n in DEPLOYABLE_ESTIMATORS else ""
-        lines.append(f"  {_LABELS.get(n, n) + tag:12s} R2 {_fmt(e['r2_mean'], 7)} +/- "
+        lines.append(f"  {estimator_label(n) + tag:12s} R2 {_fmt(e['r2_mean'], 7)} +/- "
                      f"{_fmt(e['r2_sd'], 6)}  min {_fmt(e.get('r2_min'), 7)}  "
                      f"n_ok {e['n_ok']}/{len(e['per_subject'])}  train "
                      f"{_fmt(t['train_ms_median'], 8, 1)} ms  step "
@@ -391,7 +391,7 @@ def format_deployable(result: dict) -> str:
     for n in ("ss_kf", "persistence", "narx"):
         if n in est and "one_step" in est[n]:
             e = est[n]["one_step"]
-            lines.append(f"  reference {_LABELS[n]:9s} one_step R2 {_fmt(e['r2_mean'], 7)} "
+            lines.append(f"  reference {estimator_label(n):9s} one_step R2 {_fmt(e['r2_mean'], 7)} "
                          f"(min {_fmt(e.get('r2_min'), 6, 3)}; needs the measured force)")
     lines.append("  (* built for deployment: all settings chosen on a validation split of the "
                  "identification half)")
@@ -451,7 +451,7 @@ def evaluate_recording(
     recording: object,
     *,
     channels: str | Sequence[int | str] | None = PAPER_CHANNELS,
-    estimators: Sequence[str] = ESTIMATOR_NAMES,
+    estimators: Sequence[str] | None = None,
     order: int = PAPER_ORDER,
     seed: int = 0,
     nn_params: dict | None = None,
@@ -487,6 +487,7 @@ def evaluate_recording(
             f"{recording.source}: no force column; the protocol needs the measured force"
         )
     channels = parse_channels(channels)
+    estimators = estimator_names() if estimators is None else tuple(estimators)
     fs = extract_features(recording, channels=channels)
     params = estimator_params(estimators, np.random.default_rng(seed), order, nn_params,
                               dt_s=fs.dt_s)

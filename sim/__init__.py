@@ -11,8 +11,10 @@ MuJoCo loads. An explicit ``MUJOCO_GL`` always wins.
 Two worlds that import nothing from each other: :mod:`sim.user` (the virtual
 user: muscles, sEMG, armband, FSR, intent protocols) and :mod:`sim.hand` (the
 MuJoCo hand, objects, contacts, ``GraspEnv``, linearization). Both may use
-:mod:`sim.recording` and :mod:`sim.references`, and :mod:`sim.errors` holds the
-base of every griploop error. Importing :mod:`sim.hand` registers the
+:mod:`sim.recording` and :mod:`sim.references`, :mod:`sim.errors` holds the
+base of every griploop error and :mod:`sim.registry` the named registries every
+extension family uses (sEMG generators in :mod:`sim.user.generators`, objects in
+:mod:`sim.hand.objects`). Importing :mod:`sim.hand` registers the
 Gymnasium id ``griploop/GraspLift-v0``.
 """
 

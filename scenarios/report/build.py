@@ -1,9 +1,10 @@
-"""Assembling the report: one section per kind of data, in the order of the brief.
+"""Assembling the report: one section per kind of data.
 
 :func:`build_report` reads a results store (and optionally the JSON of
-``griploop reproduce --json``), builds each section from the data present --
-a section without data becomes a one-line note -- and writes
-``OUT/index.html``.
+``griploop reproduce --json``) into a :class:`~scenarios.report.sections.ReportContext`,
+builds every section registered in :mod:`scenarios.report.sections` from the
+data present -- a section without data becomes a one-line note -- and writes
+``OUT/index.html``. The built-in sections are registered at the end of this module.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from estimation.paper import TABLE2, TABLE3
+from estimation.registry import paper_estimators
 from scenarios.report import data as D
 from scenarios.report import figures as F
 from scenarios.report.html import (
@@ -40,9 +42,9 @@ from scenarios.report.html import (
     side_by_side,
     table,
 )
+from scenarios.report.sections import ReportContext, build_sections, register_section
 from scenarios.store import ResultStore, package_version
 
-_PAPER_TABLE2 = ("ss_kf", "mlp", "narx", "lda_qpf")
 #: Grip force of the rendered frame, N (``sim.hand.render_snapshot``'s default; below about
 #: 4 N the hand's steady grasp of the block loses thumb contact).
 FRAME_GRIP_N = 10.0
@@ -143,18 +145,15 @@ def build_report(
                               label=lambda row: D.scenario_title(row, conditions))
                if split.episodes else [])
 
-    sections = [
-        _summary_section(split.episodes, factors),
-        _compare_section(split.episodes, factors),
-        _paper_section(sources),
-        _traces_section(split.episodes, traces, max_traces, factors),
-        _loop_section(designs, max_designs),
-        _outcome_section(split.episodes, factors),
-        _margin_section(designs, split.episodes),
-        _frame_section(split.episodes, render_frame),
-        _failed_section(split.failed),
-        _provenance_section(results, sweep, rows, members, reproduction, json_config, created),
-    ]
+    context = ReportContext(
+        results=results, sweep=sweep, rows=rows, split=split, traces=traces, members=members,
+        sources=sources, factors=factors, designs=designs,
+        reproduction=None if reproduction is None else Path(reproduction),
+        json_config=json_config, created=created,
+        options={"render_frame": render_frame, "max_designs": max_designs,
+                 "max_traces": max_traces},
+    )
+    sections = build_sections(context)
     n_ok = len(rows) - len(split.failed)
     subtitle = (f"{results.name}{f', sweep {sweep}' if sweep else ''}: {len(rows)} rows "
                 f"({n_ok} ok, {len(split.failed)} failed; {len(split.reproduction)} "
@@ -233,14 +232,14 @@ def _per_subject_table(scores: Mapping[str, D.EstimatorScores], mode: str) -> st
     headers = ["subject"]
     for name in names:
         headers += [f"{name} R²", f"{name} NRMSE"]
-        if mode == "one_step" and name in _PAPER_TABLE2:
+        if mode == "one_step" and name in paper_estimators():
             headers += [f"paper {name} R²", f"paper {name} NRMSE"]
     rows = []
     for sid in subjects:
         row: list[Any] = [f"V{sid}"]
         for name in names:
             row += list(scores[name].per_subject.get(sid, (None, None)))
-            if mode == "one_step" and name in _PAPER_TABLE2:
+            if mode == "one_step" and name in paper_estimators():
                 row += list(TABLE2.get(f"V{sid}", {}).get(name, (None, None)))
         rows.append(row)
     return table(headers, rows, f"Per subject (Table 2 layout), mode {mode}")
@@ -549,3 +548,20 @@ def _provenance_section(results: Path, sweep: str | None, rows: Sequence[dict],
     parts.append(f"<details><summary>Config hashes of {len(rows)} rows</summary>"
                  f"<ul>{items}</ul></details>")
     return Section("provenance", "10. Provenance", "\n".join(parts))
+
+
+# ---------------------------------------------------------------- registrations
+register_section("summary", lambda c: _summary_section(c.split.episodes, c.factors), order=10)
+register_section("compare", lambda c: _compare_section(c.split.episodes, c.factors), order=20)
+register_section("paper", lambda c: _paper_section(c.sources), order=30)
+register_section("traces", lambda c: _traces_section(c.split.episodes, c.traces,
+                                                     c.options["max_traces"], c.factors),
+                 order=40)
+register_section("loops", lambda c: _loop_section(c.designs, c.options["max_designs"]), order=50)
+register_section("outcomes", lambda c: _outcome_section(c.split.episodes, c.factors), order=60)
+register_section("margins", lambda c: _margin_section(c.designs, c.split.episodes), order=70)
+register_section("frame", lambda c: _frame_section(c.split.episodes, c.options["render_frame"]),
+                 order=80)
+register_section("failed", lambda c: _failed_section(c.split.failed), order=90)
+register_section("provenance", lambda c: _provenance_section(
+    c.results, c.sweep, c.rows, c.members, c.reproduction, c.json_config, c.created), order=100)

@@ -21,7 +21,7 @@ import control
 import numpy as np
 
 from controllers.analysis import LoopMargins, loop_margins
-from scenarios.schema import ESTIMATORS
+from scenarios.schema import estimator_choices
 from sim.errors import GriploopError
 
 MODES = ("one_step", "free_run")
@@ -125,7 +125,8 @@ def scores_from_rows(rows: Iterable[Mapping[str, Any]]) -> ScoreTable:
 def _mode_key(key: tuple[str, str]) -> tuple[int, int, str]:
     """Sort key: modes in :data:`MODES` order, estimators in the schema's order."""
     mode, name = key
-    rank = ESTIMATORS.index(name) if name in ESTIMATORS else len(ESTIMATORS)
+    names = estimator_choices()
+    rank = names.index(name) if name in names else len(names)
     return (MODES.index(mode) if mode in MODES else len(MODES), rank, name)
 
 

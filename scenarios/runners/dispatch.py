@@ -8,9 +8,13 @@ a flat mapping of result names to scalars (``bool``, ``int``, ``float``,
 trace names to numeric arrays of shape ``(n_samples,)`` or
 ``(n_samples, n_channels)``.
 
-Runners are registered with :func:`register_runner`, either as a callable or
-as a ``"package.module:function"`` reference imported on first use, so that
-registering a runner never imports its simulation stack.
+A scenario kind is registered once with :func:`register_kind`: its runner and
+the protocols (``protocol.name``) it runs; the scenario schema, sweeps and the
+CLI take the kinds from here, and the schema refuses other protocols for the
+kind. The runner is a callable or a ``"package.module:function"`` reference
+imported on first use, so that registering a kind never imports its simulation
+stack. A kind may be known without a runner (a build without its backend):
+:func:`register_runner` and :func:`unregister_runner` change only the runner.
 
 Registered here: ``reproduction`` (:func:`run_reproduction_scenario`), and by reference
 ``episode`` and ``calibration`` (:mod:`scenarios.runners.episode`), so that importing
@@ -20,20 +24,21 @@ this module does not import MuJoCo.
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable, Mapping
-from typing import Any
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from scenarios.schema import SCENARIO_KINDS, Scenario
 from sim.errors import GriploopError
+from sim.registry import Registry
+
+if TYPE_CHECKING:
+    from scenarios.schema import Scenario
 
 ResultRow = Mapping[str, Any]
 """Flat mapping of result names to scalars, plus optional ``"traces"``."""
 
-Runner = Callable[[Scenario], ResultRow]
-
-_REGISTRY: dict[str, Runner | str] = {}
+Runner = Callable[["Scenario"], ResultRow]
 
 
 class RunnerUnavailableError(GriploopError, LookupError):
@@ -48,13 +53,67 @@ class DivergedError(GriploopError, RuntimeError):
     """A scenario ran but its result diverged (e.g. an unstable identified model)."""
 
 
-def register_runner(kind: str, runner: Runner | str, *, replace: bool = False) -> None:
-    """Register the runner of a scenario kind.
+_KINDS = Registry("scenario kind", RunnerUnavailableError)
+_REGISTRY: dict[str, Runner | str] = {}
+
+
+def register_kind(kind: str, runner: Runner | str | None = None, *,
+                  protocols: Sequence[str] = (), replace: bool = False) -> None:
+    """Register a scenario kind, the protocols it runs and its runner.
 
     Parameters
     ----------
-    kind : {"reproduction", "calibration", "episode"}
-        Scenario kind.
+    kind : str
+        Scenario kind (``scenario.kind``).
+    runner : callable or str, optional
+        ``runner(scenario) -> ResultRow``, or its ``"package.module:function"``
+        reference, imported when first used (see :func:`register_runner`).
+    protocols : sequence of str
+        The ``protocol.name`` values the kind runs; empty: any.
+    replace : bool
+        Allow replacing an existing registration.
+
+    Raises
+    ------
+    sim.registry.RegistrationError
+        Malformed runner reference, or kind already registered (a ``ValueError``).
+    """
+    if isinstance(runner, str) and runner.count(":") != 1:
+        raise ValueError(f"runner reference must be 'package.module:function' (found {runner!r})")
+    _KINDS.register(kind, None, replace=replace, protocols=tuple(protocols))
+    if runner is not None:
+        register_runner(kind, runner, replace=True)
+
+
+def unregister_kind(kind: str) -> None:
+    """Remove a scenario kind and its runner (no effect if absent)."""
+    _KINDS.unregister(kind)
+    _REGISTRY.pop(kind, None)
+
+
+def scenario_kinds() -> tuple[str, ...]:
+    """Registered scenario kinds, in registration order."""
+    return _KINDS.names()
+
+
+def kind_info(kind: str) -> Mapping[str, Any]:
+    """Metadata of a registered kind (``protocols``).
+
+    Raises
+    ------
+    RunnerUnavailableError
+        ``kind`` is not registered; the message lists the registered kinds.
+    """
+    return _KINDS.info(kind)
+
+
+def register_runner(kind: str, runner: Runner | str, *, replace: bool = False) -> None:
+    """Register the runner of a registered scenario kind.
+
+    Parameters
+    ----------
+    kind : str
+        A kind of :func:`scenario_kinds`.
     runner : callable or str
         ``runner(scenario) -> ResultRow``, or its ``"package.module:function"``
         reference, imported when first used.
@@ -66,8 +125,8 @@ def register_runner(kind: str, runner: Runner | str, *, replace: bool = False) -
     ValueError
         Unknown kind, malformed reference, or kind already registered.
     """
-    if kind not in SCENARIO_KINDS:
-        raise ValueError(f"scenario kind must be one of {SCENARIO_KINDS} (found {kind!r})")
+    if kind not in _KINDS:
+        raise ValueError(f"scenario kind must be one of {scenario_kinds()} (found {kind!r})")
     if isinstance(runner, str) and runner.count(":") != 1:
         raise ValueError(f"runner reference must be 'package.module:function' (found {runner!r})")
     if kind in _REGISTRY and not replace:
@@ -76,13 +135,13 @@ def register_runner(kind: str, runner: Runner | str, *, replace: bool = False) -
 
 
 def unregister_runner(kind: str) -> None:
-    """Remove the runner of ``kind`` (no effect if none is registered)."""
+    """Remove the runner of ``kind`` (no effect if none is registered); the kind stays."""
     _REGISTRY.pop(kind, None)
 
 
 def registered_kinds() -> tuple[str, ...]:
     """Scenario kinds that have a runner registered."""
-    return tuple(k for k in SCENARIO_KINDS if k in _REGISTRY)
+    return tuple(k for k in scenario_kinds() if k in _REGISTRY)
 
 
 def get_runner(kind: str) -> Runner:
@@ -247,6 +306,8 @@ def run_reproduction_scenario(scenario: Scenario) -> ResultRow:
     }
 
 
-register_runner("reproduction", run_reproduction_scenario)
-register_runner("episode", "scenarios.runners.episode:run_episode_scenario")
-register_runner("calibration", "scenarios.runners.episode:run_calibration_scenario")
+register_kind("reproduction", run_reproduction_scenario, protocols=("paper_calibration",))
+register_kind("calibration", "scenarios.runners.episode:run_calibration_scenario",
+              protocols=("paper_calibration",))
+register_kind("episode", "scenarios.runners.episode:run_episode_scenario",
+              protocols=("grasp_lift_hold", "fragile_handling"))

@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from controllers.base import observation_from_info
+from controllers.base import controller_stats, observation_from_info
 from controllers.bounds import slip_threshold_n
 from controllers.design import ControllerDesign, OperatingAnalysis, design_for_object, worst_case
 from estimation.evaluation import split_index
@@ -56,13 +56,12 @@ from estimation.paper import PAPER_ORDER
 from estimation.registry import make_estimator
 from estimation.reproduce import estimator_params
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
-from scenarios.schema import Scenario
+from scenarios.schema import ORACLE, Scenario
 from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.hand.objects import ObjectSpec, make_object
 from sim.user.intent import IntentProfile, grasp_lift_hold, paper_protocol
 from sim.user.subjects import VirtualSubject
 
-ORACLE = "oracle"
 HAND_FORCE_AT_MVC_N = 30.0
 MIN_GRIP_N = 2.0
 FRAGILE_MARGIN = 0.7
@@ -158,11 +157,9 @@ def calibrate(
         raise UnsupportedScenarioError(
             f"estimator {estimator} has modes {pipeline.modes} (found mode {mode})"
         )
-    if mode == "free_run" and getattr(pipeline.estimator, "stable_", True) is False:
-        raise DivergedError(
-            f"estimator {estimator}: identified model is unstable (poles "
-            f"{np.round(np.abs(pipeline.estimator.poles_), 3).tolist()}); free run would diverge"
-        )
+    reason = pipeline.divergence(mode)
+    if reason is not None:
+        raise DivergedError(f"estimator {estimator}: {reason}")
     y_val = features.y[split:]
     y_hat = pipeline.predict(features.X[split:], y_val if mode == "one_step" else None, mode=mode)
     return Calibration(estimator, mode, pipeline, mvc_cal_n, r2_score(y_val, y_hat), fit_s)
@@ -368,7 +365,7 @@ def run_episode(
     obj : ObjectSpec
         The object.
     estimator : str
-        Estimator name (:data:`estimation.registry.ESTIMATOR_NAMES`) or ``"oracle"``.
+        Estimator name (:func:`estimation.registry.estimator_names`) or ``"oracle"``.
     mode : {"free_run", "one_step"}
         Estimator mode (see module notes).
     controller : {"pid", "lead_lag", "mpc"}
@@ -563,7 +560,7 @@ def operating_forces(traces: Mapping[str, np.ndarray], design: ControllerDesign,
 
 def mpc_failures(design: ControllerDesign) -> int:
     """QP solves that fell back to the unconstrained law, summed over the bank."""
-    return int(sum(d.stats_.n_failures for d in design.core.designs if hasattr(d, "stats_")))
+    return int(controller_stats(design.core).get("n_failures", 0))
 
 
 def _margin_fields(analysis: OperatingAnalysis | None) -> dict[str, Any]:
@@ -661,7 +658,7 @@ def controller_spec(scenario: Scenario) -> dict[str, Any]:
                             "crossover_rad_s": c.crossover_rad_s,
                             "bandwidth_rad_s": c.bandwidth_rad_s,
                             "safety_factor": c.safety_factor}
-    if c.kind == "mpc":
+    if c.horizon is not None:  # set by the schema for the kinds that take one
         spec["horizon"] = c.horizon
     if c.slip_reflex.enabled:
         spec["slip_reflex"] = {"latency_s": c.slip_reflex.latency_s, "gain": c.slip_reflex.gain}

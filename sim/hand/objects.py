@@ -10,16 +10,23 @@ Library defaults (CALIBRATION.md "Prosthetic hands"): the paper's anti-stress
 ball (about 70 mm, soft), a soda can (0.386 kg, 66 mm x 122 mm), a paper cup
 (light, crushes at a few newtons), an egg (about 0.06 kg; the Virtual Eggs Test
 uses break forces of 0.4-11.5 N) and an aluminium block (0.461 kg).
+
+The library is a registry of object factories: a new object is a function
+returning its :class:`ObjectSpec` plus one call,
+``register_object("mug", "mypackage.mug:mug")``; :func:`make_object`, the scenario
+schema and the CLI's ``--object`` then know it.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 from sim.errors import GriploopError
+from sim.registry import Registry
 
 SHAPES = ("sphere", "cylinder", "box")
 MASS_RANGE_KG = (0.02, 2.0)
@@ -149,25 +156,90 @@ def _check_range(field: str, value: float, bounds: tuple[float, float]) -> None:
 _SOFT_SOLREF = (0.02, 1.0)
 _SOFT_SOLIMP = (0.3, 0.95, 0.01)
 
-LIBRARY: dict[str, ObjectSpec] = {
-    # The paper's anti-stress ball: 70 mm foam, squeezes by ~10 mm at 20 N.
-    "ball": ObjectSpec("ball", "sphere", (0.035,), 0.05, friction=1.0, solref=_SOFT_SOLREF,
-                       solimp=_SOFT_SOLIMP, rgba=(0.85, 0.2, 0.2, 1.0)),
-    # Soda can: 0.386 kg, 66 mm x 122 mm, rigid aluminium.
-    "can": ObjectSpec("can", "cylinder", (0.033, 0.061), 0.386, friction=0.5,
-                      rgba=(0.75, 0.75, 0.8, 1.0)),
-    # Paper cup: 75 mm x 90 mm, 10 g (at the 0.02 kg lower bound), crushes at ~4 N.
-    "cup": ObjectSpec("cup", "cylinder", (0.0375, 0.045), 0.02, friction=0.8,
+_REGISTRY = Registry("object", ObjectSpecError)
+
+
+def register_object(name: str, factory: Callable[[], ObjectSpec] | str, *,
+                    replace: bool = False) -> None:
+    """Register a library object.
+
+    Parameters
+    ----------
+    name : str
+        Name used by :func:`make_object`, scenarios (``object.name``), sweeps
+        and the CLI (``--object``).
+    factory : callable or str
+        ``factory() -> ObjectSpec`` (the object's default parameters), or its
+        ``"package.module:attribute"`` reference, imported on first use.
+    replace : bool
+        Allow replacing an existing registration.
+
+    Raises
+    ------
+    sim.registry.RegistrationError
+        Malformed reference, or ``name`` already registered.
+    """
+    _REGISTRY.register(name, factory, replace=replace)
+
+
+def unregister_object(name: str) -> None:
+    """Remove a library object (no effect if absent)."""
+    _REGISTRY.unregister(name)
+
+
+def object_names() -> tuple[str, ...]:
+    """Every registered object name, in registration order."""
+    return _REGISTRY.names()
+
+
+def library() -> dict[str, ObjectSpec]:
+    """Every registered object with its default parameters: ``name -> ObjectSpec``."""
+    return {name: _REGISTRY.get(name)() for name in _REGISTRY.names()}
+
+
+def __getattr__(attr: str) -> Any:
+    if attr == "LIBRARY":  # the objects registered so far
+        return library()
+    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
+
+
+def _ball() -> ObjectSpec:
+    """The paper's anti-stress ball: 70 mm foam, squeezes by ~10 mm at 20 N."""
+    return ObjectSpec("ball", "sphere", (0.035,), 0.05, friction=1.0, solref=_SOFT_SOLREF,
+                      solimp=_SOFT_SOLIMP, rgba=(0.85, 0.2, 0.2, 1.0))
+
+
+def _can() -> ObjectSpec:
+    """Soda can: 0.386 kg, 66 mm x 122 mm, rigid aluminium."""
+    return ObjectSpec("can", "cylinder", (0.033, 0.061), 0.386, friction=0.5,
+                      rgba=(0.75, 0.75, 0.8, 1.0))
+
+
+def _cup() -> ObjectSpec:
+    """Paper cup: 75 mm x 90 mm, 10 g (at the 0.02 kg lower bound), crushes at ~4 N."""
+    return ObjectSpec("cup", "cylinder", (0.0375, 0.045), 0.02, friction=0.8,
                       solref=(0.01, 1.0), solimp=(0.8, 0.95, 0.003), break_force_n=4.0,
-                      rgba=(0.95, 0.95, 0.9, 1.0)),
-    # Egg: ~0.06 kg, 45 mm x 57 mm (modelled as a sphere of the short axis), breaks at 5 N
-    # (the Virtual Eggs Test spans 0.4-11.5 N).
-    "egg": ObjectSpec("egg", "sphere", (0.0225,), 0.06, friction=0.6, break_force_n=5.0,
-                      rgba=(0.95, 0.9, 0.75, 1.0)),
-    # Aluminium block 0.461 kg: 60 x 50 x 57 mm -> 2.7 g/cm^3 * 171 cm^3.
-    "block": ObjectSpec("block", "box", (0.03, 0.025, 0.0285), 0.461, friction=0.6,
-                        rgba=(0.6, 0.62, 0.66, 1.0)),
-}
+                      rgba=(0.95, 0.95, 0.9, 1.0))
+
+
+def _egg() -> ObjectSpec:
+    """Egg: ~0.06 kg, 45 mm x 57 mm (a sphere of the short axis), breaks at 5 N.
+
+    The Virtual Eggs Test spans 0.4-11.5 N.
+    """
+    return ObjectSpec("egg", "sphere", (0.0225,), 0.06, friction=0.6, break_force_n=5.0,
+                      rgba=(0.95, 0.9, 0.75, 1.0))
+
+
+def _block() -> ObjectSpec:
+    """Aluminium block 0.461 kg: 60 x 50 x 57 mm -> 2.7 g/cm^3 * 171 cm^3."""
+    return ObjectSpec("block", "box", (0.03, 0.025, 0.0285), 0.461, friction=0.6,
+                      rgba=(0.6, 0.62, 0.66, 1.0))
+
+
+for _name, _factory in (("ball", _ball), ("can", _can), ("cup", _cup), ("egg", _egg),
+                        ("block", _block)):
+    register_object(_name, _factory)
 
 
 def make_object(name: str = "ball", **overrides: Any) -> ObjectSpec:
@@ -176,7 +248,8 @@ def make_object(name: str = "ball", **overrides: Any) -> ObjectSpec:
     Parameters
     ----------
     name : str
-        One of ``LIBRARY`` (``ball``, ``can``, ``cup``, ``egg``, ``block``).
+        A registered object (:func:`object_names`: ``ball``, ``can``, ``cup``,
+        ``egg``, ``block``, ...).
     **overrides
         Any :class:`ObjectSpec` field, e.g. ``mass_kg=0.4, friction=0.5``.
 
@@ -195,15 +268,16 @@ def make_object(name: str = "ball", **overrides: Any) -> ObjectSpec:
     >>> make_object("can", mass_kg=0.4, friction=0.5).mass_kg
     0.4
     """
-    if name not in LIBRARY:
-        raise ObjectSpecError(f"object name: expected one of {sorted(LIBRARY)}, found {name!r}")
+    if name not in _REGISTRY:
+        raise ObjectSpecError(
+            f"object name: expected one of {sorted(object_names())}, found {name!r}")
     fields = {f.name for f in dataclasses.fields(ObjectSpec)}
     unknown = sorted(set(overrides) - fields)
     if unknown:
         raise ObjectSpecError(
             f"object field: unknown {unknown}; expected a subset of {sorted(fields)}"
         )
-    return LIBRARY[name].replace(**overrides)
+    return _REGISTRY.get(name)().replace(**overrides)
 
 
 def as_object_spec(obj: ObjectSpec | str | dict[str, Any]) -> ObjectSpec:

@@ -27,14 +27,16 @@ from typing import Any
 
 import numpy as np
 
-from sim.errors import GriploopError
 from sim.recording import Recording
 from sim.user.armband import Armband
 from sim.user.emg import EmgGenerator
-from sim.user.emg_noise import NoiseEmgGenerator
 from sim.user.fsr import FSR402
+from sim.user.generators import (  # noqa: F401  (UnknownGeneratorError re-exported)
+    UnknownGeneratorError,
+    generator_names,
+    make_generator,
+)
 from sim.user.intent import IntentProfile, as_rng, paper_protocol
-from sim.user.motor_units import MotorUnitEmgGenerator
 from sim.user.muscles import (
     MUSCLE_ABBREVIATIONS,
     MUSCLE_ROLES,
@@ -43,8 +45,6 @@ from sim.user.muscles import (
     MuscleParams,
     slow_fluctuation,
 )
-
-GENERATORS = ("noise", "motor_units")
 
 # Per-role uniform ranges of the sampled muscle parameters: (low, high).
 _SYNERGY = {"flexor": (0.80, 1.00), "extensor": (0.50, 0.78), "other": (0.10, 0.30)}
@@ -62,34 +62,6 @@ _MUAP_WIDTH_MS = (1.4, 1.7)
 # the same log-log sEMG-force slope over 3-100 % MVC as ``amplitude_exponent``
 # p in the noise generator (measured: p = 0.16 + 0.77 gamma for gamma in 0.3..1.6).
 _MUAP_EXPONENT_FIT = (0.16, 0.77)
-
-
-class UnknownGeneratorError(GriploopError, LookupError):
-    """A generator name that is not one of :data:`GENERATORS`."""
-
-
-def make_generator(generator: str | EmgGenerator, **settings: Any) -> EmgGenerator:
-    """An sEMG generator from its name (``"noise"`` or ``"motor_units"``) or as given.
-
-    Parameters
-    ----------
-    generator : str or EmgGenerator
-        Name, or an object already satisfying :class:`sim.user.emg.EmgGenerator`.
-    **settings
-        Passed to the generator class (e.g. ``n_units=300`` for motor units).
-
-    Raises
-    ------
-    UnknownGeneratorError
-        For an unknown name.
-    """
-    if not isinstance(generator, str):
-        return generator
-    if generator == "noise":
-        return NoiseEmgGenerator(**settings)
-    if generator == "motor_units":
-        return MotorUnitEmgGenerator(**settings)
-    raise UnknownGeneratorError(f"unknown generator {generator!r}; expected one of {GENERATORS}")
 
 
 @dataclass(frozen=True)
@@ -359,3 +331,9 @@ def make_population(n: int = 10, seed: int = 0) -> list[VirtualSubject]:
     if int(n) < 1:
         raise ValueError(f"population size must be at least 1, found {n}")
     return [VirtualSubject.sample(int(seed), i) for i in range(1, int(n) + 1)]
+
+
+def __getattr__(attr: str) -> Any:
+    if attr == "GENERATORS":  # the generator names registered so far (sim.user.generators)
+        return generator_names()
+    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")

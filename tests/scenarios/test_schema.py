@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import textwrap
-import typing
 from pathlib import Path
 
 import numpy as np
@@ -107,8 +106,10 @@ def test_object_and_subject_vocabulary_matches_sim():
     friction = ObjectConfig.model_fields["friction"].metadata
     assert (mass[0].ge, mass[1].le) == sim_objects.MASS_RANGE_KG
     assert (friction[0].ge, friction[1].le) == sim_objects.FRICTION_RANGE
-    generator = SubjectConfig.model_fields["generator"].annotation
-    assert set(typing.get_args(generator)) == set(sim_subjects.GENERATORS)
+    from scenarios.schema import GENERATORS
+
+    assert set(GENERATORS) == set(sim_subjects.GENERATORS)
+    assert SubjectConfig.model_validate({"generator": "motor_units"}).generator == "motor_units"
 
 
 def test_mpc_gets_a_default_horizon_and_pid_rejects_one():

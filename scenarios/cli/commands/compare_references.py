@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from controllers.design_plant import object_for
-from scenarios.cli.commands.episode import ESTIMATOR_CHOICES
+from scenarios.cli.choices import controller_names, estimator_choices, object_names
 from scenarios.cli.errors import UnknownChoiceError, UsageError
 from scenarios.runners.compare import DEFAULT_REFERENCES, compare_references, format_comparison
 
@@ -22,16 +22,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "default) and the oracle; prints volatility, estimation and tracking error, slip, drop "
         "and crush side by side.",
     )
-    p.add_argument("--object", default="can", metavar="NAME", help="object name (default can)")
+    p.add_argument("--object", default="can", metavar="NAME",
+                   help=f"{', '.join(object_names())} (default can)")
     p.add_argument("--mass-kg", type=float, default=None, help="override the object's mass, kg")
     p.add_argument("--friction", type=float, default=None, help="override the friction coeff.")
     p.add_argument("--estimators", default=",".join(DEFAULT_REFERENCES), metavar="LIST",
-                   help=f"comma-separated, from {', '.join(ESTIMATOR_CHOICES)} "
+                   help=f"comma-separated, from {', '.join(estimator_choices())} "
                    f"(default {','.join(DEFAULT_REFERENCES)})")
     p.add_argument("--mode", default="free_run", metavar="MODE",
                    help="estimator mode: free_run (default) or one_step")
     p.add_argument("--controller", default="pid", metavar="NAME",
-                   help="pid (default), lead_lag or mpc")
+                   help=f"{', '.join(controller_names())} (default pid)")
     p.add_argument("--subjects", type=int, default=3, help="number of subjects (default 3)")
     p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="write results here")
@@ -41,10 +42,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``griploop compare-references``; returns the exit status."""
     names = [n.strip() for n in args.estimators.split(",") if n.strip()]
-    unknown = [n for n in names if n not in ESTIMATOR_CHOICES]
+    choices = estimator_choices()
+    unknown = [n for n in names if n not in choices]
     if unknown or not names:
         raise UnknownChoiceError(f"--estimators: unknown {unknown or names}; expected names from "
-                          f"{', '.join(ESTIMATOR_CHOICES)}")
+                          f"{', '.join(choices)}")
     if args.mode not in ("free_run", "one_step"):
         raise UsageError(f"--mode: expected free_run or one_step, found {args.mode!r}")
     if args.subjects < 1:

@@ -10,14 +10,13 @@ from typing import Any
 import numpy as np
 
 from controllers.design import worst_case
-from estimation.registry import ESTIMATOR_NAMES
+from scenarios.cli.choices import controller_names, estimator_choices, object_names, one_of
 from scenarios.cli.commands.margins import format_table
 from scenarios.cli.errors import UsageError
-from scenarios.runners.episode import ORACLE, episode_from_scenario
+from scenarios.runners.episode import episode_from_scenario
 from scenarios.runners.video import write_video
 from scenarios.schema import parse_scenario
 
-ESTIMATOR_CHOICES = (*ESTIMATOR_NAMES, ORACLE)
 METRIC_KEYS = ("outcome", "tracking_rmse_n", "estimation_rmse_n", "hold_reference_n",
                "held_force_n", "overshoot_pct", "settling_time_s", "contact_peak_ratio",
                "slip_events", "slip_distance_m", "lifted", "dropped", "crushed", "peak_force_n",
@@ -34,14 +33,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "controller -> hand. Prints the loop margins and the episode metrics.",
     )
     p.add_argument("--controller", required=True, metavar="NAME",
-                   help="pid, lead_lag or mpc")
+                   help=one_of(controller_names()))
     p.add_argument("--estimator", required=True, metavar="NAME",
-                   help=f"one of {', '.join(ESTIMATOR_CHOICES)}")
+                   help=one_of(estimator_choices()))
     p.add_argument("--mode", default="free_run", metavar="MODE",
                    help="free_run (sEMG only, default) or one_step (the user wears a force "
                    "sensor, as in the paper)")
     p.add_argument("--object", required=True, metavar="NAME",
-                   help="ball, can, cup, egg or block")
+                   help=one_of(object_names()))
     p.add_argument("--mass-kg", type=float, default=None, help="override the object's mass, kg")
     p.add_argument("--friction", type=float, default=None, help="override the friction coeff.")
     p.add_argument("--subject", type=int, default=1, help="subject number (default 1)")

@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from estimation.registry import ESTIMATOR_NAMES
+from estimation.registry import estimator_names
 from estimation.reproduce import evaluate_recording, format_summary, parse_channels
 from scenarios.cli.recording_options import add_recording_options, recording_kwargs
 from sim.recording import RecordingError, load_recording
@@ -29,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--channels", default="6,7,8",
                         help="'all', or comma-separated channels as 1-based numbers or "
                         "names (default: 6,7,8)")
-    parser.add_argument("--estimators", default=",".join(ESTIMATOR_NAMES),
+    parser.add_argument("--estimators", default=",".join(estimator_names()),
                         help="comma-separated estimator names (default: all)")
     parser.add_argument("--order", type=int, default=4, help="state-space order (default: 4)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the networks")

@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 
 from controllers.design import (
-    DEFAULT_SPECS,
     ControllerDesign,
     OperatingAnalysis,
     design_for_object,
@@ -27,8 +26,9 @@ from controllers.design import (
 )
 from controllers.design_plant import object_for
 from controllers.figures import margins_over_force_figure, save_loop_figures
-from controllers.registry import CONTROLLER_NAMES
-from scenarios.cli.errors import UnknownChoiceError, UsageError
+from controllers.registry import check_options, default_spec
+from scenarios.cli.choices import check_choice, controller_names, object_names, one_of
+from scenarios.cli.errors import UsageError
 
 
 def parse_forces(text: str) -> list[float]:
@@ -46,8 +46,8 @@ def parse_forces(text: str) -> list[float]:
 def add_design_options(p: argparse.ArgumentParser) -> None:
     """Options shared by ``margins`` and ``measure-loop``: controller, object, specification."""
     p.add_argument("--controller", required=True, metavar="NAME",
-                   help=f"one of {', '.join(CONTROLLER_NAMES)}")
-    p.add_argument("--object", required=True, metavar="NAME", help="object name (sim.hand.objects)")
+                   help=one_of(controller_names()))
+    p.add_argument("--object", required=True, metavar="NAME", help=one_of(object_names()))
     p.add_argument("--mass-kg", type=float, default=None, help="override the object's mass, kg")
     p.add_argument("--friction", type=float, default=None, help="override the friction coeff.")
     p.add_argument("--phase-margin-deg", type=float, default=None,
@@ -62,17 +62,11 @@ def add_design_options(p: argparse.ArgumentParser) -> None:
 
 def design_from_args(args: argparse.Namespace) -> ControllerDesign:
     """The design the shared options describe (library defaults where none are given)."""
-    if args.controller not in CONTROLLER_NAMES:
-        raise UnknownChoiceError(
-            f"--controller: expected one of {list(CONTROLLER_NAMES)}, found {args.controller!r}"
-        )
-    spec = dict(DEFAULT_SPECS[args.controller])
+    check_choice("--controller", args.controller, controller_names())
+    spec = default_spec(args.controller)
     shaping = {"phase_margin_deg": args.phase_margin_deg, "crossover_rad_s": args.crossover_rad_s}
     given = {k: v for k, v in shaping.items() if v is not None}
-    if args.controller == "mpc" and given:
-        raise UsageError(
-            f"mpc is specified by horizon and weights, found loop-shaping options {sorted(given)}"
-        )
+    check_options(args.controller, given)  # e.g. mpc takes no loop-shaping options
     spec.update(given)
     obj = object_for(args.object, mass_kg=args.mass_kg, friction=args.friction)
     return design_for_object(obj, args.controller, control_dt_s=args.dt_s,

@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 from estimation.reproduce import format_report, parse_channels, run_reproduction, write_csv
+from scenarios.cli.choices import generator_names
 
 
 def _positive_int(text: str) -> int:
@@ -30,7 +31,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--subjects", type=_positive_int, default=10,
                         help="number of virtual subjects (default: 10)")
     parser.add_argument("--seed", type=int, default=0, help="population and session seed")
-    parser.add_argument("--generator", choices=("noise", "motor_units"), default="noise",
+    parser.add_argument("--generator", choices=generator_names(), default="noise",
                         help="virtual subjects' sEMG model (default: noise)")
     parser.add_argument("--order", type=_positive_int, default=4,
                         help="state-space order used for the tables (default: 4, the paper's)")

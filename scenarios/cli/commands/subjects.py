@@ -7,8 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
+from scenarios.cli.choices import generator_names
 from scenarios.cli.errors import UsageError
-from sim.user.subjects import GENERATORS, make_population
+from sim.user.subjects import make_population
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -25,7 +26,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--seed", type=int, default=0, help="population seed (default: 0)")
     parser.add_argument(
         "--generator",
-        choices=GENERATORS,
+        choices=generator_names(),
         default="noise",
         help="sEMG model: amplitude-modulated noise or motor-unit pools (default: noise)",
     )

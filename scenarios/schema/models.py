@@ -1,0 +1,557 @@
+"""Pydantic models of a scenario and a sweep file.
+
+Names of the extensible families (scenario kinds, sEMG generators, objects,
+estimators, controllers) are not listed here: each field is checked, when a
+scenario is validated, against the registry that owns the family, so a
+registration made later (in a plugin or a test) is accepted at once. The
+registries are imported on first validation; each imports only its names.
+
+Module attributes ``ESTIMATORS``, ``OBJECTS``, ``GENERATORS``, ``CONTROLLERS``
+and ``SCENARIO_KINDS`` give the names registered at the time they are read.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from sim.errors import GriploopError
+
+#: Reference source that is not an estimator: the user's true intent (a perfect estimate).
+ORACLE = "oracle"
+SIZE_LENGTHS = {"sphere": 1, "cylinder": 2, "box": 3}
+_MAX_SEED = 2**63 - 1
+DEFAULT_TIME_LIMIT_S = 120.0
+"""Default per-scenario time limit, s: 100x a typical episode (1 s), 10x a slow one."""
+
+
+def scenario_kinds() -> tuple[str, ...]:
+    """Scenario kinds registered in :mod:`scenarios.runners.dispatch`."""
+    from scenarios.runners.dispatch import scenario_kinds as kinds
+
+    return kinds()
+
+
+def kind_protocols(kind: str) -> tuple[str, ...]:
+    """Protocols a scenario kind runs (empty: any), from its registration."""
+    from scenarios.runners.dispatch import kind_info
+
+    return tuple(kind_info(kind)["protocols"])
+
+
+def generator_names() -> tuple[str, ...]:
+    """sEMG generators registered in :mod:`sim.user.generators`."""
+    from sim.user.generators import generator_names as names
+
+    return names()
+
+
+def object_names() -> tuple[str, ...]:
+    """Objects registered in :mod:`sim.hand.objects`."""
+    from sim.hand.objects import object_names as names
+
+    return names()
+
+
+def estimator_choices() -> tuple[str, ...]:
+    """Estimators registered in :mod:`estimation.registry`, then :data:`ORACLE`."""
+    from estimation.registry import estimator_names
+
+    return (*estimator_names(), ORACLE)
+
+
+def controller_names() -> tuple[str, ...]:
+    """Controller kinds registered in :mod:`controllers.registry`."""
+    from controllers.registry import controller_names as names
+
+    return names()
+
+
+_NAMES = {"ESTIMATORS": estimator_choices, "OBJECTS": object_names,
+          "GENERATORS": generator_names, "CONTROLLERS": controller_names,
+          "SCENARIO_KINDS": scenario_kinds}
+
+
+def __getattr__(attr: str) -> Any:
+    if attr in _NAMES:  # the names registered at the time of reading
+        return _NAMES[attr]()
+    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
+
+
+def _registered(value: str, names: tuple[str, ...]) -> str:
+    """``value`` if it is one of ``names``; else the one-line error listing them."""
+    if value not in names:
+        raise ValueError(f"expected one of {', '.join(names)} (found {value!r})")
+    return value
+
+
+class ScenarioError(GriploopError, ValueError):
+    """A scenario or sweep file is malformed, has unknown keys or bad values."""
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_default=True, allow_inf_nan=False)
+
+
+class SubjectConfig(_Model):
+    """The virtual subject wearing the armband.
+
+    Attributes
+    ----------
+    population_seed : int
+        Seed of the virtual population the subject is drawn from.
+    subject_id : int
+        Number of the subject within the population, from 1 (the paper has
+        10; ``sim.user.subjects.make_population`` numbers them 1..n).
+    generator : str
+        sEMG generator registered in :mod:`sim.user.generators`: ``noise``
+        (amplitude-modulated noise, Hogan and Mann 1980), ``motor_units`` (a
+        Fuglevand (1993) motor-unit pool), ...
+    extra_noise_lsb : float
+        Additional sEMG noise std in int8 counts, added in quadrature to the
+        rest noise (about 1.9 LSB); ``sim.user.armband`` convention.
+    electrode_shift : float
+        Rotation of the armband in electrode spacings (positive towards higher
+        channel numbers; 0 is the paper's placement); ``sim.user.armband`` convention.
+    fatigue_per_min : float
+        Fractional fall of the sEMG median frequency per minute (amplitude
+        rises twice as fast); ``sim.user.emg_noise`` convention.
+    """
+
+    population_seed: int = Field(0, ge=0, le=_MAX_SEED)
+    subject_id: int = Field(1, ge=1, le=9999)
+    generator: str = "noise"
+    extra_noise_lsb: float = Field(0.0, ge=0.0, le=30.0)
+    electrode_shift: float = Field(0.0, ge=-4.0, le=4.0)
+    fatigue_per_min: float = Field(0.0, ge=0.0, le=0.5)
+
+    @field_validator("generator")
+    @classmethod
+    def _registered_generator(cls, value: str) -> str:
+        return _registered(value, generator_names())
+
+
+class ProtocolConfig(_Model):
+    """What the subject does, and for how long.
+
+    Attributes
+    ----------
+    name : {"paper_calibration", "grasp_lift_hold", "fragile_handling"}
+        The paper's three-squeeze FSR session, a Johansson-Westling
+        grasp-lift-hold, or handling a breakable object.
+    calibration_s : float or None
+        Duration of the calibration session used to fit the estimator, s;
+        ``None`` keeps the paper protocol's own length (about 25-36 s).
+    episode_s : float
+        Duration of the closed-loop episode, s.
+    hold_s : float
+        Duration of the hold phase within the episode, s.
+    identification_fraction : float
+        Fraction of the calibration session used for identification; the rest
+        validates (the paper uses 0.5).
+    """
+
+    name: Literal["paper_calibration", "grasp_lift_hold", "fragile_handling"] = "grasp_lift_hold"
+    calibration_s: float | None = Field(None, ge=5.0, le=600.0)
+    episode_s: float = Field(6.0, ge=0.5, le=120.0)
+    hold_s: float = Field(2.0, ge=0.0, le=60.0)
+    identification_fraction: float = Field(0.5, gt=0.05, lt=0.95)
+
+    @model_validator(mode="after")
+    def _hold_fits(self) -> ProtocolConfig:
+        if self.hold_s >= self.episode_s:
+            raise ValueError(
+                f"hold_s must be shorter than episode_s={self.episode_s:g} s "
+                f"(found hold_s={self.hold_s:g} s)"
+            )
+        return self
+
+
+class ObjectConfig(_Model):
+    """The object to grasp: a library object and optional overrides.
+
+    Fields left at ``None`` keep the library object's value.
+
+    Attributes
+    ----------
+    name : str
+        Object registered in :mod:`sim.hand.objects` (``ball``, ``can``,
+        ``cup``, ``egg``, ``block``, ...).
+    shape : {"sphere", "cylinder", "box"} or None
+        Geometry override.
+    mass_kg : float or None
+        Mass, 0.02..2 kg.
+    friction : float or None
+        Sliding friction coefficient with the finger pads, 0.2..1.5.
+    size_m : list of float or None
+        Sphere ``[radius]``, cylinder ``[radius, half_height]`` or box
+        ``[half_x, half_y, half_z]``, metres.
+    stiffness_n_per_m : float or None
+        Contact stiffness, N/m (the episode runner maps it to MuJoCo's
+        ``solref``).
+    break_force_n : float or None
+        Grip force at which the object breaks (fragile objects), N.
+    """
+
+    name: str = "ball"
+    shape: Literal["sphere", "cylinder", "box"] | None = None
+    mass_kg: float | None = Field(None, ge=0.02, le=2.0)
+    friction: float | None = Field(None, ge=0.2, le=1.5)
+    size_m: list[Annotated[float, Field(gt=0.0, le=0.2)]] | None = Field(
+        None, min_length=1, max_length=3
+    )
+    stiffness_n_per_m: float | None = Field(None, gt=0.0, le=1e7)
+    break_force_n: float | None = Field(None, gt=0.0, le=500.0)
+
+    @field_validator("name")
+    @classmethod
+    def _registered_object(cls, value: str) -> str:
+        return _registered(value, object_names())
+
+    @model_validator(mode="after")
+    def _size_matches_shape(self) -> ObjectConfig:
+        if self.shape is not None and self.size_m is not None:
+            expected = SIZE_LENGTHS[self.shape]
+            if len(self.size_m) != expected:
+                raise ValueError(
+                    f"size_m of a {self.shape} needs {expected} value(s) "
+                    f"(found {len(self.size_m)})"
+                )
+        return self
+
+
+class EstimatorConfig(_Model):
+    """The grip-force estimator and how it is evaluated.
+
+    Attributes
+    ----------
+    name : str
+        An estimator registered in :mod:`estimation.registry`, or ``"oracle"``
+        (the user's true intent: a perfect estimator), see :func:`estimator_choices`.
+    mode : {"one_step", "free_run"}
+        ``one_step`` feeds measured force up to k-1 (the paper's evaluation);
+        ``free_run`` uses sEMG only (what a prosthesis can do).
+    order : int or None
+        State-space order (also NARX delays and hidden units); ``None`` uses
+        the paper's n = 4, which its AIC over n = 1..12 selected.
+    """
+
+    name: str = "ss_kf"
+    mode: Literal["one_step", "free_run"] = "free_run"
+    order: int | None = Field(None, ge=1, le=12)
+
+    @field_validator("name")
+    @classmethod
+    def _registered_estimator(cls, value: str) -> str:
+        return _registered(value, estimator_choices())
+
+
+class SlipReflexConfig(_Model):
+    """Slip reflex: raise the grip force when the object slips.
+
+    Attributes
+    ----------
+    enabled : bool
+        Whether the reflex is active.
+    latency_s : float
+        Delay from slip onset to the force increase, s (biological 0.02-0.3).
+    gain : float
+        Force increase per slip event as a fraction of the current reference.
+    """
+
+    enabled: bool = False
+    latency_s: float = Field(0.05, ge=0.0, le=0.5)
+    gain: float = Field(0.3, ge=0.0, le=5.0)
+
+
+class ControllerConfig(_Model):
+    """The grip-force controller, designed from a specification.
+
+    Attributes
+    ----------
+    kind : str
+        Controller kind registered in :mod:`controllers.registry` (``pid``,
+        ``lead_lag``, ``mpc``, ...).
+    phase_margin_deg : float
+        Required phase margin, degrees.
+    crossover_rad_s : float or None
+        Required gain-crossover frequency, rad/s (exclusive with bandwidth).
+    bandwidth_rad_s : float or None
+        Required closed-loop bandwidth, rad/s (exclusive with crossover).
+    horizon : int or None
+        MPC prediction horizon in control steps (kinds that take a horizon
+        only, e.g. ``mpc``; default: the kind's registered default, 20).
+    safety_factor : float
+        Grip force over the slip threshold the reference aims at.
+    control_hz : float
+        Control-loop rate, Hz: 100 to 500, so that the control period is a
+        whole number of the hand's 2 ms physics steps.
+    slip_reflex : SlipReflexConfig
+        Slip reflex settings.
+    scheduled : bool
+        Gain-scheduled over grip force (default) or one fixed design at the
+        design force (see :mod:`controllers.schedule`).
+    """
+
+    kind: str = "pid"
+    phase_margin_deg: float = Field(60.0, ge=10.0, le=90.0)
+    crossover_rad_s: float | None = Field(None, gt=0.0, le=5000.0)
+    bandwidth_rad_s: float | None = Field(None, gt=0.0, le=5000.0)
+    horizon: int | None = Field(None, ge=2, le=500)
+    safety_factor: float = Field(1.5, ge=1.0, le=5.0)
+    control_hz: float = Field(100.0, ge=100.0, le=500.0)
+    slip_reflex: SlipReflexConfig = Field(default_factory=SlipReflexConfig)
+    scheduled: bool = True
+
+    @field_validator("kind")
+    @classmethod
+    def _registered_controller(cls, value: str) -> str:
+        return _registered(value, controller_names())
+
+    @model_validator(mode="after")
+    def _consistent(self) -> ControllerConfig:
+        if self.crossover_rad_s is not None and self.bandwidth_rad_s is not None:
+            raise ValueError(
+                "give crossover_rad_s or bandwidth_rad_s, not both "
+                f"(found {self.crossover_rad_s:g} and {self.bandwidth_rad_s:g})"
+            )
+        from controllers.registry import controller_info
+
+        with_horizon = [k for k in controller_names() if "horizon" in controller_info(k)["options"]]
+        if self.kind not in with_horizon and self.horizon is not None:
+            which = "kind" if len(with_horizon) == 1 else "kinds"
+            raise ValueError(f"horizon applies to controller {which} {', '.join(with_horizon)} "
+                             f"only (found kind {self.kind})")
+        if self.kind in with_horizon and self.horizon is None:
+            self.horizon = int(controller_info(self.kind)["defaults"].get("horizon", 20))
+        return self
+
+
+class Scenario(_Model):
+    """One experiment: subject, protocol, object, estimator, controller, seed.
+
+    Attributes
+    ----------
+    kind : str
+        A scenario kind registered in :mod:`scenarios.runners.dispatch`:
+        ``reproduction`` evaluates an estimator on the paper's protocol as the
+        paper does; ``calibration`` fits it on a calibration session;
+        ``episode`` also runs a closed-loop grasp with the controller. Each
+        kind's registration lists the protocols it runs.
+    seed : int or None
+        Seed of every random draw of the scenario; ``None`` in a sweep file
+        means "derive it from the sweep seed and the content".
+    """
+
+    kind: str = "episode"
+    subject: SubjectConfig = Field(default_factory=SubjectConfig)
+    protocol: ProtocolConfig = Field(default_factory=ProtocolConfig)
+    object: ObjectConfig = Field(default_factory=ObjectConfig)
+    estimator: EstimatorConfig = Field(default_factory=EstimatorConfig)
+    controller: ControllerConfig = Field(default_factory=ControllerConfig)
+    seed: int | None = Field(None, ge=0, le=_MAX_SEED)
+
+    @field_validator("kind")
+    @classmethod
+    def _registered_kind(cls, value: str) -> str:
+        return _registered(value, scenario_kinds())
+
+    @model_validator(mode="after")
+    def _protocol_fits_kind(self) -> Scenario:
+        protocols = kind_protocols(self.kind)
+        if protocols and self.protocol.name not in protocols:
+            raise ValueError(
+                f"kind {self.kind} needs protocol.name {' or '.join(protocols)} "
+                f"(found {self.protocol.name})"
+            )
+        return self
+
+    def canonical_json(self) -> str:
+        """The scenario as canonical JSON: every field, sorted keys, no spaces."""
+        return json.dumps(self.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+
+
+class Uniform(_Model):
+    """Uniform on ``[low, high)``."""
+
+    dist: Literal["uniform"]
+    low: float
+    high: float
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Uniform:
+        _check_order(self.low, self.high)
+        if not np.isfinite(self.high - self.low):
+            raise ValueError(
+                f"high - low must be a finite span (found low={self.low:g}, high={self.high:g})"
+            )
+        return self
+
+    def draw(self, rng: np.random.Generator, n: int) -> list[Any]:
+        """``n`` draws."""
+        return rng.uniform(self.low, self.high, n).tolist()
+
+
+class LogUniform(_Model):
+    """Log-uniform on ``[low, high)``, ``0 < low < high``."""
+
+    dist: Literal["loguniform"]
+    low: float = Field(gt=0.0)
+    high: float = Field(gt=0.0)
+
+    @model_validator(mode="after")
+    def _ordered(self) -> LogUniform:
+        _check_order(self.low, self.high)
+        return self
+
+    def draw(self, rng: np.random.Generator, n: int) -> list[Any]:
+        """``n`` draws."""
+        return np.exp(rng.uniform(np.log(self.low), np.log(self.high), n)).tolist()
+
+
+class Normal(_Model):
+    """Gaussian with mean ``mean`` and standard deviation ``sd``."""
+
+    dist: Literal["normal"]
+    mean: float = Field(ge=-1e300, le=1e300)
+    sd: float = Field(gt=0.0, le=1e300)
+
+    def draw(self, rng: np.random.Generator, n: int) -> list[Any]:
+        """``n`` draws."""
+        return rng.normal(self.mean, self.sd, n).tolist()
+
+
+class Integers(_Model):
+    """Integers uniform on ``low..high`` inclusive."""
+
+    dist: Literal["integers"]
+    low: int = Field(ge=-(2**62), le=2**62)
+    high: int = Field(ge=-(2**62), le=2**62)
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Integers:
+        if self.high < self.low:
+            raise ValueError(f"high must be >= low (found low={self.low}, high={self.high})")
+        return self
+
+    def draw(self, rng: np.random.Generator, n: int) -> list[Any]:
+        """``n`` draws."""
+        return rng.integers(self.low, self.high, n, endpoint=True).tolist()
+
+
+class Choice(_Model):
+    """One of ``values`` with equal probability."""
+
+    dist: Literal["choice"]
+    values: list[Any] = Field(min_length=1)
+
+    def draw(self, rng: np.random.Generator, n: int) -> list[Any]:
+        """``n`` draws."""
+        return [self.values[int(i)] for i in rng.integers(0, len(self.values), n)]
+
+
+Distribution = Annotated[
+    Uniform | LogUniform | Normal | Integers | Choice, Field(discriminator="dist")
+]
+
+
+class RandomDesign(_Model):
+    """A seeded random design: ``n`` scenarios with fields drawn independently.
+
+    Attributes
+    ----------
+    n : int
+        Number of scenarios.
+    seed : int or None
+        Seed of the draws; defaults to the sweep seed.
+    params : dict of str to Distribution
+        Dotted field path to its distribution.
+    """
+
+    n: int = Field(ge=1, le=1_000_000)
+    seed: int | None = Field(None, ge=0, le=_MAX_SEED)
+    params: dict[str, Distribution] = Field(min_length=1)
+
+
+class SweepConfig(_Model):
+    """A sweep file: a base scenario expanded over a grid or a random design.
+
+    Attributes
+    ----------
+    name : str or None
+        Name of the sweep in the results store; defaults to the file stem.
+    description : str
+        Free text.
+    seed : int
+        Sweep seed: per-scenario seeds and random designs derive from it.
+    replicates : int
+        Copies of each design point; copies differ only by their derived seed.
+    time_limit_s : float
+        Wall-time limit of one scenario, s: a scenario still running after it
+        is stopped and recorded as failed with a ``timeout`` error. Not part
+        of the scenario's content hash.
+    seed_by : list of str or None
+        Dotted field paths (or sections, e.g. ``subject``) the derived seeds
+        depend on. ``None``: the whole scenario, so every scenario draws
+        independently. Listing e.g. ``[subject]`` gives every estimator,
+        controller or object of one subject the same seed: common random
+        numbers, for paired comparisons as in the paper.
+    base : Scenario
+        Values of every field the design does not set.
+    grid : dict of str to list
+        Dotted field path to the values it takes (cartesian product).
+    random : RandomDesign or None
+        Seeded random design.
+    """
+
+    name: str | None = Field(None, min_length=1, max_length=200, pattern=r"^[\w.\-]+$")
+    description: str = ""
+    seed: int = Field(0, ge=0, le=_MAX_SEED)
+    replicates: int = Field(1, ge=1, le=10_000)
+    time_limit_s: float = Field(DEFAULT_TIME_LIMIT_S, gt=0.0, le=86_400.0)
+    seed_by: list[str] | None = Field(None, min_length=1)
+    base: Scenario = Field(default_factory=Scenario)
+    grid: dict[str, list[Any]] | None = None
+    random: RandomDesign | None = None
+
+    @model_validator(mode="after")
+    def _one_design(self) -> SweepConfig:
+        if self.grid is not None and self.random is not None:
+            raise ValueError("give grid or random, not both (found both)")
+        if self.grid is not None:
+            for path, values in self.grid.items():
+                if not values:
+                    raise ValueError(f"grid path {path} needs at least one value (found [])")
+        return self
+
+
+def _check_order(low: float, high: float) -> None:
+    if not high > low:
+        raise ValueError(f"high must be > low (found low={low:g}, high={high:g})")
+
+
+
+def field_paths(model: type[BaseModel] = Scenario, prefix: str = "") -> list[str]:
+    """Every dotted leaf field path of ``model`` (what a grid or random design may set)."""
+    out: list[str] = []
+    for name, field in model.model_fields.items():
+        sub = field.annotation
+        if isinstance(sub, type) and issubclass(sub, BaseModel):
+            out.extend(field_paths(sub, f"{prefix}{name}."))
+        else:
+            out.append(prefix + name)
+    return out
+
+
+def _set_path(data: dict[str, Any], path: str, value: Any) -> dict[str, Any]:
+    out = copy.deepcopy(data)
+    node = out
+    parts = path.split(".")
+    for part in parts[:-1]:
+        node = node[part]
+    node[parts[-1]] = value
+    return out

@@ -1,0 +1,177 @@
+"""Named registries: the one place a family of extensions (estimators, objects, ...) is listed.
+
+A :class:`Registry` maps a name to an entry: an object (a class, a factory
+function, a value) or its ``"package.module:attribute"`` reference, imported
+the first time the entry is used. Registering by reference keeps listing the
+names light: a registry of estimators does not import scikit-learn until one
+is built. Each registration also carries free metadata (keyword arguments of
+:meth:`Registry.register`) that callers read with :meth:`Registry.info`.
+
+The registries of griploop: sEMG generators (:mod:`sim.user.generators`),
+objects (:mod:`sim.hand.objects`), estimators (:mod:`estimation.registry`),
+controllers (:mod:`controllers.registry`), scenario kinds
+(:mod:`scenarios.runners.dispatch`) and report sections
+(:mod:`scenarios.report.sections`).
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+from sim.errors import GriploopError
+
+
+class RegistrationError(GriploopError, ValueError):
+    """A registration is malformed (bad reference) or would silently replace another."""
+
+
+class UnresolvableEntryError(GriploopError, LookupError):
+    """A registered ``"module:attribute"`` reference cannot be imported."""
+
+
+@dataclass
+class Entry:
+    """One registration.
+
+    Attributes
+    ----------
+    name : str
+        Registered name.
+    target : object or str
+        The registered object, or its ``"package.module:attribute"`` reference.
+    info : Mapping
+        Metadata given at registration (read-only).
+    """
+
+    name: str
+    target: Any
+    info: Mapping[str, Any] = field(default_factory=dict)
+
+    def resolve(self) -> Any:
+        """The registered object, importing it first if it was registered by reference.
+
+        Raises
+        ------
+        UnresolvableEntryError
+            The module cannot be imported or lacks the attribute.
+        """
+        if not isinstance(self.target, str):
+            return self.target
+        module_name, attr = self.target.split(":")
+        try:
+            module = importlib.import_module(module_name)
+        except ImportError as exc:
+            raise UnresolvableEntryError(
+                f"{self.name}: {self.target!r} cannot be imported ({exc})") from None
+        try:
+            obj = getattr(module, attr)
+        except AttributeError:
+            raise UnresolvableEntryError(
+                f"{self.name}: module {module_name} has no attribute {attr!r}") from None
+        self.target = obj
+        return obj
+
+
+class Registry:
+    """Names of one family of extensions, in registration order.
+
+    Parameters
+    ----------
+    what : str
+        What is registered, for messages (e.g. ``"estimator"``).
+    unknown_error : type of Exception
+        Raised by :meth:`entry` / :meth:`get` for an unknown name; the message
+        lists the registered names.
+    """
+
+    def __init__(self, what: str, unknown_error: type[Exception] = LookupError) -> None:
+        self.what = what
+        self.unknown_error = unknown_error
+        self._entries: dict[str, Entry] = {}
+
+    def register(self, name: str, target: Any, *, replace: bool = False, **info: Any) -> Entry:
+        """Register ``target`` as ``name``.
+
+        Parameters
+        ----------
+        name : str
+            New name (a non-empty string).
+        target : object or str
+            The object, or its ``"package.module:attribute"`` reference.
+        replace : bool
+            Allow replacing an existing registration of ``name``.
+        **info
+            Metadata stored with the entry (see the owning registry's docs).
+
+        Returns
+        -------
+        Entry
+
+        Raises
+        ------
+        RegistrationError
+            Empty name, malformed reference, or ``name`` taken and ``replace`` false.
+        """
+        if not isinstance(name, str) or not name:
+            raise RegistrationError(f"{self.what} name: expected a non-empty string, "
+                                    f"found {name!r}")
+        if isinstance(target, str) and (target.count(":") != 1 or not all(target.split(":"))):
+            raise RegistrationError(f"{self.what} {name}: reference must be "
+                                    f"'package.module:attribute' (found {target!r})")
+        if name in self._entries and not replace:
+            raise RegistrationError(f"{self.what} {name!r} is already registered "
+                                    f"({self._entries[name].target!r}); pass replace=True")
+        entry = Entry(name, target, MappingProxyType(dict(info)))
+        self._entries[name] = entry
+        return entry
+
+    def unregister(self, name: str) -> None:
+        """Remove ``name`` (no effect if it is not registered)."""
+        self._entries.pop(name, None)
+
+    def names(self) -> tuple[str, ...]:
+        """Registered names, in registration order."""
+        return tuple(self._entries)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._entries
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(tuple(self._entries))
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def unknown_message(self, name: object) -> str:
+        """``unknown estimator 'x'; expected one of a, b, c``."""
+        return f"unknown {self.what} {name!r}; expected one of {', '.join(self._entries)}"
+
+    def entry(self, name: str) -> Entry:
+        """The entry of ``name``.
+
+        Raises
+        ------
+        unknown_error
+            ``name`` is not registered; the message lists the registered names.
+        """
+        try:
+            return self._entries[name]
+        except (KeyError, TypeError):
+            raise self.unknown_error(self.unknown_message(name)) from None
+
+    def get(self, name: str) -> Any:
+        """The object registered as ``name``, imported on first use."""
+        return self.entry(name).resolve()
+
+    def info(self, name: str) -> Mapping[str, Any]:
+        """Metadata of ``name`` (read-only mapping)."""
+        return self.entry(name).info
+
+    def where(self, **info: Any) -> tuple[str, ...]:
+        """Names whose metadata has every given ``key=value``."""
+        return tuple(n for n, e in self._entries.items()
+                     if all(e.info.get(k) == v for k, v in info.items()))
