@@ -209,7 +209,8 @@ register_controller("lead_lag", "controllers.lead_lag:design_lead_lag", options=
                     defaults={"phase_margin_deg": 60.0, "crossover_rad_s": 30.0,
                               "lag_ratio": 2.0},
                     blend="switch", warm="none")
-register_controller("mpc", "controllers.mpc:design_mpc", shaping=False, options=("horizon",),
-                    defaults={"horizon": 20}, bank_design="controllers.mpc:MPC",
+register_controller("mpc", "controllers.mpc:design_mpc", shaping=False,
+                    options=("horizon", "solver"), defaults={"horizon": 20, "solver": "daqp"},
+                    bank_design="controllers.mpc:MPC",
                     blend="switch", warm="all", slip_sensing=True,
                     specified_by="horizon and weights")

@@ -660,6 +660,8 @@ def controller_spec(scenario: Scenario) -> dict[str, Any]:
                             "safety_factor": c.safety_factor}
     if c.horizon is not None:  # set by the schema for the kinds that take one
         spec["horizon"] = c.horizon
+    if c.solver is not None:  # QP solver of the kinds that solve one (default: the kind's)
+        spec["solver"] = c.solver
     if c.slip_reflex.enabled:
         spec["slip_reflex"] = {"latency_s": c.slip_reflex.latency_s, "gain": c.slip_reflex.gain}
     if not c.scheduled:

@@ -285,6 +285,9 @@ class ControllerConfig(_Model):
     horizon : int or None
         MPC prediction horizon in control steps (kinds that take a horizon
         only, e.g. ``mpc``; default: the kind's registered default, 20).
+    solver : str or None
+        QP solver of the kinds that solve one (``mpc``): ``daqp`` (default, with the
+        checked unconstrained fast path), ``osqp`` or ``proxqp``.
     safety_factor : float
         Grip force over the slip threshold the reference aims at.
     control_hz : float
@@ -302,6 +305,7 @@ class ControllerConfig(_Model):
     crossover_rad_s: float | None = Field(None, gt=0.0, le=5000.0)
     bandwidth_rad_s: float | None = Field(None, gt=0.0, le=5000.0)
     horizon: int | None = Field(None, ge=2, le=500)
+    solver: str | None = None
     safety_factor: float = Field(1.5, ge=1.0, le=5.0)
     control_hz: float = Field(100.0, ge=100.0, le=500.0)
     slip_reflex: SlipReflexConfig = Field(default_factory=SlipReflexConfig)
@@ -328,6 +332,14 @@ class ControllerConfig(_Model):
                              f"only (found kind {self.kind})")
         if self.kind in with_horizon and self.horizon is None:
             self.horizon = int(controller_info(self.kind)["defaults"].get("horizon", 20))
+        with_solver = [k for k in controller_names() if "solver" in controller_info(k)["options"]]
+        if self.kind not in with_solver and self.solver is not None:
+            raise ValueError(f"solver applies to controller kind(s) {', '.join(with_solver)} "
+                             f"only (found kind {self.kind})")
+        if self.solver is not None:
+            from controllers.mpc import QP_SOLVERS  # imported only when a solver is named
+
+            _registered(self.solver, QP_SOLVERS)
         return self
 
 

@@ -15,7 +15,6 @@ set solve), so they are compared at 1e-9.
 """
 
 import copy
-import functools
 
 import control
 import numpy as np
@@ -196,9 +195,8 @@ def test_bank_survives_a_copy(plant):
 
 
 @pytest.mark.slow
-def test_episode_with_daqp_matches_osqp(monkeypatch):
+def test_episode_with_daqp_matches_osqp():
     """A scheduled MPC grasp and lift on the MuJoCo hand: same outcome, grip traces close."""
-    import controllers.design
     from controllers.design import design_for_object
     from scenarios.runners.episode import _closed_loop
     from sim.hand.objects import make_object
@@ -209,8 +207,7 @@ def test_episode_with_daqp_matches_osqp(monkeypatch):
     ref[t > 3.5] = 9.0
     results = {}
     for solver in ("daqp", "osqp"):
-        monkeypatch.setattr(controllers.design, "MPC", functools.partial(MPC, solver=solver))
-        design = design_for_object(obj, "mpc", control_dt_s=DT_S)
+        design = design_for_object(obj, "mpc", control_dt_s=DT_S, solver=solver)
         timings = dict.fromkeys(("t_controller_s", "t_physics_s"), 0.0)
         traces, failure, info = _closed_loop(obj, design, ref, t, DT_S, 5.0, 2.5,
                                              np.random.SeedSequence(0), timings, False)

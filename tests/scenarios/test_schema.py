@@ -373,3 +373,14 @@ def test_seed_by_keeps_replicates_apart():
 def test_seed_by_unknown_path_is_reported(tmp_path):
     path = write(tmp_path, "seed_by:\n  - subject\n  - subjet.subject_id\nbase: {}\n")
     assert error_of(path).startswith(f"{path}:3: seed_by[1]: unknown field path")
+
+
+def test_mpc_solver_is_selectable_and_checked():
+    from scenarios.schema import parse_scenario
+
+    s = parse_scenario({"kind": "episode", "controller": {"kind": "mpc", "solver": "osqp"}})
+    assert s.controller.solver == "osqp"
+    with pytest.raises(ScenarioError, match="daqp, osqp, proxqp"):
+        parse_scenario({"kind": "episode", "controller": {"kind": "mpc", "solver": "qrqp"}})
+    with pytest.raises(ScenarioError, match="solver applies to"):
+        parse_scenario({"kind": "episode", "controller": {"kind": "pid", "solver": "osqp"}})
