@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from controllers.base import observation_from_info
 from controllers.design import ControllerDesign
+from controllers.drive import HandLoop
 from controllers.errors import SpecificationError
 from controllers.plant import frequency_response
 from sim.hand.grasp_env import GraspEnv, WristSchedule
@@ -195,8 +195,7 @@ def measure_loop(design: ControllerDesign, force_n: float, *,
     n_total = n_lift + sum(s + m for _, s, m in blocks)
     env = GraspEnv(design.object, force_n, control_dt_s=dt, episode_s=(n_total + 10) * dt,
                    schedule=schedule)
-    ctl = design.controller
-    ctl.reset()
+    loop = HandLoop(env, design.controller)
     u_applied = np.zeros(n_total)
     u_ctrl = np.zeros(n_total)
     grip = np.zeros(n_total)
@@ -207,22 +206,16 @@ def measure_loop(design: ControllerDesign, force_n: float, *,
         inject[k:k + n_settle + n_meas] = a * np.sin(w * t[k:k + n_settle + n_meas])
         k += n_settle + n_meas
     try:
-        _, info = env.reset(seed=0)
-        pending = 0.0
-        action = np.zeros(1, dtype=np.float32)
+        loop.reset(seed=0)
         for k in range(n_total):
-            u = ctl.act(observation_from_info(info, force_n))
-            u_ctrl[k] = pending
-            u_applied[k] = float(np.float32(pending + inject[k]))
-            action[0] = u_applied[k]
-            _, _, terminated, truncated, info = env.step(action)
+            u_ctrl[k], u_applied[k], done = loop.step(force_n, inject[k])
+            info = loop.info
             grip[k] = info["grip_force_n"]
-            pending = u
-            if terminated or truncated:
+            if done:
                 return LoopMeasurement(force_n, reason=(
                     f"the hold ended at t = {t[k]:.2f} s (dropped {info['dropped']}, crushed "
                     f"{info['crushed']}, failure {info.get('failure')})"))
-        lifted = info["object_height_m"] > 0.5 * schedule.lift_height_m
+        lifted = loop.info["object_height_m"] > 0.5 * schedule.lift_height_m
     finally:
         env.close()
     if not lifted:

@@ -22,7 +22,6 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from estimation.errors import EstimationInputError
 from estimation.evaluation import aggregate, evaluate_subject, split_index
@@ -30,6 +29,7 @@ from estimation.features import PAPER_CHANNELS, extract_features
 from estimation.order import select_order
 from estimation.paper import PAPER_ORDER, SECTION_4_2, TABLE2_SUMMARY, TABLE3
 from estimation.registry import ESTIMATOR_NAMES
+from estimation.threads import one_blas_thread
 
 #: Paper Table 2/3 estimators, in the paper's column order.
 PAPER_ESTIMATORS = ("ss_kf", "mlp", "narx", "lda_qpf")
@@ -182,8 +182,7 @@ def run_reproduction(
 
     channels = parse_channels(channels)
 
-    # Every matrix here is tiny: BLAS threads only add overhead (and noise in timings).
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         return _run(make_population, n_subjects, seed, generator, order, estimators, orders,
                     nn_params, channels)
 
@@ -490,7 +489,7 @@ def evaluate_recording(
     fs = extract_features(recording, channels=channels)
     params = estimator_params(estimators, np.random.default_rng(seed), order, nn_params,
                               dt_s=fs.dt_s)
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         res = evaluate_subject(fs.X, fs.y, params, dt_s=fs.dt_s)
     result = aggregate([res])
     result["training"] = training_settings(params, {n: r["_pipeline"] for n, r in res.items()
