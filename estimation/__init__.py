@@ -20,7 +20,7 @@ __all__ = [
     "extract_features",
 ]
 
-# Force estimation (issue 3): identification, filters, baselines, metrics, protocol.
+# Force estimation: identification, filters, baselines, metrics, protocol.
 from estimation.base import ForceEstimator  # noqa: E402
 from estimation.errors import (  # noqa: E402
     ConstantInputError,
