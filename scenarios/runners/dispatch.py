@@ -51,7 +51,7 @@ class DivergedError(GriploopError, RuntimeError):
     """A scenario ran but its result diverged (e.g. an unstable identified model)."""
 
 
-class ReferenceImportError(GriploopError, ImportError):
+class ReferenceImportError(GriploopError, LookupError):
     """A ``"package.module:function"`` reference names nothing importable and callable."""
 
 
