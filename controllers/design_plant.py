@@ -39,7 +39,7 @@ from controllers.bounds import ForceBounds, force_bounds, slip_threshold_n
 from controllers.errors import IdentificationError, PlantError
 from controllers.identify import identify_low_order
 from controllers.plant import delay, truncate_slow_modes
-from sim.hand.linearize import linearize_grasp, nrmse_fit, simulate_step
+from sim.hand.linearize import LinearGrasp, linearize_grasp, simulate_step, step_response_fit
 from sim.hand.objects import ObjectSpec, make_object
 
 PLANT_METHODS = ("linearized", "identified")
@@ -205,12 +205,7 @@ def design_plant(
     """
     if method not in PLANT_METHODS:
         raise LookupError(f"plant method: expected one of {list(PLANT_METHODS)}, found {method!r}")
-    if isinstance(name, ObjectSpec):
-        overrides = {k: v for k, v in (("mass_kg", mass_kg), ("friction", friction))
-                     if v is not None}
-        obj = name.replace(**overrides) if overrides else name
-    else:
-        obj = object_for(name, mass_kg=mass_kg, friction=friction)
+    obj = _resolve_object(name, mass_kg, friction)
     force = default_operating_force_n(obj) if grip_force_n is None else float(grip_force_n)
     if weightless is None:
         weightless = force < WEIGHTLESS_BELOW_SLIP_FACTOR * slip_threshold_n(obj.mass_kg,
@@ -225,23 +220,82 @@ def design_plant(
     n_steps = int(round(step_duration_s / control_dt_s))
     y_nonlinear, y_linear = simulate_step(lin, step_command, n_steps)
     if method == "linearized":
-        reduced, removed = truncate_slow_modes(lin.sys, slow_mode_rad_s)
-        t = np.arange(n_steps) * control_dt_s
-        y_reduced = np.asarray(control.forced_response(
-            reduced, T=t, U=np.full(n_steps, step_command)).outputs).ravel()
-        rates = np.abs(np.log(np.abs(removed))) / control_dt_s
-        pad = np.zeros(_N_PRE)
-        y_ref = np.concatenate([pad, y_nonlinear])
-        fit = {"order": int(reduced.nstates + 1),
-               "full_order": int(lin.sys.nstates + 1),
-               "removed_time_constants_s": sorted((1.0 / rates).tolist(), reverse=True),
-               "step_fit_percent": 100.0 * nrmse_fit(y_ref, np.concatenate([pad, y_reduced])),
-               "full_step_fit_percent": 100.0 * nrmse_fit(
-                   y_ref, np.concatenate([pad, y_linear])),
-               "step_command": step_command, "weightless": bool(weightless)}
-        model = control.ss(reduced * delay(1, control_dt_s))
-        return DesignPlant(model=model, method=method, object=obj, u0=lin.u0,
-                           y0_n=lin.y0_n, fit=fit)
+        return _linearized_plant(obj, lin, y_nonlinear, y_linear, control_dt_s=control_dt_s,
+                                 step_command=step_command, slow_mode_rad_s=slow_mode_rad_s,
+                                 weightless=weightless)
+    return _identified_plant(obj, lin, y_nonlinear, control_dt_s=control_dt_s,
+                             step_command=step_command, weightless=weightless)
+
+
+def _resolve_object(name: str | ObjectSpec, mass_kg: float | None,
+                    friction: float | None) -> ObjectSpec:
+    """A library object by name, or a given spec, with the mass and friction overrides."""
+    if isinstance(name, ObjectSpec):
+        overrides = {k: v for k, v in (("mass_kg", mass_kg), ("friction", friction))
+                     if v is not None}
+        return name.replace(**overrides) if overrides else name
+    return object_for(name, mass_kg=mass_kg, friction=friction)
+
+
+def _linearized_plant(obj: ObjectSpec, lin: LinearGrasp, y_nonlinear: np.ndarray,
+                      y_linear: np.ndarray, *, control_dt_s: float, step_command: float,
+                      slow_mode_rad_s: float, weightless: bool) -> DesignPlant:
+    """The linearization without its slow modes, plus the sampled convention's delay.
+
+    Parameters
+    ----------
+    lin : LinearGrasp
+        The hand linearized at the operating point.
+    y_nonlinear, y_linear : ndarray, shape (n_steps,)
+        Grip-force responses (N) of the hand and of ``lin`` to the command step.
+    control_dt_s : float
+        Control period, s.
+    step_command : float
+        The step, command units.
+    slow_mode_rad_s : float
+        Modes slower than this are truncated, rad/s.
+    weightless : bool
+        Whether the object's weight was cancelled (recorded in ``fit``).
+    """
+    n_steps = y_nonlinear.size
+    reduced, removed = truncate_slow_modes(lin.sys, slow_mode_rad_s)
+    t = np.arange(n_steps) * control_dt_s
+    y_reduced = np.asarray(control.forced_response(
+        reduced, T=t, U=np.full(n_steps, step_command)).outputs).ravel()
+    rates = np.abs(np.log(np.abs(removed))) / control_dt_s
+    pad = np.zeros(_N_PRE)
+    y_ref = np.concatenate([pad, y_nonlinear])
+    fit = {"order": int(reduced.nstates + 1),
+           "full_order": int(lin.sys.nstates + 1),
+           "removed_time_constants_s": sorted((1.0 / rates).tolist(), reverse=True),
+           "step_fit_percent": 100.0 * step_response_fit(
+               y_ref, np.concatenate([pad, y_reduced])),
+           "full_step_fit_percent": 100.0 * step_response_fit(
+               y_ref, np.concatenate([pad, y_linear])),
+           "step_command": step_command, "weightless": bool(weightless)}
+    model = control.ss(reduced * delay(1, control_dt_s))
+    return DesignPlant(model=model, method="linearized", object=obj, u0=lin.u0,
+                       y0_n=lin.y0_n, fit=fit)
+
+
+def _identified_plant(obj: ObjectSpec, lin: LinearGrasp, y_nonlinear: np.ndarray, *,
+                      control_dt_s: float, step_command: float, weightless: bool) -> DesignPlant:
+    """A low-order model identified from the hand's simulated step response.
+
+    Parameters
+    ----------
+    lin : LinearGrasp
+        The hand at the operating point (its period and operating command).
+    y_nonlinear : ndarray, shape (n_steps,)
+        Grip-force response (N) of the hand to the command step.
+    control_dt_s : float
+        Control period, s.
+    step_command : float
+        The step, command units.
+    weightless : bool
+        Whether the object's weight was cancelled (recorded in ``fit``).
+    """
+    n_steps = y_nonlinear.size
     u = np.concatenate([np.zeros(_N_PRE), np.full(n_steps, step_command)])
     # sampled convention: the force read at k reflects commands up to k - 1
     y = np.concatenate([np.zeros(_N_PRE + 1), y_nonlinear[:-1]])
@@ -250,7 +304,7 @@ def design_plant(
            "delay_samples": ident.delay_samples, "fit_percent": ident.fit_percent,
            "r2": ident.r2, "rms_error_n": ident.rms_error_n, "step_command": step_command,
            "weightless": bool(weightless)}
-    return DesignPlant(model=ident.model, method=method, object=obj, u0=lin.u0,
+    return DesignPlant(model=ident.model, method="identified", object=obj, u0=lin.u0,
                        y0_n=lin.y0_n, fit=fit)
 
 
@@ -361,7 +415,7 @@ def _step_fit(plant: DesignPlant, reduced: control.StateSpace, dt_s: float) -> f
     t = np.arange(n_steps + 1) * dt_s
     y_red = np.asarray(control.forced_response(reduced, T=t, U=np.full(t.size, du)).outputs)
     # the design plant carries the sampled convention's extra z**-1
-    return 100.0 * nrmse_fit(y_nonlinear, y_red.ravel()[1:])
+    return 100.0 * step_response_fit(y_nonlinear, y_red.ravel()[1:])
 
 
 @dataclass(frozen=True)

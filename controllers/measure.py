@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from controllers.base import observation_from_info
-from controllers.design import ControllerDesign
+from controllers.design import ControllerDesign, OperatingAnalysis
+from controllers.drive import HandLoop
 from controllers.errors import SpecificationError
 from controllers.plant import frequency_response
 from sim.hand.grasp_env import GraspEnv, WristSchedule
@@ -174,18 +174,7 @@ def measure_loop(design: ControllerDesign, force_n: float, *,
     predicted = design.analyse(force_n)
     if not predicted.ok:
         return LoopMeasurement(force_n, reason=f"no analysis at {force_n:g} N: {predicted.reason}")
-    wc = predicted.margins.crossover_rad_s[0] if predicted.margins.crossover_rad_s else 10.0
-    nyquist = np.pi / dt
-    if frequencies_rad_s is None:
-        w_all = np.array(DEFAULT_FREQUENCY_FACTORS) * wc
-        w_all = w_all[w_all < 0.8 * nyquist]
-    else:
-        w_all = np.sort(np.asarray(frequencies_rad_s, dtype=float))
-        if w_all.size == 0 or w_all[0] <= 0 or w_all[-1] >= nyquist:
-            raise SpecificationError(
-                f"frequencies: expected values in (0, {nyquist:.4g}) rad/s (Nyquist), found "
-                f"{w_all.tolist()}"
-            )
+    w_all = _injection_frequencies(predicted, dt, frequencies_rad_s)
     a = amplitude if amplitude is not None else max(0.002, 0.05 * design.feedforward(force_n))
 
     schedule = WristSchedule(lift_after_s=0.8)
@@ -193,40 +182,16 @@ def measure_loop(design: ControllerDesign, force_n: float, *,
     blocks = [(w, int(round(settle_periods * 2 * np.pi / w / dt)),
                int(round(periods * 2 * np.pi / w / dt))) for w in w_all]
     n_total = n_lift + sum(s + m for _, s, m in blocks)
-    env = GraspEnv(design.object, force_n, control_dt_s=dt, episode_s=(n_total + 10) * dt,
-                   schedule=schedule)
-    ctl = design.controller
-    ctl.reset()
-    u_applied = np.zeros(n_total)
-    u_ctrl = np.zeros(n_total)
-    grip = np.zeros(n_total)
-    inject = np.zeros(n_total)
     t = np.arange(n_total) * dt
+    inject = np.zeros(n_total)
     k = n_lift
     for w, n_settle, n_meas in blocks:
         inject[k:k + n_settle + n_meas] = a * np.sin(w * t[k:k + n_settle + n_meas])
         k += n_settle + n_meas
-    try:
-        _, info = env.reset(seed=0)
-        pending = 0.0
-        action = np.zeros(1, dtype=np.float32)
-        for k in range(n_total):
-            u = ctl.act(observation_from_info(info, force_n))
-            u_ctrl[k] = pending
-            u_applied[k] = float(np.float32(pending + inject[k]))
-            action[0] = u_applied[k]
-            _, _, terminated, truncated, info = env.step(action)
-            grip[k] = info["grip_force_n"]
-            pending = u
-            if terminated or truncated:
-                return LoopMeasurement(force_n, reason=(
-                    f"the hold ended at t = {t[k]:.2f} s (dropped {info['dropped']}, crushed "
-                    f"{info['crushed']}, failure {info.get('failure')})"))
-        lifted = info["object_height_m"] > 0.5 * schedule.lift_height_m
-    finally:
-        env.close()
-    if not lifted:
-        return LoopMeasurement(force_n, reason="the object was not lifted")
+    run = _run_injection(design, force_n, schedule, t, inject)
+    if isinstance(run, str):
+        return LoopMeasurement(force_n, reason=run)
+    u_ctrl, u_applied, grip = run
     held = float(np.mean(grip[n_lift:]))
     at_held = design.analyse(float(np.clip(round(held, 1), *design.family.range_n)))
     pred = at_held if at_held.ok else predicted
@@ -245,6 +210,87 @@ def measure_loop(design: ControllerDesign, force_n: float, *,
     if m.crossover_rad_s:
         result.predicted_crossover_rad_s = float(m.crossover_rad_s[0])
         result.predicted_phase_margin_deg = float(m.phase_margins_deg[0])
+    _measured_margins(result)
+    return result
+
+
+def _injection_frequencies(predicted: OperatingAnalysis, dt_s: float,
+                           frequencies_rad_s: np.ndarray | None) -> np.ndarray:
+    """The injection frequencies, rad/s, sorted.
+
+    Default: :data:`DEFAULT_FREQUENCY_FACTORS` times the predicted crossover
+    (10 rad/s if there is none), those below 0.8 x Nyquist.
+
+    Raises
+    ------
+    SpecificationError
+        Given frequencies outside ``(0, Nyquist)``.
+    """
+    wc = predicted.margins.crossover_rad_s[0] if predicted.margins.crossover_rad_s else 10.0
+    nyquist = np.pi / dt_s
+    if frequencies_rad_s is None:
+        w_all = np.array(DEFAULT_FREQUENCY_FACTORS) * wc
+        return w_all[w_all < 0.8 * nyquist]
+    w_all = np.sort(np.asarray(frequencies_rad_s, dtype=float))
+    if w_all.size == 0 or w_all[0] <= 0 or w_all[-1] >= nyquist:
+        raise SpecificationError(
+            f"frequencies: expected values in (0, {nyquist:.4g}) rad/s (Nyquist), found "
+            f"{w_all.tolist()}"
+        )
+    return w_all
+
+
+def _run_injection(design: ControllerDesign, force_n: float, schedule: WristSchedule,
+                   t_s: np.ndarray, inject: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | str:
+    """Grasp, lift and hold at ``force_n`` with ``inject`` added at the plant input.
+
+    Parameters
+    ----------
+    t_s, inject : ndarray, shape (n_steps,)
+        Control-rate time, s, and the injected signal, command units.
+
+    Returns
+    -------
+    (u_ctrl, u_applied, grip_n) : tuple of ndarray, shape (n_steps,)
+        The controller's command as the hand received it, the plant input
+        (command plus injection), and the grip force, N.
+    str
+        Why the run failed instead: the hold ended early or the object was not lifted.
+    """
+    dt = design.family.control_dt_s
+    n_total = t_s.size
+    env = GraspEnv(design.object, force_n, control_dt_s=dt, episode_s=(n_total + 10) * dt,
+                   schedule=schedule)
+    loop = HandLoop(env, design.controller)
+    u_applied = np.zeros(n_total)
+    u_ctrl = np.zeros(n_total)
+    grip = np.zeros(n_total)
+    try:
+        loop.reset(seed=0)
+        for k in range(n_total):
+            u_ctrl[k], u_applied[k], done = loop.step(force_n, inject[k])
+            info = loop.info
+            grip[k] = info["grip_force_n"]
+            if done:
+                return (f"the hold ended at t = {t_s[k]:.2f} s (dropped {info['dropped']}, "
+                        f"crushed {info['crushed']}, failure {info.get('failure')})")
+        lifted = loop.info["object_height_m"] > 0.5 * schedule.lift_height_m
+    finally:
+        env.close()
+    if not lifted:
+        return "the object was not lifted"
+    return u_ctrl, u_applied, grip
+
+
+def _measured_margins(result: LoopMeasurement) -> None:
+    """Fill in the measured crossover, phase margin and gain at the predicted crossover.
+
+    The crossover is log-log interpolated between the frequencies that bracket
+    ``|L| = 1``, the phase at it interpolated in log frequency, each measured
+    phase unwrapped towards the predicted one.
+    """
+    points = result.points
     w = np.array([p.frequency_rad_s for p in points])
     mag_db = np.array([20 * np.log10(abs(p.loop)) for p in points])
     phase = np.array([_near(np.angle(p.loop, deg=True), np.angle(p.predicted_loop, deg=True))
@@ -258,4 +304,3 @@ def measure_loop(design: ControllerDesign, force_n: float, *,
     wp = result.predicted_crossover_rad_s
     if wp is not None and w.size >= 2 and w[0] <= wp <= w[-1]:
         result.gain_at_predicted_crossover_db = float(np.interp(np.log(wp), np.log(w), mag_db))
-    return result

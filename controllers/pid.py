@@ -286,59 +286,13 @@ def design_pid(
     theta, gain = required_controller_phase(
         plant, phase_margin_deg, wc, dt, computation_delay_samples
     )
-    g = dt / (np.exp(1j * wc * dt) - 1.0)  # integrator T/(z-1) at wc
     notes: list[str] = []
     if structure == "pi":
-        lag_limit = np.angle(g, deg=True)
-        if theta > 0:
-            raise SpecificationError(
-                f"phase margin {phase_margin_deg} deg at {wc} rad/s needs {theta:.1f} deg of "
-                f"lead; a PI gives at most 0 deg (use structure='pid', lead_lag or a lower "
-                f"crossover)"
-            )
-        if theta < lag_limit:
-            raise SpecificationError(
-                f"phase margin {phase_margin_deg} deg at {wc} rad/s needs {-theta:.1f} deg of "
-                f"lag; a PI gives at most {-lag_limit:.1f} deg (raise the crossover)"
-            )
-        target = gain * np.exp(1j * np.deg2rad(theta))
-        ki = target.imag / g.imag
-        kp = target.real - ki * g.real
-        kd, tf = 0.0, 0.0
+        kp, ki, kd, tf = _pi_gains(theta, gain, wc, dt, phase_margin_deg)
     else:
-        tf = 1.0 / (derivative_filter_ratio * wc)
-        zc = np.exp(1j * wc * dt)
-        h = (zc - 1.0) / ((tf + dt) * zc - tf)
-
-        def shape(td: np.ndarray) -> np.ndarray:
-            return 1.0 + g / (ti_over_td * td) + td * h
-
-        grid = np.geomspace(1e-4 / wc, 1e3 / wc, 4000)
-        phase = np.angle(shape(grid), deg=True)
-        i_max = int(np.argmax(phase))
-        if theta > phase[i_max]:
-            raise SpecificationError(
-                f"phase margin {phase_margin_deg} deg at {wc} rad/s needs {theta:.1f} deg of "
-                f"lead; a PID with Ti = {ti_over_td} Td and derivative filter at "
-                f"{derivative_filter_ratio} wc gives at most {phase[i_max]:.1f} deg"
-            )
-        if theta < phase[0]:
-            raise SpecificationError(
-                f"phase margin {phase_margin_deg} deg at {wc} rad/s needs {-theta:.1f} deg of "
-                f"lag; a PID gives at most {-phase[0]:.1f} deg (raise the crossover)"
-            )
-        j = int(np.nonzero(phase[: i_max + 1] >= theta)[0][0])
-        if j == 0:
-            td = grid[0]
-        else:
-            td = scipy.optimize.brentq(
-                lambda t: np.angle(shape(np.array([t])), deg=True)[0] - theta,
-                grid[j - 1],
-                grid[j],
-                xtol=1e-14,
-            )
-        kp = gain / np.abs(shape(np.array([td]))[0])
-        ki, kd = kp / (ti_over_td * td), kp * td
+        kp, ki, kd, tf = _pid_gains(theta, gain, wc, dt, phase_margin_deg,
+                                    ti_over_td=ti_over_td,
+                                    derivative_filter_ratio=derivative_filter_ratio)
         notes.append(f"Ti = {ti_over_td} Td; derivative filter corner at "
                      f"{derivative_filter_ratio} x crossover")
     if kp < 0 or ki < 0 or kd < 0:
@@ -368,3 +322,96 @@ def design_pid(
         notes=notes,
     )
     return controller
+
+
+def _integrator_at(wc: float, dt: float) -> complex:
+    """The discrete integrator ``T / (z - 1)`` at ``z = e^{j wc T}``."""
+    return dt / (np.exp(1j * wc * dt) - 1.0)
+
+
+def _pi_gains(theta: float, gain: float, wc: float, dt: float,
+              phase_margin_deg: float) -> tuple[float, float, float, float]:
+    """PI gains giving the controller phase ``theta`` (deg) and ``gain`` at ``wc`` (rad/s).
+
+    Returns
+    -------
+    kp, ki_per_s, kd_s, derivative_filter_s : float
+        ``kd_s`` and the filter are 0 for a PI.
+
+    Raises
+    ------
+    SpecificationError
+        ``theta`` needs lead, or more lag than the integrator gives at ``wc``.
+    """
+    g = _integrator_at(wc, dt)
+    lag_limit = np.angle(g, deg=True)
+    if theta > 0:
+        raise SpecificationError(
+            f"phase margin {phase_margin_deg} deg at {wc} rad/s needs {theta:.1f} deg of "
+            f"lead; a PI gives at most 0 deg (use structure='pid', lead_lag or a lower "
+            f"crossover)"
+        )
+    if theta < lag_limit:
+        raise SpecificationError(
+            f"phase margin {phase_margin_deg} deg at {wc} rad/s needs {-theta:.1f} deg of "
+            f"lag; a PI gives at most {-lag_limit:.1f} deg (raise the crossover)"
+        )
+    target = gain * np.exp(1j * np.deg2rad(theta))
+    ki = target.imag / g.imag
+    kp = target.real - ki * g.real
+    return kp, ki, 0.0, 0.0
+
+
+def _pid_gains(theta: float, gain: float, wc: float, dt: float, phase_margin_deg: float, *,
+               ti_over_td: float, derivative_filter_ratio: float
+               ) -> tuple[float, float, float, float]:
+    """PID gains (``Ti = ti_over_td Td``) giving phase ``theta`` (deg) and ``gain`` at ``wc``.
+
+    ``Td`` is found by root finding on the controller's phase at ``wc`` over
+    ``1e-4 / wc .. 1e3 / wc`` s; the derivative filter's corner is
+    ``derivative_filter_ratio * wc``.
+
+    Returns
+    -------
+    kp, ki_per_s, kd_s, derivative_filter_s : float
+
+    Raises
+    ------
+    SpecificationError
+        ``theta`` is outside the phases this PID shape reaches at ``wc``.
+    """
+    g = _integrator_at(wc, dt)
+    tf = 1.0 / (derivative_filter_ratio * wc)
+    zc = np.exp(1j * wc * dt)
+    h = (zc - 1.0) / ((tf + dt) * zc - tf)
+
+    def shape(td: np.ndarray) -> np.ndarray:
+        return 1.0 + g / (ti_over_td * td) + td * h
+
+    grid = np.geomspace(1e-4 / wc, 1e3 / wc, 4000)
+    phase = np.angle(shape(grid), deg=True)
+    i_max = int(np.argmax(phase))
+    if theta > phase[i_max]:
+        raise SpecificationError(
+            f"phase margin {phase_margin_deg} deg at {wc} rad/s needs {theta:.1f} deg of "
+            f"lead; a PID with Ti = {ti_over_td} Td and derivative filter at "
+            f"{derivative_filter_ratio} wc gives at most {phase[i_max]:.1f} deg"
+        )
+    if theta < phase[0]:
+        raise SpecificationError(
+            f"phase margin {phase_margin_deg} deg at {wc} rad/s needs {-theta:.1f} deg of "
+            f"lag; a PID gives at most {-phase[0]:.1f} deg (raise the crossover)"
+        )
+    j = int(np.nonzero(phase[: i_max + 1] >= theta)[0][0])
+    if j == 0:
+        td = grid[0]
+    else:
+        td = scipy.optimize.brentq(
+            lambda t: np.angle(shape(np.array([t])), deg=True)[0] - theta,
+            grid[j - 1],
+            grid[j],
+            xtol=1e-14,
+        )
+    kp = gain / np.abs(shape(np.array([td]))[0])
+    ki, kd = kp / (ti_over_td * td), kp * td
+    return kp, ki, kd, tf

@@ -6,7 +6,7 @@ grip automatically when the object starts to slide; human reflexes respond in
 shapes the reference handed to the wrapped controller, so it does not change
 the loop's margins (:meth:`SlipReflex.loop` is the wrapped controller's loop).
 
-What it must not do (measured on the earlier version, issue 9): fire when the
+What it must not do (each seen in an earlier design of the reflex): fire when the
 digits close on the object (the first pad pushes the object across the table,
 which reads as slip), keep the grip high for the rest of the hold after one
 transient slip, or raise the grip up to the force that breaks the object.

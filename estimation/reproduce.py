@@ -22,7 +22,6 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from estimation.errors import EstimationInputError
 from estimation.evaluation import aggregate, evaluate_subject, split_index
@@ -36,6 +35,7 @@ from estimation.registry import (
     estimator_names,
     paper_estimators,
 )
+from estimation.threads import one_blas_thread
 
 #: Paper Table 2/3 estimators, in the paper's column order (``register_estimator(paper=True)``).
 PAPER_ESTIMATORS = paper_estimators()
@@ -182,8 +182,7 @@ def run_reproduction(
     channels = parse_channels(channels)
     estimators = estimator_names() if estimators is None else tuple(estimators)
 
-    # Every matrix here is tiny: BLAS threads only add overhead (and noise in timings).
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         return _run(make_population, n_subjects, seed, generator, order, estimators, orders,
                     nn_params, channels)
 
@@ -203,21 +202,16 @@ def _run(make_population: object, n_subjects: int, seed: int, generator: str, or
                                   dt_s=fs.dt_s)
         res = evaluate_subject(fs.X, fs.y, params, dt_s=fs.dt_s)
         if not per_subject:
-            training = training_settings(params, {n: r["_pipeline"] for n, r in res.items()
-                                                  if "_pipeline" in r})
+            training = training_settings(params, _pipelines(res))
         per_subject.append(res)
         n_id = split_index(fs.n_windows)
         features_info.append({"subject_id": subject.subject_id, "n_windows": fs.n_windows,
                               "n_identification": n_id, "duration_s": rec.duration_s})
         if "ss_kf" in res and "_pipeline" in res["ss_kf"]:
-            pipe = res["ss_kf"]["_pipeline"]
             if model is None:
-                model = model_summary(pipe.estimator)
-            sel = select_order(pipe.scaling_.transform_u(fs.X[:n_id]),
-                               pipe.scaling_.transform_y(fs.y[:n_id]), orders=orders,
-                               dt_s=fs.dt_s)
-            order_curves.append({"subject_id": subject.subject_id, "orders": sel.orders,
-                                 "aic": sel.aic, "order": sel.order, "n_obs": sel.n_obs})
+                model = model_summary(res["ss_kf"]["_pipeline"].estimator)
+            order_curves.append(_order_curve(subject.subject_id, res["ss_kf"]["_pipeline"],
+                                             fs, n_id, orders))
     result = aggregate(per_subject)
     result["model"] = model
     result["order_selection"] = {
@@ -236,6 +230,33 @@ def _run(make_population: object, n_subjects: int, seed: int, generator: str, or
                            for name in estimators if estimator_info(name)["neural"]}
     result["training"] = training
     return to_jsonable(result)
+
+
+def _pipelines(evaluated: dict) -> dict:
+    """The fitted pipelines of :func:`estimation.evaluation.evaluate_subject`'s result, by name."""
+    return {n: r["_pipeline"] for n, r in evaluated.items() if "_pipeline" in r}
+
+
+def _order_curve(subject_id: int, pipeline: object, fs: object, n_id: int,
+                 orders: Sequence[int]) -> dict:
+    """The AIC over candidate orders on the identification part of a subject's session.
+
+    Parameters
+    ----------
+    pipeline : ForcePipeline
+        The fitted SS + KF pipeline (its scaling is reused).
+    fs : FeatureSet
+        The session's features, ``X`` shape (n_windows, n_features), ``y`` in N.
+    n_id : int
+        Windows of the identification part.
+    orders : sequence of int
+        Candidate orders.
+    """
+    sel = select_order(pipeline.scaling_.transform_u(fs.X[:n_id]),
+                       pipeline.scaling_.transform_y(fs.y[:n_id]), orders=orders,
+                       dt_s=fs.dt_s)
+    return {"subject_id": subject_id, "orders": sel.orders, "aic": sel.aic,
+            "order": sel.order, "n_obs": sel.n_obs}
 
 
 def _properties(per_subject: Sequence[dict]) -> dict:
@@ -480,8 +501,6 @@ def evaluate_recording(
     EstimationInputError
         The recording has no force.
     """
-    from estimation.errors import EstimationInputError
-
     if recording.force_n is None:
         raise EstimationInputError(
             f"{recording.source}: no force column; the protocol needs the measured force"
@@ -491,11 +510,10 @@ def evaluate_recording(
     fs = extract_features(recording, channels=channels)
     params = estimator_params(estimators, np.random.default_rng(seed), order, nn_params,
                               dt_s=fs.dt_s)
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         res = evaluate_subject(fs.X, fs.y, params, dt_s=fs.dt_s)
     result = aggregate([res])
-    result["training"] = training_settings(params, {n: r["_pipeline"] for n, r in res.items()
-                                                    if "_pipeline" in r})
+    result["training"] = training_settings(params, _pipelines(res))
     if "ss_kf" in res and "_pipeline" in res["ss_kf"]:
         result["model"] = model_summary(res["ss_kf"]["_pipeline"].estimator)
     result["properties"] = _properties([res])

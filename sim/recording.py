@@ -988,13 +988,83 @@ def _data_rows(lines: list[str]) -> list[str]:
 def _load_csv(path: Path, emg_unit: str | None, max_bytes: int, columns: ColumnMap,
               time_unit: str, fs_hz: float | None, resample_hz: float | None,
               duplicates: str) -> Recording:
-    import csv
-    import io
+    lines = _read_text(path, max_bytes).splitlines()
+    header, meta, n_comment = _csv_header(path, lines, max_bytes)
+    t_idx, emg_idx, f_idx, extra = _resolve_columns(header, columns, path, fs_hz)
+    used = ([t_idx] if t_idx is not None else []) + emg_idx
+    used += ([f_idx] if f_idx is not None else []) + list(extra.values())
+    data = _csv_data(path, lines[n_comment:], header, used)
+    pos = {j: k for k, j in enumerate(used)}
+    emg = data[:, [pos[j] for j in emg_idx]]
+    unit = _csv_emg_unit(path, emg, emg_unit if emg_unit is not None else meta.get("emg_unit"))
+    metadata = meta.get("metadata", {})
+    ignored = [header[j] for j in range(len(header)) if j not in pos]
+    if isinstance(metadata, dict) and (ignored or not columns.is_default):
+        metadata = dict(metadata)
+        metadata["csv_layout"] = {
+            "time": None if t_idx is None else header[t_idx],
+            "time_unit": time_unit,
+            "emg": [header[j] for j in emg_idx],
+            "force": None if f_idx is None else header[f_idx],
+            "ignored": ignored,
+        }
+    if t_idx is None:
+        rate = _positive_rate(fs_hz, str(path), "--fs-hz")
+        if resample_hz is not None:
+            raise RecordingError(f"{path}: --resample needs a time column (found none)")
+    elif resample_hz is not None:
+        rate, data, resampled = _csv_resampled(path, data[:, pos[t_idx]], data, header[t_idx],
+                                               time_unit, resample_hz, duplicates, max_bytes)
+        emg = data[:, [pos[j] for j in emg_idx]]
+        if unit == "int8":
+            emg = np.clip(np.round(emg), -128, 127)
+        if isinstance(metadata, dict):
+            metadata = dict(metadata)
+            metadata["resampled"] = resampled
+    else:
+        rate = _csv_time_rate(path, data[:, pos[t_idx]], header[t_idx], time_unit,
+                              [("metadata fs_hz", meta.get("fs_hz")), ("--fs-hz", fs_hz)])
+    if unit == "int8":
+        emg = emg.astype(np.int8)
+    names = _csv_channel_names(path, meta, [header[j] for j in emg_idx]
+                               if columns.emg is not None else None)
 
-    text = _read_text(path, max_bytes)
+    def col(j: int | None) -> np.ndarray | None:
+        return None if j is None else data[:, pos[j]]
+
+    return Recording(
+        emg=emg,
+        fs_hz=rate,
+        force_n=col(f_idx),
+        channel_names=names,
+        emg_unit=unit,
+        intent=col(extra.get("intent")),
+        intent_force_n=col(extra.get("intent_force_n")),
+        metadata=metadata,
+        source=str(path),
+    )
+
+
+def _csv_header(path: Path, lines: list[str], max_bytes: int
+                ) -> tuple[list[str], dict[str, Any], int]:
+    """The CSV's header, its metadata and how many lines precede the data.
+
+    The metadata is the file's own ``# griploop {...}`` line, else its sidecar
+    JSON (:func:`sidecar_path`), else empty.
+
+    Returns
+    -------
+    header : list of str
+        Column names, stripped.
+    meta : dict
+        The griploop metadata (``fs_hz``, ``emg_unit``, ``channel_names``, ``metadata``).
+    n_before_data : int
+        Lines up to and including the header.
+    """
+    import csv
+
     meta: dict[str, Any] = {}
     header: list[str] | None = None
-    lines = text.splitlines()
     n_comment = 0
     in_file_meta = False
     for line in lines:
@@ -1027,8 +1097,26 @@ def _load_csv(path: Path, emg_unit: str | None, max_bytes: int, columns: ColumnM
             f"{path}: one column {header[0][:40]!r}: the file looks ';'-separated; "
             "expected ',' as the delimiter"
         )
-    t_idx, emg_idx, f_idx, extra = _resolve_columns(header, columns, path, fs_hz)
-    rows = _data_rows(lines[n_comment:])
+    return header, meta, n_comment
+
+
+def _csv_data(path: Path, lines: list[str], header: list[str], used: list[int]) -> np.ndarray:
+    """The CSV's data rows parsed as numbers, columns ``used`` only.
+
+    Returns
+    -------
+    ndarray, shape (n_rows, len(used))
+        Finite floats.
+
+    Raises
+    ------
+    RecordingError
+        Fewer than 2 rows, rows wider or narrower than the header, text that
+        is not a number, or NaN/inf in a used column.
+    """
+    import io
+
+    rows = _data_rows(lines)
     if len(rows) < 2:
         raise RecordingError(f"{path}: needs at least 2 rows to define the sampling rate")
     body = "\n".join(rows)
@@ -1040,8 +1128,6 @@ def _load_csv(path: Path, emg_unit: str | None, max_bytes: int, columns: ColumnM
                 f"{path}: data row {int(bad[0]) + 1}: {int(widths[bad[0]])} values per row but "
                 f"{len(header)} header columns"
             )
-    used = ([t_idx] if t_idx is not None else []) + emg_idx
-    used += ([f_idx] if f_idx is not None else []) + list(extra.values())
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # "input contained no data"
@@ -1054,17 +1140,25 @@ def _load_csv(path: Path, emg_unit: str | None, max_bytes: int, columns: ColumnM
         raise RecordingError(
             f"{path}: {data.shape[1]} values per row but {len(used)} columns used"
         )
-    pos = {j: k for k, j in enumerate(used)}
-    for j in used:
-        col = data[:, pos[j]]
+    for k, j in enumerate(used):
+        col = data[:, k]
         if not np.all(np.isfinite(col)):
             row = int(np.argwhere(~np.isfinite(col))[0][0]) + 1
             raise RecordingError(
                 f"{path}: column {header[j][:40]!r} has NaN or inf at data row {row}; "
                 "expected finite numbers"
             )
-    emg = data[:, [pos[j] for j in emg_idx]]
-    unit = emg_unit if emg_unit is not None else meta.get("emg_unit")
+    return data
+
+
+def _csv_emg_unit(path: Path, emg: np.ndarray, unit: Any) -> str:
+    """The sEMG unit: the one given, else ``int8`` for integers in -128..127, else ``uV``.
+
+    Raises
+    ------
+    RecordingError
+        An unknown unit, or ``int8`` for values that are not such integers.
+    """
     if unit is None:
         integral = np.all(emg == np.round(emg))
         unit = "int8" if integral and emg.min() >= -128 and emg.max() <= 127 else "uV"
@@ -1077,84 +1171,80 @@ def _load_csv(path: Path, emg_unit: str | None, max_bytes: int, columns: ColumnM
             f"{path}: emg_unit int8 but values are not integers in -128..127 "
             f"(found {emg.min():.6g}..{emg.max():.6g}): pass --emg-unit uV (or mV, a.u.)"
         )
-    metadata = meta.get("metadata", {})
-    ignored = [header[j] for j in range(len(header)) if j not in pos]
-    if isinstance(metadata, dict) and (ignored or not columns.is_default):
-        metadata = dict(metadata)
-        metadata["csv_layout"] = {
-            "time": None if t_idx is None else header[t_idx],
-            "time_unit": time_unit,
-            "emg": [header[j] for j in emg_idx],
-            "force": None if f_idx is None else header[f_idx],
-            "ignored": ignored,
-        }
-    if t_idx is None:
-        rate = _positive_rate(fs_hz, str(path), "--fs-hz")
-        if resample_hz is not None:
-            raise RecordingError(f"{path}: --resample needs a time column (found none)")
-    else:
-        tname = header[t_idx]
-        raw_t = data[:, pos[t_idx]]
-        # relative to the first stamp before scaling: exact for integer epoch stamps
-        with np.errstate(over="ignore", invalid="ignore"):
-            t = (raw_t - raw_t[0]) * _TIME_UNITS[time_unit]
-        if not np.all(np.isfinite(t)):
-            raise RecordingError(f"{path}: column {tname!r} spans more than a float can hold")
-        step = _time_checks(t, tname, path, time_unit, resample_hz is not None)
-        if resample_hz is not None:
-            rate = _positive_rate(resample_hz, str(path), "--resample")
-            n_in = data.shape[0]
-            data = _resample(t, data, step, rate, duplicates, path, tname, max_bytes)
-            emg = data[:, [pos[j] for j in emg_idx]]
-            if unit == "int8":
-                emg = np.clip(np.round(emg), -128, 127)
-            if isinstance(metadata, dict):
-                metadata = dict(metadata)
-                metadata["resampled"] = {
-                    "fs_hz": rate, "from_rows": n_in, "median_step_s": step,
-                    "duplicates": duplicates, "method": "linear (numpy.interp)",
-                }
-        else:
-            # the mean step (regular: checked above); the median of stamps rounded to a few
-            # decimals is biased (2048 Hz written as %.6f gave 2049.18 Hz)
-            step = float(t[-1] - t[0]) / (t.size - 1)
-            time_rate = _positive_rate(1.0 / step, str(path), f"column {tname!r} (1 / step)")
-            rate = time_rate
-            # a stated rate that agrees with the time column is the exact one
-            for label, value in (("metadata fs_hz", meta.get("fs_hz")), ("--fs-hz", fs_hz)):
-                if value is None:
-                    continue
-                claimed = _positive_rate(value, str(path), label)
-                if abs(claimed - time_rate) > _RATE_RTOL * time_rate:
-                    raise RecordingError(
-                        f"{path}: {label} {claimed:g} Hz contradicts column {tname!r} "
-                        f"({time_rate:.6g} Hz from its {step:.6g} s step); expected them to "
-                        f"agree within {_RATE_RTOL:.0%}"
-                    )
-                rate = claimed
-    if unit == "int8":
-        emg = emg.astype(np.int8)
+    return unit
+
+
+def _csv_times_s(path: Path, raw_t: np.ndarray, tname: str, time_unit: str) -> np.ndarray:
+    """The time column in seconds from its first stamp, shape (n_rows,)."""
+    # relative to the first stamp before scaling: exact for integer epoch stamps
+    with np.errstate(over="ignore", invalid="ignore"):
+        t = (raw_t - raw_t[0]) * _TIME_UNITS[time_unit]
+    if not np.all(np.isfinite(t)):
+        raise RecordingError(f"{path}: column {tname!r} spans more than a float can hold")
+    return t
+
+
+def _csv_resampled(path: Path, raw_t: np.ndarray, data: np.ndarray, tname: str,
+                   time_unit: str, resample_hz: float, duplicates: str, max_bytes: int
+                   ) -> tuple[float, np.ndarray, dict[str, Any]]:
+    """Resample every used column onto a regular grid at ``resample_hz``.
+
+    Returns
+    -------
+    rate : float
+        ``resample_hz``, Hz.
+    data : ndarray, shape (n_resampled, n_used)
+    resampled : dict
+        What was done, for the recording's metadata.
+    """
+    t = _csv_times_s(path, raw_t, tname, time_unit)
+    step = _time_checks(t, tname, path, time_unit, True)
+    rate = _positive_rate(resample_hz, str(path), "--resample")
+    n_in = data.shape[0]
+    data = _resample(t, data, step, rate, duplicates, path, tname, max_bytes)
+    return rate, data, {"fs_hz": rate, "from_rows": n_in, "median_step_s": step,
+                        "duplicates": duplicates, "method": "linear (numpy.interp)"}
+
+
+def _csv_time_rate(path: Path, raw_t: np.ndarray, tname: str, time_unit: str,
+                   claims: list[tuple[str, Any]]) -> float:
+    """The sampling rate of a regular time column, Hz, checked against stated rates.
+
+    The mean step is used (regularity is checked first); the median of stamps
+    rounded to a few decimals is biased (2048 Hz written as %.6f gave
+    2049.18 Hz). A stated rate (``claims``: label and value, None if not
+    stated) that agrees with the column within :data:`_RATE_RTOL` is the exact
+    one; one that does not is an error.
+    """
+    t = _csv_times_s(path, raw_t, tname, time_unit)
+    _time_checks(t, tname, path, time_unit, False)
+    step = float(t[-1] - t[0]) / (t.size - 1)
+    time_rate = _positive_rate(1.0 / step, str(path), f"column {tname!r} (1 / step)")
+    rate = time_rate
+    for label, value in claims:
+        if value is None:
+            continue
+        claimed = _positive_rate(value, str(path), label)
+        if abs(claimed - time_rate) > _RATE_RTOL * time_rate:
+            raise RecordingError(
+                f"{path}: {label} {claimed:g} Hz contradicts column {tname!r} "
+                f"({time_rate:.6g} Hz from its {step:.6g} s step); expected them to "
+                f"agree within {_RATE_RTOL:.0%}"
+            )
+        rate = claimed
+    return rate
+
+
+def _csv_channel_names(path: Path, meta: dict[str, Any],
+                       emg_columns: list[str] | None) -> list[str] | None:
+    """Channel names: the chosen sEMG columns' headers, else the metadata's ``channel_names``."""
+    if emg_columns is not None:
+        return emg_columns
     names = meta.get("channel_names")
-    if columns.emg is not None:
-        names = [header[j] for j in emg_idx]
-    elif names is not None and (
+    if names is not None and (
         not isinstance(names, list) or not all(isinstance(x, str) for x in names)
     ):
         raise RecordingError(
             f"{path}: metadata channel_names: expected a list of strings, found {_describe(names)}"
         )
-
-    def col(j: int | None) -> np.ndarray | None:
-        return None if j is None else data[:, pos[j]]
-
-    return Recording(
-        emg=emg,
-        fs_hz=rate,
-        force_n=col(f_idx),
-        channel_names=names,
-        emg_unit=unit,
-        intent=col(extra.get("intent")),
-        intent_force_n=col(extra.get("intent_force_n")),
-        metadata=metadata,
-        source=str(path),
-    )
+    return names

@@ -61,19 +61,46 @@ class Entry:
         """
         if not isinstance(self.target, str):
             return self.target
-        module_name, attr = self.target.split(":")
         try:
-            module = importlib.import_module(module_name)
-        except ImportError as exc:
-            raise UnresolvableEntryError(
-                f"{self.name}: {self.target!r} cannot be imported ({exc})") from None
-        try:
-            obj = getattr(module, attr)
-        except AttributeError:
-            raise UnresolvableEntryError(
-                f"{self.name}: module {module_name} has no attribute {attr!r}") from None
+            obj = import_reference(self.target, callable_only=False)
+        except UnresolvableEntryError as exc:
+            raise UnresolvableEntryError(f"{self.name}: {exc}") from None
         self.target = obj
         return obj
+
+
+def import_reference(reference: str, *, callable_only: bool = True) -> Any:
+    """The object named by a ``"package.module:attribute"`` reference, imported now.
+
+    Parameters
+    ----------
+    reference : str
+        ``"package.module:attribute"`` (exactly one colon).
+    callable_only : bool
+        Refuse an attribute that is not callable (runners, tasks, factories).
+
+    Returns
+    -------
+    object
+
+    Raises
+    ------
+    UnresolvableEntryError
+        Malformed reference, module not importable, attribute missing (or not callable).
+    """
+    if not isinstance(reference, str) or reference.count(":") != 1:
+        raise UnresolvableEntryError(
+            f"expected a 'package.module:attribute' reference, found {reference!r}")
+    module_name, attr = reference.split(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise UnresolvableEntryError(f"{module_name} cannot be imported ({exc})") from None
+    obj = getattr(module, attr, None)
+    if obj is None or (callable_only and not callable(obj)):
+        what = "callable" if callable_only else "attribute"
+        raise UnresolvableEntryError(f"{module_name} has no {what} {attr!r}") from None
+    return obj
 
 
 class Registry:

@@ -17,7 +17,6 @@ callable or as ``"package.module:function"``; the default is
 from __future__ import annotations
 
 import gc
-import importlib
 import itertools
 import logging
 import math
@@ -40,6 +39,7 @@ from scenarios.runners.dispatch import require_runners
 from scenarios.schema import DEFAULT_TIME_LIMIT_S, ExpandedScenario, Scenario
 from scenarios.store import Outcome, ResultStore, content_hash, encode_traces, package_version
 from sim.errors import GriploopError
+from sim.registry import UnresolvableEntryError, import_reference
 
 DEFAULT_TASK = "scenarios.runners.dispatch:run_scenario"
 Task = str | Callable[[Scenario], Mapping[str, Any]]
@@ -132,15 +132,10 @@ def resolve_task(task: Task) -> Callable[[Scenario], Mapping[str, Any]]:
     """
     if not isinstance(task, str):
         return task
-    module_name, func_name = task_name(task).split(":")
     try:
-        module = importlib.import_module(module_name)
-    except ImportError as exc:
-        raise SweepError(f"task {task!r}: cannot import {module_name} ({exc})") from None
-    func = getattr(module, func_name, None)
-    if not callable(func):
-        raise SweepError(f"task {task!r}: {module_name} has no callable {func_name!r}")
-    return func
+        return import_reference(task_name(task))
+    except UnresolvableEntryError as exc:
+        raise SweepError(f"task {task!r}: {exc}") from None
 
 
 def plan(

@@ -1,4 +1,4 @@
-"""Assembling the report: one section per kind of data.
+"""Assembling the report: one section per kind of data, in page order.
 
 :func:`build_report` reads a results store (and optionally the JSON of
 ``griploop reproduce --json``) into a :class:`~scenarios.report.sections.ReportContext`,
@@ -10,7 +10,6 @@ data present -- a section without data becomes a one-line note -- and writes
 from __future__ import annotations
 
 import datetime as _dt
-import os
 import platform
 import re
 import subprocess
@@ -125,20 +124,10 @@ def build_report(
         )
     json_scores = D.load_reproduction_json(reproduction) if reproduction is not None else None
     json_config = _json_config(reproduction) if reproduction is not None else {}
-    with ResultStore(results, read_only=True) as store:
-        rows = store.rows(sweep=sweep)
-        split = D.split_rows(rows)
-        traces = {r["hash"]: store.traces(r["hash"]) for r in split.episodes}
-        sweeps = [sweep] if sweep is not None else store.sweeps()
-        members = {s: store.rows(sweep=s) for s in sweeps}
+    rows, split, traces, members = _read_store(results, sweep)
     created = created or _dt.datetime.now(_dt.timezone.utc)
 
-    sources: list[tuple[str, D.ScoreTable]] = []
-    if split.reproduction:
-        sources.append((f"results store ({len(split.reproduction)} reproduction rows)",
-                        D.scores_from_rows(split.reproduction)))
-    if json_scores:
-        sources.append((f"{Path(reproduction).name} (griploop reproduce --json)", json_scores))
+    sources = _score_sources(split, json_scores, reproduction)
     factors = D.swept_factors(split.episodes)
     conditions = [f for f in factors if f != D.CONTROLLER_FACTOR]
     designs = (D.loop_designs(split.episodes, traces,
@@ -154,17 +143,59 @@ def build_report(
                  "max_traces": max_traces},
     )
     sections = build_sections(context)
-    n_ok = len(rows) - len(split.failed)
-    subtitle = (f"{results.name}{f', sweep {sweep}' if sweep else ''}: {len(rows)} rows "
-                f"({n_ok} ok, {len(split.failed)} failed; {len(split.reproduction)} "
-                f"reproduction, {len(split.episodes)} episode, {len(split.other)} other)"
-                f"{f'; reproduction JSON {Path(reproduction).name}' if reproduction else ''}.")
-    text = page("griploop report", subtitle, sections)
+    text = page("griploop report", _subtitle(results, sweep, rows, split, reproduction),
+                sections)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     path = out / "index.html"
     path.write_text(text, encoding="utf-8")
     return ReportResult(path, sections, text.count("<img "), time.perf_counter() - t0)
+
+
+def _read_store(results: Path, sweep: str | None
+                ) -> tuple[list[dict], D.StoreRows, dict[str, Any], dict[str, list[dict]]]:
+    """Everything the report reads from the results store, in one read-only session.
+
+    Returns
+    -------
+    rows : list of dict
+        The rows of ``sweep`` (all rows if None).
+    split : StoreRows
+        Those rows by kind (:func:`scenarios.report.data.split_rows`).
+    traces : dict
+        Each episode's traces, by content hash.
+    members : dict
+        The rows of each sweep shown, by sweep name (for the provenance).
+    """
+    with ResultStore(results, read_only=True) as store:
+        rows = store.rows(sweep=sweep)
+        split = D.split_rows(rows)
+        traces = {r["hash"]: store.traces(r["hash"]) for r in split.episodes}
+        sweeps = [sweep] if sweep is not None else store.sweeps()
+        members = {s: store.rows(sweep=s) for s in sweeps}
+    return rows, split, traces, members
+
+
+def _score_sources(split: D.StoreRows, json_scores: D.ScoreTable | None,
+                   reproduction: str | Path | None) -> list[tuple[str, D.ScoreTable]]:
+    """The estimator scores to tabulate: the store's reproduction rows, then the JSON's."""
+    sources: list[tuple[str, D.ScoreTable]] = []
+    if split.reproduction:
+        sources.append((f"results store ({len(split.reproduction)} reproduction rows)",
+                        D.scores_from_rows(split.reproduction)))
+    if json_scores:
+        sources.append((f"{Path(reproduction).name} (griploop reproduce --json)", json_scores))
+    return sources
+
+
+def _subtitle(results: Path, sweep: str | None, rows: Sequence[dict], split: D.StoreRows,
+              reproduction: str | Path | None) -> str:
+    """The page's subtitle: the store, the sweep, and how many rows of each kind."""
+    n_ok = len(rows) - len(split.failed)
+    return (f"{results.name}{f', sweep {sweep}' if sweep else ''}: {len(rows)} rows "
+            f"({n_ok} ok, {len(split.failed)} failed; {len(split.reproduction)} "
+            f"reproduction, {len(split.episodes)} episode, {len(split.other)} other)"
+            f"{f'; reproduction JSON {Path(reproduction).name}' if reproduction else ''}.")
 
 
 # ---------------------------------------------------------------- 1. paper tables
@@ -442,23 +473,21 @@ def render_frame_png(name: str, grip_force_n: float, timeout_s: float = 120.0) -
     """PNG of the hand holding ``name`` at ``grip_force_n`` N (``sim.hand.render_snapshot``).
 
     Rendered in a child process: MuJoCo picks its OpenGL backend when first
-    imported, so a process that imported it without ``MUJOCO_GL=egl`` cannot
-    render headless; the child also keeps a GL crash out of the report.
+    imported, and the child, importing :mod:`sim` first, gets a headless one
+    when there is no display (whatever this process loaded); the child also
+    keeps a GL crash out of the report.
 
     Raises
     ------
     RuntimeError
         The renderer exited with an error or timed out (message: its last line).
     """
-    env = dict(os.environ)
-    env.setdefault("MUJOCO_GL", "egl")
-    env.setdefault("PYOPENGL_PLATFORM", env["MUJOCO_GL"])
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "grasp.png"
         cmd = [sys.executable, "-m", "sim.hand.render_snapshot", str(out), "--object", name,
                "--grip", f"{grip_force_n:.6g}"]
         try:
-            proc = subprocess.run(cmd, env=env, capture_output=True, text=True,
+            proc = subprocess.run(cmd, capture_output=True, text=True,
                                   timeout=timeout_s, check=False)
         except subprocess.TimeoutExpired:
             raise RuntimeError(f"renderer timed out after {timeout_s:g} s") from None

@@ -1,7 +1,9 @@
 """What one scenario does: a runner per scenario kind, the closed-loop episode, comparisons.
 
 :mod:`scenarios.runners.dispatch` maps each scenario kind to its runner (a
-registry); :mod:`scenarios.runners.episode` runs a grasp from sEMG to the hand;
+registry); :mod:`scenarios.runners.subject` builds the scenario's virtual user and
+records their calibration session; :mod:`scenarios.runners.episode` runs a grasp
+from sEMG to the hand;
 :mod:`scenarios.runners.compare` drives one grasp with several estimators;
 :mod:`scenarios.runners.video` renders an episode.
 

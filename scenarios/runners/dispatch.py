@@ -23,16 +23,16 @@ this module does not import MuJoCo.
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from sim.errors import GriploopError
-from sim.registry import Registry
+from sim.registry import Registry, UnresolvableEntryError, import_reference
 
 if TYPE_CHECKING:
+    from estimation.features import FeatureSet
     from scenarios.schema import Scenario
 
 ResultRow = Mapping[str, Any]
@@ -161,19 +161,12 @@ def get_runner(kind: str) -> Runner:
         )
     if callable(entry):
         return entry
-    module_name, func_name = entry.split(":")
     try:
-        module = importlib.import_module(module_name)
-    except ImportError as exc:
+        return import_reference(entry)
+    except UnresolvableEntryError as exc:
         raise RunnerUnavailableError(
-            f"runner {entry!r} of scenario kind {kind!r} cannot be imported ({exc})"
+            f"runner {entry!r} of scenario kind {kind!r}: {exc}"
         ) from None
-    func = getattr(module, func_name, None)
-    if not callable(func):
-        raise RunnerUnavailableError(
-            f"runner {entry!r} of scenario kind {kind!r}: {module_name} has no function {func_name}"
-        )
-    return func
 
 
 def require_runners(kinds: set[str] | frozenset[str] | tuple[str, ...]) -> None:
@@ -245,36 +238,49 @@ def run_reproduction_scenario(scenario: Scenario) -> ResultRow:
     DivergedError
         The identified model is unstable in the requested mode.
     """
-    from threadpoolctl import threadpool_limits
-
-    from estimation.evaluation import evaluate_subject, split_index
-    from estimation.features import PAPER_CHANNELS, extract_features
-    from estimation.paper import PAPER_ORDER
-    from estimation.reproduce import estimator_params
-    from sim.user.subjects import VirtualSubject
+    from scenarios.runners.subject import calibration_session, subject_for
 
     if scenario.protocol.calibration_s is not None:
         raise UnsupportedScenarioError(
             "the paper session has its own length (about 25-36 s): leave "
             f"protocol.calibration_s unset (found {scenario.protocol.calibration_s:g})"
         )
-    subj, est = scenario.subject, scenario.estimator
     session_seq, estimator_seq = np.random.SeedSequence(scenario.seed).spawn(2)
-    subject = VirtualSubject.sample(subj.population_seed, subj.subject_id).with_scenario(
-        electrode_shift=subj.electrode_shift,
-        extra_noise_lsb=subj.extra_noise_lsb,
-        fatigue_per_min=subj.fatigue_per_min,
-    )
-    recording = subject.paper_session(rng=np.random.default_rng(session_seq),
-                                      generator=subj.generator)
-    features = extract_features(recording, channels=PAPER_CHANNELS)
+    subject = subject_for(scenario)
+    recording, features = calibration_session(subject, np.random.default_rng(session_seq),
+                                              generator=scenario.subject.generator)
+    result = _evaluate_estimator(scenario, features, np.random.default_rng(estimator_seq))
+    return _reproduction_row(scenario, result, features, recording.duration_s)
+
+
+def _evaluate_estimator(scenario: Scenario, features: FeatureSet,
+                        rng: np.random.Generator) -> dict[str, Any]:
+    """Fit the scenario's estimator on the first part of the session, score it on the rest.
+
+    Returns
+    -------
+    dict
+        :func:`estimation.evaluation.evaluate_subject`'s entry of the estimator,
+        with its fitted ``"_pipeline"``.
+
+    Raises
+    ------
+    UnsupportedScenarioError
+        The estimator has no such mode.
+    DivergedError
+        The identified model is unstable in the requested mode.
+    """
+    from estimation.evaluation import evaluate_subject
+    from estimation.paper import PAPER_ORDER
+    from estimation.reproduce import estimator_params
+    from estimation.threads import one_blas_thread
+
+    est = scenario.estimator
     order = PAPER_ORDER if est.order is None else est.order
-    fraction = scenario.protocol.identification_fraction
-    params = estimator_params([est.name], np.random.default_rng(estimator_seq), order,
-                              dt_s=features.dt_s)
-    with threadpool_limits(limits=1, user_api="blas"):  # tiny matrices: threads only cost
+    params = estimator_params([est.name], rng, order, dt_s=features.dt_s)
+    with one_blas_thread():
         result = evaluate_subject(features.X, features.y, params, dt_s=features.dt_s,
-                                  fraction=fraction)[est.name]
+                                  fraction=scenario.protocol.identification_fraction)[est.name]
     if est.mode not in result["modes"]:
         raise UnsupportedScenarioError(
             f"estimator {est.name} has modes {tuple(result['modes'])} (found mode {est.mode})"
@@ -282,13 +288,24 @@ def run_reproduction_scenario(scenario: Scenario) -> ResultRow:
     scores = result["modes"][est.mode]
     if scores["status"] != "ok":
         raise DivergedError(f"{est.name} {est.mode}: {scores.get('message', scores['status'])}")
-    n_id = split_index(features.n_windows, fraction)
+    return result
+
+
+def _reproduction_row(scenario: Scenario, result: Mapping[str, Any], features: FeatureSet,
+                      session_s: float) -> ResultRow:
+    """The result row of :func:`run_reproduction_scenario`, with its validation traces."""
+    from estimation.evaluation import split_index
+    from estimation.paper import PAPER_ORDER
+
+    est = scenario.estimator
+    scores = result["modes"][est.mode]
+    n_id = split_index(features.n_windows, scenario.protocol.identification_fraction)
     force_hat_n = result["_pipeline"].predict(features.X, features.y, mode=est.mode)[n_id:]
     return {
-        "subject_id": subj.subject_id,
+        "subject_id": scenario.subject.subject_id,
         "estimator": est.name,
         "mode": est.mode,
-        "order": order,
+        "order": PAPER_ORDER if est.order is None else est.order,
         "r2": float(scores["r2"]),
         "nrmse": float(scores["nrmse"]),
         "rmse_n": float(scores["rmse_n"]),
@@ -297,7 +314,7 @@ def run_reproduction_scenario(scenario: Scenario) -> ResultRow:
         "step_us": None if result["step_us"] is None else float(result["step_us"]),
         "n_windows": int(features.n_windows),
         "n_identification": int(n_id),
-        "session_s": float(recording.duration_s),
+        "session_s": float(session_s),
         "traces": {
             "t_s": features.t_s[n_id:],
             "force_n": features.y[n_id:],

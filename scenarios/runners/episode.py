@@ -44,22 +44,24 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
-from controllers.base import controller_stats, observation_from_info
+from controllers.base import controller_stats
 from controllers.bounds import slip_threshold_n
 from controllers.design import ControllerDesign, OperatingAnalysis, design_for_object, worst_case
+from controllers.drive import HandLoop
 from estimation.evaluation import split_index
 from estimation.features import PAPER_CHANNELS, FeatureSet, align_to_windows, extract_features
 from estimation.metrics import r2_score, total_variation_rate
 from estimation.paper import PAPER_ORDER
 from estimation.registry import make_estimator
 from estimation.reproduce import estimator_params
+from estimation.threads import one_blas_thread
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
+from scenarios.runners.subject import calibration_session, subject_for
 from scenarios.schema import ORACLE, Scenario
 from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.hand.objects import ObjectSpec, make_object
-from sim.user.intent import IntentProfile, grasp_lift_hold, paper_protocol
+from sim.user.intent import grasp_lift_hold
 from sim.user.subjects import VirtualSubject
 
 HAND_FORCE_AT_MVC_N = 30.0
@@ -104,23 +106,6 @@ class Calibration:
     fit_s: float
 
 
-def calibration_profile(rng: np.random.Generator, *, fs_hz: float,
-                        min_duration_s: float | None) -> IntentProfile:
-    """The paper's squeeze session, repeated until it lasts at least ``min_duration_s``."""
-    parts = [paper_protocol(rng, fs_hz=fs_hz)]
-    while min_duration_s is not None and sum(p.duration_s for p in parts) < min_duration_s:
-        parts.append(paper_protocol(rng, fs_hz=fs_hz))
-    if len(parts) == 1:
-        return parts[0]
-    cues, offset = [], 0.0
-    for p in parts:
-        cues += [(kind, t + offset) for kind, t in p.cues]
-        offset += p.duration_s
-    return IntentProfile(intent=np.concatenate([p.intent for p in parts]), fs_hz=fs_hz,
-                         cues=tuple(cues), levels=tuple(v for p in parts for v in p.levels),
-                         name=f"paper_protocol x{len(parts)}")
-
-
 def calibrate(
     subject: VirtualSubject,
     estimator: str,
@@ -142,9 +127,8 @@ def calibrate(
         The identified model is unstable and ``mode`` would run it open loop.
     """
     session_rng, estimator_rng = rng.spawn(2)
-    profile = calibration_profile(session_rng, fs_hz=200.0, min_duration_s=calibration_s)
-    recording = subject.record(profile, generator=generator, rng=session_rng)
-    features = extract_features(recording, channels=PAPER_CHANNELS)
+    recording, features = calibration_session(subject, session_rng, generator=generator,
+                                              min_duration_s=calibration_s)
     mvc_cal_n = float(np.max(recording.force_n))
     if estimator == ORACLE:
         return Calibration(ORACLE, mode, None, mvc_cal_n, None, 0.0)
@@ -395,74 +379,158 @@ def run_episode(
     DivergedError
         Unstable identified model in free run, or physics divergence.
     """
+    lift_after_s = _lift_time_s(episode_s, hold_s)
+    root = np.random.SeedSequence(seed)
+    cal_seq, episode_seq, env_seq = root.spawn(3)
+    timings = dict.fromkeys(("t_semg_s", "t_features_s", "t_estimator_s",
+                             "t_controller_s", "t_physics_s"), 0.0)
+    with one_blas_thread():
+        cal = calibrate(subject, estimator, mode, rng=np.random.default_rng(cal_seq),
+                        generator=generator, order=order,
+                        identification_fraction=identification_fraction,
+                        calibration_s=calibration_s)
+        design = cached_design(obj, controller, control_dt_s, controller_spec)
+        target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
+        stream = _reference_stream(subject, cal, target_n, np.random.default_rng(episode_seq),
+                                   generator=generator, episode_s=episode_s,
+                                   control_dt_s=control_dt_s,
+                                   hand_force_at_mvc_n=hand_force_at_mvc_n, timings=timings)
+        traces, failure, info = _closed_loop(obj, design, stream.reference_n, stream.t_s,
+                                             control_dt_s, episode_s, lift_after_s, env_seq,
+                                             timings, record_frames)
+    if failure is not None:
+        raise DivergedError(f"physics diverged at t = {info['time_s']:.3f} s: {failure}")
+    row = {"subject_id": subject.subject_id, "seed": int(seed),
+           "object_name": obj.name, "object_mass_kg": obj.mass_kg,
+           "object_friction": obj.friction, "object_break_force_n": obj.break_force_n,
+           "controller": controller, "estimator": estimator, "mode": mode,
+           "scheduled": bool(design.scheduled)}
+    return _episode_result(row, cal, design, stream, traces, info, timings,
+                           target_n=target_n, lift_after_s=lift_after_s,
+                           hold_from_s=episode_s - hold_s, control_dt_s=control_dt_s)
+
+
+def _lift_time_s(episode_s: float, hold_s: float) -> float:
+    """When the wrist starts lifting, s: ``episode_s - hold_s`` less the lift's duration.
+
+    Raises
+    ------
+    UnsupportedScenarioError
+        That leaves no time to grasp (rest, ramp and closing) before the lift.
+    """
     lift_after_s = episode_s - hold_s - LIFT_DURATION_S
     if lift_after_s < REST_S * 1.1 + RAMP_S + 0.3:
         raise UnsupportedScenarioError(
             f"episode_s - hold_s - {LIFT_DURATION_S} s lift = {lift_after_s:.2f} s leaves no time "
             f"to grasp before lifting: needs at least {REST_S * 1.1 + RAMP_S + 0.3:.2f} s"
         )
-    root = np.random.SeedSequence(seed)
-    cal_seq, episode_seq, env_seq = root.spawn(3)
-    timings = dict.fromkeys(("t_semg_s", "t_features_s", "t_estimator_s",
-                             "t_controller_s", "t_physics_s"), 0.0)
-    with threadpool_limits(limits=1, user_api="blas"):  # tiny matrices: threads only cost
-        cal = calibrate(subject, estimator, mode, rng=np.random.default_rng(cal_seq),
-                        generator=generator, order=order,
-                        identification_fraction=identification_fraction,
-                        calibration_s=calibration_s)
-        design = cached_design(obj, controller, control_dt_s, controller_spec)
-        # The user's intent ...
-        target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
+    return lift_after_s
 
-        # ... and their sEMG during the episode.
-        hold_level = float(np.clip(target_n / hand_force_at_mvc_n * cal.mvc_cal_n
-                                   / subject.mvc_n, 0.0, 1.0))
-        g = np.random.default_rng(episode_seq)
-        profile = grasp_lift_hold(g, fs_hz=200.0, hold_level=hold_level, rest_s=REST_S,
-                                  ramp_s=RAMP_S, hold_s=episode_s, jitter=0.1)
-        start_s = next(t for kind, t in profile.cues if kind == "start")
-        t0 = time.perf_counter()
-        recording = subject.record(profile, generator=generator, rng=g)
-        timings["t_semg_s"] = time.perf_counter() - t0
-        n_keep = int(round((episode_s + 0.5) * recording.fs_hz))
-        recording = recording.slice(0, min(n_keep, recording.n_samples))
-        t0 = time.perf_counter()
-        features = extract_features(recording, channels=PAPER_CHANNELS)
-        timings["t_features_s"] = time.perf_counter() - t0
 
-        # Estimates at the window rate, then the held reference at the control rate.
-        to_hand = hand_force_at_mvc_n / cal.mvc_cal_n
-        # the user's true grip force (before the FSR) at each window's end
-        oracle_windows = align_to_windows(recording.intent_force_n, recording.fs_hz) * to_hand
-        t0 = time.perf_counter()
-        if cal.pipeline is None:
-            estimate_windows = oracle_windows
-        else:
-            estimate_windows = stream_estimates(cal, features) * to_hand
-        timings["t_estimator_s"] = time.perf_counter() - t0
-        ceiling = 1.2 * hand_force_at_mvc_n
-        estimate_windows = np.clip(estimate_windows, 0.0, ceiling)
-        n_steps = int(round(episode_s / control_dt_s))
-        t_ctrl = np.arange(n_steps) * control_dt_s
-        reference = reference_from_windows(estimate_windows, features.t_s, t_ctrl)
-        oracle = reference_from_windows(np.clip(oracle_windows, 0, ceiling), features.t_s, t_ctrl)
+@dataclass
+class _ReferenceStream:
+    """The force reference of one episode, at the estimator's and the control rate.
 
-        traces, failure, info = _closed_loop(obj, design, reference, t_ctrl, control_dt_s,
-                                             episode_s, lift_after_s, env_seq, timings,
-                                             record_frames)
-    if failure is not None:
-        raise DivergedError(f"physics diverged at t = {info['time_s']:.3f} s: {failure}")
+    Attributes
+    ----------
+    start_s : float
+        The user's ramp onset, s.
+    window_values_n : ndarray, shape (n_windows,)
+        The hand reference at each feature window that ends within the episode
+        (estimate mapped to the hand, clipped), N.
+    window_dt_s : float
+        Estimator update period, s.
+    t_s : ndarray, shape (n_steps,)
+        Control-rate time, s.
+    reference_n, oracle_n : ndarray, shape (n_steps,)
+        The held reference, and the same for the user's true grip force, N.
+    """
+
+    start_s: float
+    window_values_n: np.ndarray
+    window_dt_s: float
+    t_s: np.ndarray
+    reference_n: np.ndarray
+    oracle_n: np.ndarray
+
+
+def _reference_stream(subject: VirtualSubject, cal: Calibration, target_n: float,
+                      rng: np.random.Generator, *, generator: str, episode_s: float,
+                      control_dt_s: float, hand_force_at_mvc_n: float,
+                      timings: dict[str, float]) -> _ReferenceStream:
+    """Record the user's sEMG while they grasp, estimate, and hold it at the control rate.
+
+    The user aims at ``target_n`` on the hand, which they reach through the
+    calibration's mapping (module notes); sEMG, feature and estimator times
+    are added to ``timings``.
+    """
+    # The user's intent and their sEMG during the episode.
+    hold_level = float(np.clip(target_n / hand_force_at_mvc_n * cal.mvc_cal_n
+                               / subject.mvc_n, 0.0, 1.0))
+    profile = grasp_lift_hold(rng, fs_hz=200.0, hold_level=hold_level, rest_s=REST_S,
+                              ramp_s=RAMP_S, hold_s=episode_s, jitter=0.1)
+    start_s = next(t for kind, t in profile.cues if kind == "start")
+    t0 = time.perf_counter()
+    recording = subject.record(profile, generator=generator, rng=rng)
+    timings["t_semg_s"] = time.perf_counter() - t0
+    n_keep = int(round((episode_s + 0.5) * recording.fs_hz))
+    recording = recording.slice(0, min(n_keep, recording.n_samples))
+    t0 = time.perf_counter()
+    features = extract_features(recording, channels=PAPER_CHANNELS)
+    timings["t_features_s"] = time.perf_counter() - t0
+
+    # Estimates at the window rate, then the held reference at the control rate.
+    to_hand = hand_force_at_mvc_n / cal.mvc_cal_n
+    # the user's true grip force (before the FSR) at each window's end
+    oracle_windows = align_to_windows(recording.intent_force_n, recording.fs_hz) * to_hand
+    t0 = time.perf_counter()
+    if cal.pipeline is None:
+        estimate_windows = oracle_windows
+    else:
+        estimate_windows = stream_estimates(cal, features) * to_hand
+    timings["t_estimator_s"] = time.perf_counter() - t0
+    ceiling = 1.2 * hand_force_at_mvc_n
+    estimate_windows = np.clip(estimate_windows, 0.0, ceiling)
+    n_steps = int(round(episode_s / control_dt_s))
+    t_ctrl = np.arange(n_steps) * control_dt_s
+    reference = reference_from_windows(estimate_windows, features.t_s, t_ctrl)
+    oracle = reference_from_windows(np.clip(oracle_windows, 0, ceiling), features.t_s, t_ctrl)
+    return _ReferenceStream(start_s, estimate_windows[features.t_s <= episode_s],
+                            features.dt_s, t_ctrl, reference, oracle)
+
+
+def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDesign,
+                    stream: _ReferenceStream, traces: dict[str, np.ndarray],
+                    info: Mapping[str, Any], timings: dict[str, float], *, target_n: float,
+                    lift_after_s: float, hold_from_s: float, control_dt_s: float
+                    ) -> EpisodeResult:
+    """Metrics, outcome, margins at the forces visited and timings of a finished episode.
+
+    Parameters
+    ----------
+    row : dict
+        The episode's identity (subject, object, controller, estimator), extended here.
+    traces : dict of ndarray, shape (n_run,)
+        :func:`_closed_loop`'s traces (``n_run`` <= the stream's steps if it ended early).
+    info : mapping
+        The environment's last ``info`` (drop, crush and slip counters).
+    target_n : float
+        The grip force the user intended, N.
+    lift_after_s, hold_from_s : float
+        Start of the lift and of the in-air hold, s.
+    """
     n_run = traces["grip_force_n"].size
-    metrics = episode_metrics(t_ctrl[:n_run], reference[:n_run], traces["grip_force_n"],
-                              oracle[:n_run], start_s=start_s,
-                              lift_s=lift_after_s, hold_from_s=episode_s - hold_s,
-                              window_values_n=estimate_windows[features.t_s <= episode_s],
-                              window_dt_s=features.dt_s)
+    metrics = episode_metrics(stream.t_s[:n_run], stream.reference_n[:n_run],
+                              traces["grip_force_n"], stream.oracle_n[:n_run],
+                              start_s=stream.start_s, lift_s=lift_after_s,
+                              hold_from_s=hold_from_s,
+                              window_values_n=stream.window_values_n,
+                              window_dt_s=stream.window_dt_s)
     ratio, both_s = contact_peak_ratio(traces["t_s"], traces["tracked_reference_n"],
                                        traces["grip_force_n"], traces["both_sides"])
     lifted = was_lifted(traces["object_height_m"])
     dropped, crushed = bool(info["dropped"]), bool(info["crushed"])
-    held_n, visited_n = operating_forces(traces, design, hold_from_s=episode_s - hold_s,
+    held_n, visited_n = operating_forces(traces, design, hold_from_s=hold_from_s,
                                          both_sides_s=both_s)
     held = design.analyse(held_n) if held_n is not None else None
     worst = worst_case([design.analyse(f) for f in visited_n]) if visited_n else {}
@@ -470,11 +538,7 @@ def run_episode(
     loop_time = sum(timings[k] for k in ("t_estimator_s", "t_controller_s", "t_physics_s",
                                          "t_semg_s", "t_features_s"))
     row = {
-        "subject_id": subject.subject_id, "seed": int(seed),
-        "object_name": obj.name, "object_mass_kg": obj.mass_kg,
-        "object_friction": obj.friction, "object_break_force_n": obj.break_force_n,
-        "controller": controller, "estimator": estimator, "mode": mode,
-        "scheduled": bool(design.scheduled),
+        **row,
         **metrics,
         "intended_grip_n": target_n,
         "slip_events": int(info["slip_events"]), "slip_distance_m": float(info["slip_distance_m"]),
@@ -492,7 +556,7 @@ def run_episode(
         "simulated_s": float(simulated),
         "realtime_factor": float(simulated / loop_time) if loop_time > 0 else None,
     }
-    traces["intent_n"] = oracle[:n_run]
+    traces["intent_n"] = stream.oracle_n[:n_run]
     if held is not None and held.ok:
         A, B, C, D = (np.atleast_2d(np.asarray(M, dtype=float)) for M in
                       (held.margins.loop.A, held.margins.loop.B, held.margins.loop.C,
@@ -599,40 +663,30 @@ def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarra
     tracked = np.zeros(n)
     frames: list[np.ndarray] = []
     frame_every = max(1, int(round(0.04 / control_dt_s)))
-    ctl = design.controller
-    ctl.reset()
-    t_ctl = t_phys = 0.0
+    loop = HandLoop(env, design.controller)
     try:
-        obs, info = env.reset(seed=int(env_seq.generate_state(1)[0]))
-        pending = 0.0  # one control period of computation delay
-        action = np.zeros(1, dtype=np.float32)
+        info = loop.reset(seed=int(env_seq.generate_state(1)[0]))
         failure = None
         k = 0
         for k in range(n):
             ref = float(reference[k])
             env.set_reference(ref)
-            t0 = time.perf_counter()
-            u = ctl.act(observation_from_info(info, ref))
+            _, command[k], done = loop.step(ref)
             tracked[k] = max(ref, design.core.last_reference_n)
-            t1 = time.perf_counter()
-            action[0] = pending
-            obs, _, terminated, truncated, info = env.step(action)
-            t_phys += time.perf_counter() - t1
-            t_ctl += t1 - t0
-            pending = u
-            grip[k], command[k] = info["grip_force_n"], action[0]
+            info = loop.info
+            grip[k] = info["grip_force_n"]
             height[k], slip[k] = info["object_height_m"], info["slip_speed_m_s"]
             both[k] = info["thumb_contact"] and info["finger_contact"]
             if record_frames and k % frame_every == 0:
                 frames.append(env.render())
             failure = info.get("failure")
-            if terminated or truncated:
+            if done:
                 break
         k_end = k + 1
     finally:
         env.close()
-    timings["t_controller_s"] += t_ctl
-    timings["t_physics_s"] += t_phys
+    timings["t_controller_s"] += loop.controller_s
+    timings["t_physics_s"] += loop.physics_s
     traces = {"t_s": t_ctrl[:k_end], "reference_n": reference[:k_end],
               "grip_force_n": grip[:k_end], "command": command[:k_end],
               "object_height_m": height[:k_end], "slip_speed_m_s": slip[:k_end],
@@ -643,14 +697,6 @@ def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarra
 
 
 # ------------------------------------------------------------------------ runners
-def subject_for(scenario: Scenario) -> VirtualSubject:
-    """The scenario's virtual subject, with its electrode shift, noise and fatigue."""
-    s = scenario.subject
-    return VirtualSubject.sample(s.population_seed, s.subject_id).with_scenario(
-        electrode_shift=s.electrode_shift, extra_noise_lsb=s.extra_noise_lsb,
-        fatigue_per_min=s.fatigue_per_min)
-
-
 def controller_spec(scenario: Scenario) -> dict[str, Any]:
     """Keyword arguments of :func:`controllers.design.design_for_object` from a scenario."""
     c = scenario.controller
@@ -691,7 +737,7 @@ def run_calibration_scenario(scenario: Scenario) -> dict[str, Any]:
     """Runner of scenario kind ``calibration``: fit on a session, score the rest, no grasp."""
     e, p = scenario.estimator, scenario.protocol
     subject = subject_for(scenario)
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         cal = calibrate(subject, e.name, e.mode,
                         rng=np.random.default_rng(np.random.SeedSequence(scenario.seed or 0)),
                         generator=scenario.subject.generator,

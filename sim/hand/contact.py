@@ -37,7 +37,6 @@ import math
 from dataclasses import dataclass
 
 import mujoco
-import numpy as np
 
 from sim.hand.errors import GraspFailedError, HandSpecError
 from sim.hand.model import HandIds
@@ -151,30 +150,6 @@ def _zero(out: ContactReading) -> None:
     out.n_contacts = 0
     out.thumb_contact = False
     out.finger_contact = False
-
-
-def contact_force_reference(model: mujoco.MjModel, data: mujoco.MjData,
-                            ids: HandIds) -> tuple[float, float]:
-    """Thumb- and finger-side normal sums via ``mj_contactForce``, contact by contact.
-
-    A slow, independent re-computation of :func:`read_contacts` used in tests
-    and valid for any cone type.
-    """
-    thumb = finger = 0.0
-    wrench = np.zeros(6)
-    for i in range(data.ncon):
-        g1, g2 = data.contact.geom[i]
-        if ids.object_geom not in (g1, g2):
-            continue
-        side = ids.geom_side[g1 if g2 == ids.object_geom else g2]
-        if side == 0:
-            continue
-        mujoco.mj_contactForce(model, data, i, wrench)
-        if side == 1:
-            thumb += wrench[0]
-        else:
-            finger += wrench[0]
-    return thumb, finger
 
 
 class OutcomeTracker:

@@ -301,8 +301,21 @@ def linearize_grasp(object: Any = "ball", grip_force_n: float = 10.0, *,
                        full=(Ad, Bd, Cd, Dd), env=env)
 
 
-def nrmse_fit(y: np.ndarray, y_hat: np.ndarray) -> float:
-    """NRMSE fit ``1 - ||y - y_hat|| / ||y - mean(y)||`` (1 is perfect)."""
+def step_response_fit(y: np.ndarray, y_hat: np.ndarray) -> float:
+    """How well a linear model's step response ``y_hat`` follows the simulated one ``y``.
+
+    The NRMSE fit ``1 - ||y - y_hat|| / ||y - mean(y)||`` (1 is perfect), the
+    same formula as the paper's eq. (20) that :func:`estimation.metrics.nrmse_fit`
+    scores force estimates with. It is kept here, for the hand's linearizations
+    and the controllers' design plants, because neither ``sim`` nor
+    ``controllers`` may import ``estimation``; unlike that score it takes
+    responses of any shape (flattened) and does not validate them.
+
+    Parameters
+    ----------
+    y, y_hat : ndarray, shape (n_steps,) or (n_steps, 1)
+        Simulated and modelled grip-force responses, N.
+    """
     y = np.asarray(y, dtype=float).ravel()
     y_hat = np.asarray(y_hat, dtype=float).ravel()
     return float(1.0 - np.linalg.norm(y - y_hat) / np.linalg.norm(y - y.mean()))

@@ -44,7 +44,6 @@ from sim.hand.errors import HandSpecError
 from sim.hand.objects import ObjectSpec
 
 HAND_XML = "hand.xml"
-DIGIT_JOINTS = ("thumb", "index", "middle")
 #: Fingertip pad slide joints (+ towards the object), one per digit, as in hand.xml.
 PAD_JOINTS = ("thumb_pad", "index_pad", "middle_pad")
 WRIST_ACTUATORS = ("wrist_x", "wrist_y", "wrist_z")

@@ -2,16 +2,16 @@
 
 Usage::
 
-    MUJOCO_GL=egl python -m sim.hand.render_snapshot docs/grasp.png [--object ball] [--grip 10]
+    python -m sim.hand.render_snapshot docs/grasp.png [--object ball] [--grip 10]
 
 The hand closes on the object, lifts it and holds it at the requested grip
 force (``GraspEnv.steady_grasp``); the frame comes from the ``front`` camera.
+Without a display, importing :mod:`sim` has already chosen headless EGL.
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +38,6 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--object", default="ball")
     parser.add_argument("--grip", type=float, default=10.0, help="grip force, N")
     args = parser.parse_args(argv)
-    os.environ.setdefault("MUJOCO_GL", "egl")
     import matplotlib.image
 
     frame = render_grasp(args.object, args.grip)

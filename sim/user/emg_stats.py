@@ -1,7 +1,7 @@
 """Per-recording sEMG statistics used to compare virtual subjects with real MYO recordings.
 
-These are the statistics of issue 10's table, computed the same way on real and
-virtual recordings (int8 MYO counts, any sampling rate):
+These are the statistics of docs/SUBJECTS.md's table of real recordings, computed
+the same way on real and virtual recordings (int8 MYO counts, any sampling rate):
 
 * windows of 400 ms every 125 ms (the estimator's windows);
 * **rest** = the quietest 20 % of windows (by RMS over all channels);
@@ -32,7 +32,7 @@ from sim.recording import RecordingError
 STAT_KEYS = ("rest_std_lsb", "active_rms_lsb", "median_frequency_hz", "adjacent_abs_r",
              "saturated_fraction", "flexor_extensor_ratio")
 
-#: Real MYO + FSR recordings of the paper's protocol (10 subjects; issue 10):
+#: Real MYO + FSR recordings of the paper's protocol (10 subjects; docs/SUBJECTS.md):
 #: median, min, max over subjects. Not shipped data: the published summary only.
 REAL_RANGES = {
     "rest_std_lsb": (2.45, 1.0, 4.7),

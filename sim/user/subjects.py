@@ -51,7 +51,7 @@ _SYNERGY = {"flexor": (0.80, 1.00), "extensor": (0.50, 0.78), "other": (0.10, 0.
 _EXPONENT = {"flexor": (0.85, 1.15), "extensor": (1.00, 1.80), "other": (1.00, 2.00)}
 _AMPLITUDE_LSB = {"flexor": (22.0, 34.0), "extensor": (20.0, 35.0), "other": (15.0, 30.0)}
 # Subject-level log-uniform factors: overall sEMG size (all muscles) and extensor
-# co-contraction (extensor amplitudes on top of size). Real recordings (issue 10):
+# co-contraction (extensor amplitudes on top of size). Real recordings (docs/SUBJECTS.md):
 # active RMS varies about 5x across subjects, flexor/extensor RMS ratio about 1.
 _AMPLITUDE_SCALE = (0.45, 2.8)
 _EXTENSOR_SCALE = (1.8, 3.6)
@@ -114,7 +114,7 @@ class VirtualSubject:
         share = np.where(flexor, rng.uniform(0.7, 1.3, N_MUSCLES), 0.0)
         synergy = per_role(_SYNERGY)
         exponent = per_role(_EXPONENT)
-        # Subject-level factors that make people differ (real recordings, issue 10):
+        # Subject-level factors that make people differ (real recordings, docs/SUBJECTS.md):
         # overall sEMG size (skin, fat, forearm girth) and extensor co-contraction.
         size = float(np.exp(rng.uniform(*np.log(_AMPLITUDE_SCALE))))
         cocontraction = float(np.exp(rng.uniform(*np.log(_EXTENSOR_SCALE))))

@@ -1,9 +1,8 @@
 """The loop measured on the nonlinear MuJoCo hand agrees with the analysis at the held force.
 
-Acceptance of the force-loop work: for pid, lead_lag and mpc holding a 0.2 kg can
-(friction 1.0) in the air at 3, 5, 10 and 20 N, a sine injected at the plant input
-gives a loop gain within 2 dB of 0 dB at the predicted crossover and a phase
-margin within 6 deg of the predicted one.
+For pid, lead_lag and mpc holding a 0.2 kg can (friction 1.0) in the air at 3, 5,
+10 and 20 N, a sine injected at the plant input gives a loop gain within 2 dB of 0 dB
+at the predicted crossover and a phase margin within 6 deg of the predicted one.
 """
 
 import numpy as np

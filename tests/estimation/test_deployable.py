@@ -118,8 +118,8 @@ def test_lda_qpf_extrapolates_monotonically():
     np.testing.assert_allclose([stream.step(x) for x in Ubig], out, rtol=1e-9, atol=1e-12)
 
 
-def test_acceptance_on_the_default_population():
-    # Issue 10: the best deployable free_run mean >= the paper's SS + KF one_step mean
+def test_best_deployable_matches_paper_on_the_default_population():
+    # The best deployable free_run mean >= the paper's SS + KF one_step mean
     # (channels 6-8, the paper's setting) on make_population(10, seed=0), noise generator.
     from estimation.reproduce import run_reproduction
 

@@ -1,7 +1,7 @@
 """Closed-loop episodes on the MuJoCo hand: clean contact, steps, outcomes, sensed MPC bound.
 
 These run the whole loop (gate, scheduled controller, hand) with references the
-test writes, and the acceptance over the library with the oracle reference.
+test writes, and every library object with the oracle reference.
 """
 
 import numpy as np

@@ -33,7 +33,7 @@ def active_mask(rec) -> np.ndarray:
 def test_rest_noise_matches_the_myo(sessions):
     for rec in sessions:
         rest = rec.emg[rest_mask(rec)].astype(float)
-        assert 1.0 <= rest.std() <= 4.7  # real recordings: 1.0-4.7 LSB (issue 10)
+        assert 1.0 <= rest.std() <= 4.7  # real recordings: 1.0-4.7 LSB (docs/SUBJECTS.md)
     within = [np.mean(np.abs(rec.emg[rest_mask(rec)]) <= 1) for rec in sessions]
     assert 0.30 <= np.median(within) <= 0.75  # one real MYO at 1.9 LSB: 55 %
 
@@ -46,7 +46,7 @@ def test_active_rms_at_medium_force_on_flexor_channels(sessions):
         rms = np.sqrt(np.mean(rec.emg[hold][:, FLEXORS].astype(float) ** 2, axis=0))
         per_channel.append(rms)
     per_channel = np.array(per_channel)
-    # subjects differ about 5x in sEMG size (real active RMS 11.5-63 LSB, issue 10)
+    # subjects differ about 5x in sEMG size (real active RMS 11.5-63 LSB, docs/SUBJECTS.md)
     assert np.all(per_channel.mean(axis=1) >= 5.0) and np.all(per_channel.mean(axis=1) <= 45.0)
     assert np.median(per_channel) <= 30.0 and per_channel.min() >= 4.0
     assert per_channel.max() <= 60.0

@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim.hand.contact import ContactReading, OutcomeTracker, contact_force_reference, read_contacts
+from sim.hand.contact import ContactReading, OutcomeTracker, read_contacts
 from sim.hand.model import HandIds, build_model
 from sim.hand.objects import make_object
 
@@ -23,6 +23,30 @@ def _squeezing(name: str, command: float, lift_m: float = 0.0, steps: int = 600)
             data.ctrl[wz] = lift_m * min(1.0, i / 250)
             mujoco.mj_step(model, data)
     return model, data, ids
+
+
+def contact_force_reference(model: mujoco.MjModel, data: mujoco.MjData,
+                            ids: HandIds) -> tuple[float, float]:
+    """Thumb- and finger-side normal sums via ``mj_contactForce``, contact by contact.
+
+    A slow, independent re-computation of :func:`read_contacts`, valid for any
+    cone type.
+    """
+    thumb = finger = 0.0
+    wrench = np.zeros(6)
+    for i in range(data.ncon):
+        g1, g2 = data.contact.geom[i]
+        if ids.object_geom not in (g1, g2):
+            continue
+        side = ids.geom_side[g1 if g2 == ids.object_geom else g2]
+        if side == 0:
+            continue
+        mujoco.mj_contactForce(model, data, i, wrench)
+        if side == 1:
+            thumb += wrench[0]
+        else:
+            finger += wrench[0]
+    return thumb, finger
 
 
 def _slip_by_body_velocities(model, data, ids) -> float:

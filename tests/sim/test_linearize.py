@@ -9,18 +9,18 @@ import pytest
 from sim.hand.linearize import (
     lift_to_period,
     linearize_grasp,
-    nrmse_fit,
     reduce_model,
     simulate_step,
+    step_response_fit,
 )
 
 
-def test_nrmse_fit_golden_values() -> None:
+def test_step_response_fit_golden_values() -> None:
     y = np.array([0.0, 1.0, 2.0, 3.0])
-    assert nrmse_fit(y, y) == 1.0
-    assert nrmse_fit(y, np.full(4, y.mean())) == pytest.approx(0.0)
+    assert step_response_fit(y, y) == 1.0
+    assert step_response_fit(y, np.full(4, y.mean())) == pytest.approx(0.0)
     # ||e|| = 1, ||y - mean|| = sqrt(5)
-    assert nrmse_fit(y, y + np.array([1.0, 0, 0, 0])) == pytest.approx(1 - 1 / np.sqrt(5))
+    assert step_response_fit(y, y + np.array([1.0, 0, 0, 0])) == pytest.approx(1 - 1 / np.sqrt(5))
 
 
 def test_lift_to_period_matches_substep_simulation() -> None:
@@ -84,7 +84,7 @@ def test_step_response_matches_nonlinear_simulation_soft_ball(ball_lifted) -> No
     assert 0 < lin.sys.nstates < lin.n_full
     y_nl, y_lin = simulate_step(lin, 0.02 * lin.u0, 50)
     assert abs(y_nl[-1]) > 0.1  # a measurable response (about 0.2 N)
-    assert nrmse_fit(y_nl, y_lin) >= 0.9
+    assert step_response_fit(y_nl, y_lin) >= 0.9
 
 
 def test_step_response_matches_nonlinear_simulation_rigid_can(can_lifted) -> None:
@@ -96,7 +96,7 @@ def test_step_response_matches_nonlinear_simulation_rigid_can(can_lifted) -> Non
     assert lin.y0_n == pytest.approx(10.0, rel=0.01)
     y_nl, y_lin = simulate_step(lin, 0.02 * lin.u0, 50)
     assert abs(y_nl[-1]) > 0.1
-    assert nrmse_fit(np.r_[0.0, y_nl], np.r_[0.0, y_lin]) >= 0.9
+    assert step_response_fit(np.r_[0.0, y_nl], np.r_[0.0, y_lin]) >= 0.9
     assert np.max(np.abs(y_nl - y_lin)) < 0.01 * abs(y_nl[-1])
 
 

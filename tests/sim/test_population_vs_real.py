@@ -1,4 +1,4 @@
-"""The default virtual population against real MYO + FSR recordings (issue 10's table).
+"""The default virtual population against real MYO + FSR recordings (docs/SUBJECTS.md's table).
 
 Statistics are computed by :func:`sim.user.emg_stats.emg_statistics` exactly as on the
 real recordings: rest = quietest 20 % of 400 ms windows, active = windows in the

@@ -1,8 +1,8 @@
 """Recordings as other tools write them: column maps, time units, resampling, the sidecar.
 
-The acceptance files of issue 12 item 2 are written here as pandas, a MYO dump and a
-1000 Hz microvolt logger would write them, loaded through ``load_recording``, and
-evaluated through ``griploop evaluate`` (in tests/scenarios/test_cli_recording_layouts.py).
+Files are written here as pandas, a MYO dump and a 1000 Hz microvolt logger would
+write them, loaded through ``load_recording``, and evaluated through
+``griploop evaluate`` (in tests/scenarios/test_cli_recording_layouts.py).
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ def write_logger(path: Path, *, with_time: bool, jitter_s: float = 0.0) -> Path:
     return path
 
 
-# ----------------------------------------------------------------- acceptance files
+# ----------------------------------------------------------------- files of other tools
 
 
 @pytest.mark.parametrize("index_name", ["", "Unnamed: 0"])
