@@ -80,7 +80,7 @@ class SSEstimator(ForceEstimator):
         Sample time Ts in seconds (paper: 0.125 s).
     noise_regressor : bool
         Include ``w(k-1)`` in the regressor (paper: yes). Without it, ``Gamma_ = I``.
-    kalman_method : {"scipy", "control"}
+    kalman_method : {"doubling", "scipy", "control"}
         Riccati solver, see :func:`estimation.kalman.design_kalman`.
 
     Attributes
@@ -119,7 +119,7 @@ class SSEstimator(ForceEstimator):
         p0: float = 1000.0,
         dt_s: float = PAPER_DT_S,
         noise_regressor: bool = True,
-        kalman_method: str = "scipy",
+        kalman_method: str = "doubling",
     ) -> None:
         self.order = order
         self.kalman = kalman
