@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import control
 import numpy as np
 import scipy.linalg
-from scipy.linalg.lapack import dgesv
+from scipy.linalg.lapack import dgesv, dpotrf
 
 from estimation.errors import RiccatiError
 
@@ -218,9 +218,10 @@ def design_kalman(
             f"inconsistent shapes: A {A.shape}, C {C.shape}, Q {Q.shape}, R {R.shape}; "
             "expected A (n, n), C (p, n), Q (n, n), R (p, p)"
         )
-    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(Q)) and np.all(np.isfinite(R))):
+    if not (np.isfinite(A).all() and np.isfinite(Q).all() and np.isfinite(R).all()):
         raise RiccatiError("A, Q and R must be finite; found NaN or inf")
-    if np.linalg.eigvalsh(0.5 * (R + R.T)).min() <= 0:
+    # Cholesky (LAPACK dpotrf) succeeds exactly when R is positive definite.
+    if dpotrf(0.5 * (R + R.T))[1] != 0:
         raise RiccatiError(
             f"R must be positive definite, found eigenvalues {np.linalg.eigvalsh(R)}"
         )
@@ -242,9 +243,9 @@ def design_kalman(
             f"the Riccati equation has no stabilizing solution ({str(exc).splitlines()[0]})"
         ) from exc
     P = 0.5 * (P + P.T)
-    S = C @ P @ C.T + R
-    K = np.linalg.solve(S, C @ P).T  # P C^T S^-1 (S and P symmetric)
-    L = A @ K
+    CP = C.dot(P)
+    K = dgesv(CP.dot(C.T) + R, CP)[2].T  # P C^T S^-1, S = C P C^T + R (S and P symmetric)
+    L = A.dot(K)
     poles = np.linalg.eigvals(A - L @ C)
     if not np.all(np.isfinite(P)) or np.max(np.abs(poles)) >= 1.0:
         raise RiccatiError(
