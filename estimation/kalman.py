@@ -140,7 +140,7 @@ def solve_filter_dare(
     n = A.shape[0]
     eye = np.eye(n)
     Ak = np.ascontiguousarray(A.T)
-    Gk = C.T.dot(np.linalg.solve(R, C))
+    Gk = C.T.dot(dgesv(R, C)[2])
     Gk = 0.5 * (Gk + Gk.T)
     Hk = np.array(Q, dtype=np.float64)
     rhs = np.empty((n, 2 * n))

@@ -154,16 +154,17 @@ def rls(
     # parsing cost three times the arithmetic) and the dots are ndarray methods.
     # Same BLAS routines, same operands, hence the same floats as before.
     subtract, multiply = np.subtract, np.multiply
-    for k in range(n_rows):
-        phi = reg[k]
+    # Row views come from iterating the arrays (cheaper than indexing), and the
+    # scalars are Python floats (cheaper than numpy scalars, the same values).
+    rows = zip(reg[:n_rows], Y, prior, w_next, strict=True)
+    for k, (phi, y_k, e, w_k) in enumerate(rows):
         Pphi = dsymv(1.0, P, phi)
-        denom = lam + phi.dot(Pphi)
-        e = prior[k]
-        subtract(Y[k], phi.dot(theta), e)
+        denom = lam + float(phi.dot(Pphi))
+        subtract(y_k, phi.dot(theta), e)
         # theta += Pphi e^T / denom   (dger: alpha, x, y, incx, incy, a, overwrite x, y, a)
         dger(1.0 / denom, Pphi, e, 1, 1, theta, 1, 1, 1)
         if noise_regressor:
-            multiply(e, lam / denom, w_next[k])
+            multiply(e, lam / denom, w_k)
         # P -= Pphi Pphi^T / denom on the upper triangle (dsyr: alpha, x, lower, incx,
         # offx, n, a, overwrite_a)
         dsyr(-1.0 / denom, Pphi, 0, 1, 0, n_reg, P, 1)
