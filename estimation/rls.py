@@ -146,7 +146,7 @@ def rls(
     reg[:n_rows, :n_fixed] = Phi
     w_next = reg[1:, n_fixed:]
     prior = np.empty((n_rows, n_out))
-    denoms = np.empty(n_rows)
+    denoms: list[float] = []
     lam = float(forgetting)
     inv_lam = 1.0 / lam
     # The loop is all call overhead (117 rows of 17 regressors for the paper's
@@ -157,7 +157,7 @@ def rls(
     # Row views come from iterating the arrays (cheaper than indexing), and the
     # scalars are Python floats (cheaper than numpy scalars, the same values).
     rows = zip(reg[:n_rows], Y, prior, w_next, strict=True)
-    for k, (phi, y_k, e, w_k) in enumerate(rows):
+    for phi, y_k, e, w_k in rows:
         Pphi = dsymv(1.0, P, phi)
         denom = lam + float(phi.dot(Pphi))
         subtract(y_k, phi.dot(theta), e)
@@ -170,8 +170,8 @@ def rls(
         dsyr(-1.0 / denom, Pphi, 0, 1, 0, n_reg, P, 1)
         if lam != 1.0:
             P *= inv_lam
-        denoms[k] = denom
+        denoms.append(denom)
     P_full = np.triu(P) + np.triu(P, 1).T
-    post = prior * (lam / denoms)[:, None]
+    post = prior * (lam / np.array(denoms))[:, None]
     return RLSResult(theta=np.ascontiguousarray(theta), P=P_full, prior_errors=prior,
                      residuals=post)

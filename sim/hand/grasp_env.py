@@ -383,7 +383,7 @@ class GraspEnv(gym.Env):
         terminated = tr.dropped or tr.crushed
         truncated = self._step_count >= self.max_steps or failure is not None
         obs, info = self._observe_info(ref, terms, failure)
-        return obs, reward, terminated, truncated, info
+        return obs, float(reward), bool(terminated), bool(truncated), info
 
     def render(self) -> np.ndarray | None:
         """An RGB frame ``(height, width, 3)`` uint8 from the ``front`` camera."""
