@@ -248,11 +248,11 @@ def closed_loop_factor(obj_name: str, episode_s: float, repeats: int) -> tuple[f
 
 
 PHYSICS_OPTIONS = {
-    "used (noslip 5, ccd_tolerance 1e-9, multiccd on)": {},
+    "used (noslip 5, ccd_tolerance 1e-6, multiccd on)": {},
+    "ccd_tolerance 1e-9 (used before issue 14)": {"ccd_tolerance": 1e-9},
     "noslip_iterations 0": {"noslip_iterations": 0},
-    "ccd_tolerance 1e-6": {"ccd_tolerance": 1e-6},
     "multiccd off": {"multiccd": False},
-    "all three": {"noslip_iterations": 0, "ccd_tolerance": 1e-6, "multiccd": False},
+    "noslip 0 and multiccd off": {"noslip_iterations": 0, "multiccd": False},
 }
 
 

@@ -97,7 +97,9 @@ def read_contacts(model: mujoco.MjModel, data: mujoco.MjData, ids: HandIds,
         return out
     # Plain Python over the few contacts (a grasp has 2-8, the table adds a few)
     # beats numpy, whose per-call overhead (~0.5 us) exceeds a contact's work.
-    # Every MuJoCo array is fetched once as a list; the pair table is a dict.
+    # Every MuJoCo array is fetched once as a list (the constraint rows too: a
+    # grasp has a few dozen, and list indexing is cheaper than ndarray.item);
+    # the pair table is a dict.
     con = data.contact
     pair_get = ids.pair_side.get
     grip = finger = lx = ly = lz = nz = slip2 = 0.0
@@ -111,30 +113,30 @@ def read_contacts(model: mujoco.MjModel, data: mujoco.MjData, ids: HandIds,
         if adr is None:
             adr = con.efc_address.tolist()
             frame = con.frame.tolist()
-            efc_f = data.efc_force
-            efc_v = data.efc_vel
+            efc_f = data.efc_force.tolist()
+            efc_v = data.efc_vel.tolist()
         side, sign = hit
         n_hits += 1
         # Elliptic cones: rows a, a+1, a+2 are the normal and the two tangent
         # directions of the contact frame (forces act on geom2).
         a = adr[i]
-        f0 = efc_f.item(a)
+        f0 = efc_f[a]
         if side == 1:
             grip += f0
             thumb = True
         else:
             finger += f0
             fing = True
-        f1 = sign * efc_f.item(a + 1)
-        f2 = sign * efc_f.item(a + 2)
+        f1 = sign * efc_f[a + 1]
+        f2 = sign * efc_f[a + 2]
         fr = frame[i]
         lx += f1 * fr[3] + f2 * fr[6]
         ly += f1 * fr[4] + f2 * fr[7]
         lz += f1 * fr[5] + f2 * fr[8]
         nz += sign * f0 * fr[2]
         # Relative tangential velocity: the friction rows of efc_vel = J qvel.
-        v1 = efc_v.item(a + 1)
-        v2 = efc_v.item(a + 2)
+        v1 = efc_v[a + 1]
+        v2 = efc_v[a + 2]
         v = v1 * v1 + v2 * v2
         if v > slip2:
             slip2 = v
