@@ -21,7 +21,8 @@ setting: the numbers behind the contact-physics choice in docs/HAND.md.
 
 Run: ``.venv/bin/python benchmarks/bench_hand.py [--object can] [--steps 2000]``
 (``--options`` adds the raw speed of the cheaper physics options evaluated in
-docs/HAND.md.)
+docs/HAND.md; ``--evaluate-options`` runs that evaluation instead: contact tests,
+grip jumps during a lift and a few-seed drop/slip comparison per ``hand.xml`` variant.)
 """
 
 from __future__ import annotations
@@ -290,6 +291,102 @@ def physics_options(obj: str, repeats: int, n_steps: int = 500) -> None:
     env.close()
 
 
+#: hand.xml edits evaluated by ``--evaluate-options`` (option text -> replacement).
+XML_VARIANTS = {
+    "used": {},
+    "ccd_tolerance 1e-9": {'ccd_tolerance="1e-6"': 'ccd_tolerance="1e-9"'},
+    "ccd_tolerance 1e-12": {'ccd_tolerance="1e-6"': 'ccd_tolerance="1e-12"'},
+    "noslip_iterations 0": {'noslip_iterations="5"': 'noslip_iterations="0"'},
+    "multiccd off": {'ccd_tolerance="1e-6"/>':
+                     'ccd_tolerance="1e-6">\n    <flag multiccd="disable"/>\n  </option>'},
+}
+CONTACT_TESTS = ("tests/sim/test_contact_coulomb.py", "tests/sim/test_lift.py",
+                 "tests/sim/test_contact.py", "tests/sim/test_grasp_env.py",
+                 "tests/sim/test_impact.py")
+_PLUGIN = (
+    "import os\nimport sim.hand.model as model\n"
+    "model.HAND_XML = os.environ['GRIPLOOP_BENCH_HAND_XML']\n"
+)
+
+
+def _lift_jumps(obj: str = "can", grip_n: float = 12.0) -> tuple[float, float, float]:
+    """Grip range and largest one-substep change (N) during a smooth lift at a held command."""
+    from sim.hand.contact import read_contacts
+
+    env = GraspEnv(obj, grip_n, episode_s=1e6)
+    env.reset(seed=0)
+    env.steady_grasp(grip_n)
+    m, d, ids, sch = env.model, env.data, env.ids, env.schedule
+    n = int(round(sch.lift_duration_s / env.physics_dt_s))
+    grip = []
+    for i in range(n + 1):
+        s = i / n
+        d.ctrl[ids.wrist_act[2]] = sch.lift_height_m * s**3 * (10 - 15 * s + 6 * s * s)
+        mujoco.mj_step(m, d)
+        grip.append(read_contacts(m, d, ids).grip_force_n)
+    g = np.array(grip)
+    env.close()
+    return float(g.min()), float(g.max()), float(np.abs(np.diff(g)).max())
+
+
+def evaluate_options(seeds: int = 4) -> None:
+    """Each hand.xml variant against the contact tests, the lift jumps and a drop/slip comparison.
+
+    Every variant is a copy of ``hand.xml`` with one option edited, swapped in through
+    ``sim.hand.model.HAND_XML``: in a pytest subprocess via a generated plugin (the contact
+    tests), and in this process for the rest. Plant families are built once with the used
+    physics (in a private cache directory) so that every variant runs the same controllers.
+    """
+    import subprocess
+    import tempfile
+    from importlib import resources
+
+    import sim.hand.model as hand_model
+    from scenarios.runners.episode import run_episode
+    from sim.user.subjects import VirtualSubject
+
+    root = Path(__file__).resolve().parent.parent
+    xml = resources.files("sim.hand").joinpath("assets", hand_model.HAND_XML).read_text()
+    original = hand_model.HAND_XML
+    subject = VirtualSubject.sample(0, 1)
+    objects = (make_object("can", mass_kg=0.4, friction=0.5), make_object("egg"))
+    with tempfile.TemporaryDirectory() as tmp:
+        Path(tmp, "griploop_bench_xml.py").write_text(_PLUGIN)
+        os.environ["GRIPLOOP_CACHE_DIR"] = str(Path(tmp, "cache"))
+        print("variant | contact tests | lift at 12 N: grip range, largest step (N) | "
+              "episodes per object: dropped, slip events / distance (mm)")
+        for name, edits in XML_VARIANTS.items():
+            text = xml
+            for old, new in edits.items():
+                if old not in text:
+                    raise ValueError(f"hand.xml has no {old!r} to edit for {name!r}")
+                text = text.replace(old, new)
+            path = Path(tmp, f"hand_{len(os.listdir(tmp))}.xml")
+            path.write_text(text)
+            env = {**os.environ, "GRIPLOOP_BENCH_HAND_XML": str(path),
+                   "PYTHONPATH": os.pathsep.join([tmp, str(root),
+                                                  os.environ.get("PYTHONPATH", "")])}
+            proc = subprocess.run(
+                [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                 "-p", "griploop_bench_xml", *CONTACT_TESTS],
+                cwd=root, env=env, capture_output=True, text=True, check=False)
+            summary = proc.stdout.strip().splitlines()[-1] if proc.stdout.strip() else "?"
+            hand_model.HAND_XML = str(path)
+            try:
+                lo, hi, jump = _lift_jumps()
+                parts = []
+                for obj in objects:
+                    rows = [run_episode(subject, obj, estimator="ss_kf", controller="pid",
+                                        seed=seed).row for seed in range(seeds)]
+                    parts.append(f"{obj.name} " + " ".join(
+                        f"{'D' if r['dropped'] else 'h'}{r['slip_events']}/"
+                        f"{1e3 * r['slip_distance_m']:.0f}" for r in rows))
+            finally:
+                hand_model.HAND_XML = original
+            print(f"{name} | {summary} | {lo:.2f}-{hi:.2f}, {jump:.2f} | {'; '.join(parts)}",
+                  flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--object", default="can")
@@ -302,7 +399,13 @@ def main(argv: list[str] | None = None) -> int:
                         help="closed-loop episode length, s")
     parser.add_argument("--options", action="store_true",
                         help="also time the cheaper physics options (docs/HAND.md)")
+    parser.add_argument("--evaluate-options", action="store_true",
+                        help="only evaluate the physics options against the contact tests, "
+                             "the lift and a few-seed drop/slip comparison (minutes)")
     args = parser.parse_args(argv)
+    if args.evaluate_options:
+        evaluate_options()
+        return 0
 
     env = GraspEnv(args.object, 15.0, physics_dt_s=args.physics_dt, episode_s=1e6)
     env.reset(seed=0)
