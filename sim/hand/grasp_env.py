@@ -251,6 +251,10 @@ class GraspEnv(gym.Env):
         self._i_motor = int(self.ids.motor)
         self._i_wrist_z = int(self.ids.wrist_act[2])
         self._k_in_palm = int(self.ids.sens_object_in_palm)
+        ids = self.ids
+        self._k_obs = (int(ids.sens_finger_pos), int(ids.sens_finger_vel),
+                       int(ids.sens_motor_force), int(ids.sens_object_pos) + 2)
+        self._f32 = np.dtype(np.float32)
         # MotorSpec.current_a's divisor, evaluated once (same expression, same float)
         self._force_per_current = (self.motor.efficiency * self.motor.gear_ratio
                                    * self.motor.torque_constant_nm_a)
@@ -412,12 +416,12 @@ class GraspEnv(gym.Env):
         """
         c, tr = self._contacts, self.tracker
         s = self._sens
-        ids = self.ids
         grip = c.grip_force_n
         load = c.load_force_n
-        finger_pos = s.item(ids.sens_finger_pos)
-        finger_vel = s.item(ids.sens_finger_vel)
-        current = s.item(ids.sens_motor_force) / self._force_per_current
+        k_pos, k_vel, k_force, k_height = self._k_obs
+        finger_pos = s.item(k_pos)
+        finger_vel = s.item(k_vel)
+        current = s.item(k_force) / self._force_per_current
         lo, hi = self._obs_lo, self._obs_hi
         obs = np.array([lo[0] if ref < lo[0] else hi[0] if ref > hi[0] else ref,
                         lo[1] if grip < lo[1] else hi[1] if grip > hi[1] else grip,
@@ -426,7 +430,7 @@ class GraspEnv(gym.Env):
                         lo[3] if finger_vel < lo[3] else hi[3] if finger_vel > hi[3]
                         else finger_vel,
                         lo[4] if current < lo[4] else hi[4] if current > hi[4] else current],
-                       dtype=np.float32)
+                       self._f32)
         info = {
             "time_s": self.data.time,
             "reference_n": ref,
@@ -442,7 +446,7 @@ class GraspEnv(gym.Env):
             "slip_events": tr.slip_events,
             "dropped": tr.dropped,
             "crushed": tr.crushed,
-            "object_height_m": s.item(ids.sens_object_pos + 2),
+            "object_height_m": s.item(k_height),
             "object_displacement_m": tr.displacement_m,
             "finger_position_rad": finger_pos,
             "finger_velocity_rad_s": finger_vel,
