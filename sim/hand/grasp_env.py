@@ -82,6 +82,8 @@ class WristSchedule:
             return 0.0
         tau = t_s - lift_start_s
         z = self.lift_height_m * _min_jerk(tau / self.lift_duration_s)
+        if self.shake_amplitude_m <= 0 and self.place_delay_s is None:
+            return z  # the common schedule: lift and hold (called every substep of a lift)
         after = tau - self.lift_duration_s
         if self.shake_amplitude_m > 0 and 0 < after - self.shake_delay_s < self.shake_duration_s:
             s = after - self.shake_delay_s
