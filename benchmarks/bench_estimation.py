@@ -6,7 +6,17 @@ Prints, for one virtual subject's calibration session (first 50 % of windows):
 - streaming step time per update in a Python loop, median;
 - batch prediction throughput (updates per second);
 
-each next to the paper's figure and the ratio; then, for every registered
+each next to the paper's figure and the ratio, and the two speed goals of issue 14 as
+``GOAL`` lines (``benchmarks/_timing.goal_line``), each against a reference measured in
+the same run, interleaved:
+
+- SS + KF training <= 0.5 ms (reference: the same fit with scipy's
+  ``solve_discrete_are``, the previous Kalman design);
+- batch prediction >= 20 M updates/s (reference: the previous path, which
+  normalized ``U`` and ``y`` into new arrays, stacked them and ran one
+  matrix-vector product per numerator lag).
+
+Then, for every registered
 estimator on all 8 channels (24 inputs), training time (goal < 2 s) and the
 median streaming step (goal < 20 us for the tree model ``gbt``), with SS_KF's
 step measured in the same run as the reference. Run with::
@@ -19,20 +29,26 @@ BLAS is limited to one thread: the matrices are tiny and threads only add noise.
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
+import scipy.signal
 from threadpoolctl import threadpool_limits
 
-from estimation.features import extract_features
-from estimation.kalman import design_kalman
-from estimation.paper import TABLE3
-from estimation.registry import ESTIMATOR_NAMES, make_estimator
-from estimation.rls import rls
-from estimation.state_space import identification_rows
-from sim.user.subjects import make_population
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _timing import goal_line  # noqa: E402
+
+from estimation.features import extract_features  # noqa: E402
+from estimation.kalman import design_kalman  # noqa: E402
+from estimation.paper import TABLE3  # noqa: E402
+from estimation.registry import ESTIMATOR_NAMES, make_estimator  # noqa: E402
+from estimation.rls import rls  # noqa: E402
+from estimation.state_space import identification_rows  # noqa: E402
+from sim.user.subjects import make_population  # noqa: E402
 
 
 def median_time(fn, repeats: int) -> float:
@@ -45,6 +61,39 @@ def median_time(fn, repeats: int) -> float:
         fn()
         times[i] = time.perf_counter() - t0
     return float(np.median(times))
+
+
+def interleaved_medians(fns: dict[str, object], repeats: int) -> dict[str, float]:
+    """Median wall time (s) of each candidate, calls interleaved so that load hits all alike."""
+    for fn in fns.values():
+        fn()
+    times = {name: np.empty(repeats) for name in fns}
+    for i in range(repeats):
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            fn()
+            times[name][i] = time.perf_counter() - t0
+    return {name: float(np.median(t)) for name, t in times.items()}
+
+
+def unfolded_prediction(pipe: object, U: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The previous batch path of ``ForcePipeline.predict`` (one_step), kept as the reference.
+
+    Normalizes ``U`` and ``y`` into new arrays, stacks them, runs one
+    matrix-vector product per numerator lag, ``lfilter`` and rescales.
+    """
+    sc, est = pipe.scaling_, pipe.estimator
+    F, Gu, Gy, h = est.lti("one_step")
+    V = np.hstack([sc.transform_u(U), sc.transform_y(y)[:, None]])
+    G = np.hstack([Gu, Gy[:, None]])
+    den = np.real(np.poly(F))
+    nums = np.array([np.real(np.poly(F - np.outer(G[:, j], h))) - den
+                     for j in range(G.shape[1])])
+    n = V.shape[0]
+    fir = np.zeros(n)
+    for lag in range(1, F.shape[0] + 1):
+        fir[lag:] += V[: n - lag] @ nums[:, lag]
+    return sc.inverse_y(scipy.signal.lfilter([1.0], den, fir))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -94,6 +143,20 @@ def main(argv: list[str] | None = None) -> int:
         U_big = fs.X[rng.integers(0, fs.n_windows, n_batch)]
         Y_big = fs.y[rng.integers(0, fs.n_windows, n_batch)]
         t_batch = median_time(lambda: pipe.predict(U_big, Y_big, mode="one_step"), 5)
+
+        # issue 14 goals, each with its reference interleaved in the same run
+        train_goal = interleaved_medians({
+            "doubling": lambda: make_estimator("ss_kf", order=4).fit(X_id, y_id),
+            "scipy": lambda: make_estimator("ss_kf", order=4,
+                                            kalman_method="scipy").fit(X_id, y_id),
+        }, args.repeats)
+        batch_goal = interleaved_medians({
+            "folded": lambda: pipe.predict(U_big, Y_big, mode="one_step"),
+            "unfolded": lambda: unfolded_prediction(pipe, U_big, Y_big),
+        }, 7)
+        folded = pipe.predict(U_big, Y_big, mode="one_step")
+        unfolded = unfolded_prediction(pipe, U_big, Y_big)
+        batch_diff = float(np.abs(folded - unfolded).max() / np.abs(unfolded).max())
     paper = TABLE3["ss_kf"]
     rows.append(("training (RLS + Kalman), ms", train * 1e3, paper["train_ms"][0], 2.0))
     rows.append(("streaming step, us/update", step_s * 1e6, paper["loop_ms"][0] * 1e3, 2.0))
@@ -109,6 +172,17 @@ def main(argv: list[str] | None = None) -> int:
           f"{t_dare['scipy'] * 1e3:.3f} ms, control.dlqe {t_dare['control'] * 1e3:.3f} ms")
     print(f"streaming step per-chunk spread: p10 {np.percentile(per_update, 10) * 1e6:.3f} us, "
           f"p90 {np.percentile(per_update, 90) * 1e6:.3f} us")
+    print(f"\nissue 14 goals (BLAS 1 thread; load average {os.getloadavg()[0]:.2f} on "
+          f"{os.cpu_count()} cores; medians, candidates interleaved):")
+    goal_line("SS + KF training <= 0.5 ms", train_goal["doubling"] * 1e3, "ms", limit=0.5,
+              better="lower",
+              reference=f"same fit with scipy's DARE {train_goal['scipy'] * 1e3:.3f} ms")
+    rate_folded = n_batch / batch_goal["folded"] / 1e6
+    rate_unfolded = n_batch / batch_goal["unfolded"] / 1e6
+    goal_line("batch prediction >= 20 M updates/s", rate_folded, "M/s", limit=20.0,
+              better="higher",
+              reference=f"previous unfolded path {rate_unfolded:.1f} M/s "
+                        f"(max relative difference {batch_diff:.1e})")
     every_estimator(subject, max(args.repeats // 20, 3))
     return 0
 

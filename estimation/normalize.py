@@ -52,8 +52,14 @@ class MinMaxScaling:
         """
         U = check_features(U, who="min-max scaling", min_samples=2)
         y_n = check_target(y_n, U.shape[0])
-        check_not_constant(U, y_n)
-        return cls(U.min(axis=0), np.ptp(U, axis=0), float(y_n.min()), float(np.ptp(y_n)))
+        # np.ptp is max - min: compute each extreme once and reuse them
+        u_min = U.min(axis=0)
+        u_span = U.max(axis=0) - u_min
+        y_min = float(y_n.min())
+        y_span = float(y_n.max()) - y_min
+        if not (u_span.all() and y_span):
+            check_not_constant(U, y_n)
+        return cls(u_min, u_span, y_min, y_span)
 
     def transform_u(self, U: np.ndarray) -> np.ndarray:
         """Normalized features, shape (n_samples, n_inputs)."""

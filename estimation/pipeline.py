@@ -86,6 +86,12 @@ class ForcePipeline(ForceEstimator):
         check_is_fitted(self)
         U = check_features(U, n_inputs=self.n_features_in_, who="ForcePipeline")
         mode = resolve_mode(mode, self.modes, y, type(self.estimator).__name__)
+        folded = getattr(self.estimator, "predict_scaled", None)
+        if folded is not None:
+            # linear estimators fold the scaling into their filter weights: no
+            # normalized copy of U, one pass over it (estimation/streaming.py)
+            y_n = None if y is None else check_target(y, U.shape[0])
+            return folded(U, y_n, mode=mode, scaling=self.scaling_)
         y_norm = None if y is None else self.scaling_.transform_y(check_target(y, U.shape[0]))
         y_hat = self.estimator.predict(self.scaling_.transform_u(U), y_norm, mode=mode)
         return self.scaling_.inverse_y(y_hat)

@@ -39,7 +39,7 @@ from estimation.errors import (
 from estimation.kalman import design_kalman, process_noise_covariance
 from estimation.normalize import MinMaxScaling
 from estimation.rls import difference_states, difference_transform, rls
-from estimation.streaming import DelayedLTIStream, delayed_response
+from estimation.streaming import DelayedLTIStream, delayed_response, delayed_response_affine
 
 #: Paper sample time: 125 ms window increment.
 PAPER_DT_S = 0.125
@@ -62,6 +62,21 @@ def identification_rows(
     return Phi, states[order:]
 
 
+def _ctrb(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Controllability matrix ``[B, A B, ..., A^(n-1) B]``, shape (n, n * m).
+
+    What ``control.ctrb`` builds, without its input conversion (which cost
+    more than the products here); the observability matrix is
+    ``_ctrb(A.T, C.T).T``, which has the same rank.
+    """
+    n, m = B.shape
+    out = np.empty((n, n * m))
+    out[:, :m] = B
+    for k in range(1, n):
+        out[:, k * m:(k + 1) * m] = A.dot(out[:, (k - 1) * m:k * m])
+    return out
+
+
 class SSEstimator(ForceEstimator):
     """RLS-identified state-space model of grip force, optionally with a Kalman filter.
 
@@ -80,7 +95,7 @@ class SSEstimator(ForceEstimator):
         Sample time Ts in seconds (paper: 0.125 s).
     noise_regressor : bool
         Include ``w(k-1)`` in the regressor (paper: yes). Without it, ``Gamma_ = I``.
-    kalman_method : {"scipy", "control"}
+    kalman_method : {"doubling", "scipy", "control"}
         Riccati solver, see :func:`estimation.kalman.design_kalman`.
 
     Attributes
@@ -119,7 +134,7 @@ class SSEstimator(ForceEstimator):
         p0: float = 1000.0,
         dt_s: float = PAPER_DT_S,
         noise_regressor: bool = True,
-        kalman_method: str = "scipy",
+        kalman_method: str = "doubling",
     ) -> None:
         self.order = order
         self.kalman = kalman
@@ -177,8 +192,8 @@ class SSEstimator(ForceEstimator):
         self.R_ = np.array([[self.sigma_v2_]])
         self.poles_ = np.linalg.eigvals(self.A_)
         self.stable_ = bool(np.max(np.abs(self.poles_)) < 1.0)
-        self.controllable_ = bool(np.linalg.matrix_rank(control.ctrb(self.A_, self.B_)) == n)
-        self.observable_ = bool(np.linalg.matrix_rank(control.obsv(self.A_, self.C_)) == n)
+        self.controllable_ = bool(np.linalg.matrix_rank(_ctrb(self.A_, self.B_)) == n)
+        self.observable_ = bool(np.linalg.matrix_rank(_ctrb(self.A_.T, self.C_.T)) == n)
         self.n_features_in_ = n_inputs
         self.order_ = n
         self.rls_ = res
@@ -265,6 +280,38 @@ class SSEstimator(ForceEstimator):
             return delayed_response(F, Gu, h, U)
         y = check_target(require_force(y, mode, type(self).__name__), U.shape[0])
         return delayed_response(F, np.hstack([Gu, Gy[:, None]]), h, np.hstack([U, y[:, None]]))
+
+    def predict_scaled(self, U: np.ndarray, y: np.ndarray | None, *, mode: str,
+                       scaling: MinMaxScaling) -> np.ndarray:
+        """Force estimate in N from raw features, the scaling folded into the filter.
+
+        What :class:`~estimation.pipeline.ForcePipeline` calls instead of
+        normalizing ``U``: equal to ``scaling.inverse_y(predict(scaling.transform_u(U),
+        scaling.transform_y(y), mode=mode))`` to rounding (see
+        :func:`~estimation.streaming.delayed_response_affine`).
+
+        Parameters
+        ----------
+        U : ndarray, shape (n_samples, n_inputs)
+            Raw features, already validated (finite, float64, ``n_features_in_`` columns).
+        y : ndarray, shape (n_samples,) or None
+            Measured force in N, validated; required for ``one_step``.
+        mode : {"one_step", "free_run"}
+        scaling : MinMaxScaling
+
+        Returns
+        -------
+        ndarray, shape (n_samples,)
+        """
+        cls = type(self)
+        if cls.predict is not SSEstimator.predict or cls.lti is not SSEstimator.lti:
+            # a subclass with its own prediction (e.g. SimulationErrorSS): normalize
+            y_n = None if y is None else scaling.transform_y(y)
+            return scaling.inverse_y(self.predict(scaling.transform_u(U), y_n, mode=mode))
+        F, Gu, Gy, h = self.lti(mode)
+        if Gy is not None:
+            y = require_force(y, mode, type(self).__name__)
+        return delayed_response_affine(F, Gu, Gy, h, U, y, scaling=scaling)
 
     def streaming(self, mode: str = "one_step", *,
                   scaling: MinMaxScaling | None = None) -> DelayedLTIStream:

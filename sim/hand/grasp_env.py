@@ -82,6 +82,8 @@ class WristSchedule:
             return 0.0
         tau = t_s - lift_start_s
         z = self.lift_height_m * _min_jerk(tau / self.lift_duration_s)
+        if self.shake_amplitude_m <= 0 and self.place_delay_s is None:
+            return z  # the common schedule: lift and hold (called every substep of a lift)
         after = tau - self.lift_duration_s
         if self.shake_amplitude_m > 0 and 0 < after - self.shake_delay_s < self.shake_duration_s:
             s = after - self.shake_delay_s
@@ -111,6 +113,10 @@ class WristSchedule:
         """
         if lift_start_s is None:
             return False
+        return any(t0_s < b and a < t1_s for a, b in self.motion_windows(lift_start_s))
+
+    def motion_windows(self, lift_start_s: float) -> tuple[tuple[float, float], ...]:
+        """``(start_s, end_s)`` of the lift and, if configured, the shake and the place motion."""
         end = lift_start_s + self.lift_duration_s
         windows = [(lift_start_s, end)]
         if self.shake_amplitude_m > 0:
@@ -119,7 +125,7 @@ class WristSchedule:
         if self.place_delay_s is not None:
             windows.append((end + self.place_delay_s,
                             end + self.place_delay_s + self.lift_duration_s))
-        return any(t0_s < b and a < t1_s for a, b in windows)
+        return tuple(windows)
 
 
 def _min_jerk(s: float) -> float:
@@ -246,6 +252,16 @@ class GraspEnv(gym.Env):
         self._sens = self.data.sensordata
         self._i_motor = int(self.ids.motor)
         self._i_wrist_z = int(self.ids.wrist_act[2])
+        self._k_in_palm = int(self.ids.sens_object_in_palm)
+        ids = self.ids
+        self._k_obs = (int(ids.sens_finger_pos), int(ids.sens_finger_vel),
+                       int(ids.sens_motor_force), int(ids.sens_object_pos) + 2)
+        self._f32 = np.dtype(np.float32)
+        # MotorSpec.current_a's divisor, evaluated once (same expression, same float)
+        self._force_per_current = (self.motor.efficiency * self.motor.gear_ratio
+                                   * self.motor.torque_constant_nm_a)
+        self._windows: tuple[tuple[float, float], ...] = ()
+        self._windows_key: tuple[WristSchedule, float] | None = None
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
@@ -298,9 +314,8 @@ class GraspEnv(gym.Env):
         self.tracker.reset((s.item(k), s.item(k + 1), s.item(k + 2)))
         read_contacts(m, d, ids, self._contacts)
         ref = self.reference.value(0.0)
-        obs = self._observe(ref)
-        info = self._info(ref, {"tracking": 0.0, "slip": 0.0, "drop": 0.0, "crush": 0.0}, None)
-        return obs, info
+        return self._observe_info(ref, {"tracking": 0.0, "slip": 0.0, "drop": 0.0, "crush": 0.0},
+                                  None)
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply the motor command for one control period.
@@ -311,7 +326,7 @@ class GraspEnv(gym.Env):
             Normalized motor command; values outside -1..1 (or NaN, taken as 0)
             are clipped and counted in ``info["action_clipped_count"]``.
         """
-        m, d, ids = self.model, self.data, self.ids
+        m, d = self.model, self.data
         try:
             u = float(action[0])
         except (TypeError, IndexError):
@@ -322,22 +337,24 @@ class GraspEnv(gym.Env):
         ctrl = self._ctrl
         ctrl[self._i_motor] = u
         t = d.time
-        if self._lift_start_s is None and t >= self.schedule.lift_after_s - 1e-9:
+        schedule = self.schedule
+        if self._lift_start_s is None and t >= schedule.lift_after_s - 1e-9:
             c = self._contacts
             if (c.thumb_contact and c.finger_contact
-                    and c.grip_force_n >= self.schedule.lift_min_grip_n):
+                    and c.grip_force_n >= schedule.lift_min_grip_n):
                 self._lift_start_s = t
-        lift_start, schedule = self._lift_start_s, self.schedule
-        if schedule.moves_during(t, t + self.control_dt_s, lift_start):
+        lift_start = self._lift_start_s
+        if lift_start is not None and self._moves(t, t + self.control_dt_s, lift_start):
             # While the wrist moves its path is sampled at every physics
             # substep: a set-point held over the control period is a staircase
             # that the stiff wrist servo follows with acceleration spikes of
             # about 2 g, which shook light objects out of the grasp
             # (docs/HAND.md, "The lift").
             height_m, dt, i_wrist = schedule.height_m, self.physics_dt_s, self._i_wrist_z
+            step = mujoco.mj_step
             for i in range(1, self.n_substeps + 1):
                 ctrl[i_wrist] = height_m(t + i * dt, lift_start)
-                mujoco.mj_step(m, d)
+                step(m, d)
         else:
             ctrl[self._i_wrist_z] = schedule.height_m(t + self.control_dt_s, lift_start)
             mujoco.mj_step(m, d, self.n_substeps)
@@ -352,28 +369,26 @@ class GraspEnv(gym.Env):
             failure = self._warning_name(warnings_now)
             self._warnings = warnings_now
 
-        c = read_contacts(m, d, ids, self._contacts)
+        c = read_contacts(m, d, self.ids, self._contacts)
         s = self._sens
-        k = ids.sens_object_in_palm
+        k = self._k_in_palm
         tr = self.tracker
         was_dropped, was_crushed = tr.dropped, tr.crushed
         tr.update(c, (s.item(k), s.item(k + 1), s.item(k + 2)))
         if tr.crushed and not was_crushed:
-            m.geom_rgba[ids.object_geom] = (0.3, 0.25, 0.2, 1.0)
+            m.geom_rgba[self.ids.object_geom] = (0.3, 0.25, 0.2, 1.0)
         ref = self.reference.value(d.time)
         w = self.weights
-        grasped = c.thumb_contact and c.finger_contact
-        terms = {
-            "tracking": -w.tracking * abs(ref - c.grip_force_n) / w.force_scale_n,
-            "slip": -w.slip * c.slip_speed_m_s / 0.01 if grasped else 0.0,
-            "drop": -w.drop if tr.dropped and not was_dropped else 0.0,
-            "crush": -w.crush if tr.crushed and not was_crushed else 0.0,
-        }
-        reward = terms["tracking"] + terms["slip"] + terms["drop"] + terms["crush"]
-        obs = self._observe(ref)
+        grip = c.grip_force_n
+        tracking = -w.tracking * abs(ref - grip) / w.force_scale_n
+        slip = -w.slip * c.slip_speed_m_s / 0.01 if c.thumb_contact and c.finger_contact else 0.0
+        drop = -w.drop if tr.dropped and not was_dropped else 0.0
+        crush = -w.crush if tr.crushed and not was_crushed else 0.0
+        terms = {"tracking": tracking, "slip": slip, "drop": drop, "crush": crush}
+        reward = tracking + slip + drop + crush
         terminated = tr.dropped or tr.crushed
         truncated = self._step_count >= self.max_steps or failure is not None
-        info = self._info(ref, terms, failure)
+        obs, info = self._observe_info(ref, terms, failure)
         return obs, float(reward), bool(terminated), bool(truncated), info
 
     def render(self) -> np.ndarray | None:
@@ -394,29 +409,38 @@ class GraspEnv(gym.Env):
         super().close()
 
     # --------------------------------------------------------------- helpers
-    def _observe(self, ref: float) -> np.ndarray:
-        s = self._sens
-        ids = self.ids
-        values = (ref, self._contacts.grip_force_n, s.item(ids.sens_finger_pos),
-                  s.item(ids.sens_finger_vel),
-                  self.motor.current_a(s.item(ids.sens_motor_force)))
-        # Clamp into the declared Box (plain floats: cheaper than numpy here).
-        return np.array([lo if v < lo else hi if v > hi else v
-                         for v, lo, hi in zip(values, self._obs_lo, self._obs_hi, strict=True)],
-                        dtype=np.float32)
+    def _observe_info(self, ref: float, terms: dict[str, float],
+                      failure: str | None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Observation (clamped into the declared Box) and ``info`` of the current state.
 
-    def _info(self, ref: float, terms: dict[str, float], failure: str | None) -> dict[str, Any]:
-        c, tr, d, ids = self._contacts, self.tracker, self.data, self.ids
+        Each sensor value is read once and shared by both; plain floats and one
+        dict literal are cheaper here than numpy calls.
+        """
+        c, tr = self._contacts, self.tracker
         s = self._sens
+        grip = c.grip_force_n
         load = c.load_force_n
+        k_pos, k_vel, k_force, k_height = self._k_obs
+        finger_pos = s.item(k_pos)
+        finger_vel = s.item(k_vel)
+        current = s.item(k_force) / self._force_per_current
+        lo, hi = self._obs_lo, self._obs_hi
+        obs = np.array([lo[0] if ref < lo[0] else hi[0] if ref > hi[0] else ref,
+                        lo[1] if grip < lo[1] else hi[1] if grip > hi[1] else grip,
+                        lo[2] if finger_pos < lo[2] else hi[2] if finger_pos > hi[2]
+                        else finger_pos,
+                        lo[3] if finger_vel < lo[3] else hi[3] if finger_vel > hi[3]
+                        else finger_vel,
+                        lo[4] if current < lo[4] else hi[4] if current > hi[4] else current],
+                       self._f32)
         info = {
-            "time_s": d.time,
+            "time_s": self.data.time,
             "reference_n": ref,
-            "grip_force_n": c.grip_force_n,
+            "grip_force_n": grip,
             "finger_force_n": c.finger_force_n,
             "load_force_n": load,
             "lift_force_n": c.lift_force_n,
-            "grip_load_ratio": c.grip_force_n / load if load > 1e-6 else math.inf,
+            "grip_load_ratio": grip / load if load > 1e-6 else math.inf,
             "slip_speed_m_s": c.slip_speed_m_s,
             "thumb_contact": c.thumb_contact,
             "finger_contact": c.finger_contact,
@@ -424,11 +448,11 @@ class GraspEnv(gym.Env):
             "slip_events": tr.slip_events,
             "dropped": tr.dropped,
             "crushed": tr.crushed,
-            "object_height_m": s.item(ids.sens_object_pos + 2),
+            "object_height_m": s.item(k_height),
             "object_displacement_m": tr.displacement_m,
-            "finger_position_rad": s.item(ids.sens_finger_pos),
-            "finger_velocity_rad_s": s.item(ids.sens_finger_vel),
-            "motor_current_a": self.motor.current_a(s.item(ids.sens_motor_force)),
+            "finger_position_rad": finger_pos,
+            "finger_velocity_rad_s": finger_vel,
+            "motor_current_a": current,
             "motor_command": self._ctrl.item(self._i_motor),
             "lifted": self._lift_start_s is not None,
             "action_clipped_count": self._clipped,
@@ -437,7 +461,18 @@ class GraspEnv(gym.Env):
         if failure is not None:
             info["failure"] = failure
         self.last_info = info
-        return info
+        return obs, info
+
+    def _moves(self, t0_s: float, t1_s: float, lift_start_s: float) -> bool:
+        """:meth:`WristSchedule.moves_during` with the motion windows cached per lift."""
+        key = self._windows_key
+        if key is None or key[1] != lift_start_s or key[0] is not self.schedule:
+            self._windows = self.schedule.motion_windows(lift_start_s)
+            self._windows_key = (self.schedule, lift_start_s)
+        for a, b in self._windows:
+            if t0_s < b and a < t1_s:
+                return True
+        return False
 
     def _warning_name(self, numbers: list[int]) -> str:
         pairs = zip(numbers, self._warnings, strict=True)
