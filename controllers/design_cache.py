@@ -24,8 +24,8 @@ SHA-256 of the payload. A file whose header, key or digest does not match
 (truncated, corrupted, foreign, written by another version) is a miss: the
 design is rebuilt and the file replaced. The cache lives in the user's own
 directory (``$GRIPLOOP_CACHE_DIR/designs``, default ``~/.cache/griploop/designs``;
-``GRIPLOOP_CACHE_DIR=off`` disables it), which is trusted as the user's
-site-packages are. python-control state-space and transfer-function objects
+``GRIPLOOP_CACHE_DIR=off`` or ``GRIPLOOP_DESIGN_CACHE=off`` disables it), which
+is trusted as the user's site-packages are. python-control state-space and transfer-function objects
 are stored as their matrices (:func:`_rebuild_ss`, :func:`_rebuild_tf`).
 Writes are atomic (temporary file, then rename), so concurrent workers never
 read half a file; a directory that cannot be written is skipped.
@@ -60,7 +60,13 @@ _SOURCES = tuple(("controllers", name) for name in (
 
 
 def cache_dir() -> Path | None:
-    """The design cache directory, or None when disabled (``GRIPLOOP_CACHE_DIR=off``)."""
+    """The design cache directory, or None when disabled.
+
+    ``GRIPLOOP_CACHE_DIR=off`` disables every disk cache; ``GRIPLOOP_DESIGN_CACHE=off``
+    this one only (the plant families stay cached: how sweeps ran before designs were).
+    """
+    if os.environ.get("GRIPLOOP_DESIGN_CACHE", "").lower() in ("off", "0", "none"):
+        return None
     plants = plant_cache.cache_dir()
     return None if plants is None else plants.parent / "designs"
 
