@@ -1,0 +1,32 @@
+"""matplotlib.pyplot is deferred: python-control imports it, it loads when a figure is drawn."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+CODE = """
+import sys
+import sim  # defers matplotlib.pyplot
+import control  # imports matplotlib.pyplot at its top
+from sim.deferred import DeferredModule
+assert isinstance(sys.modules["matplotlib.pyplot"], DeferredModule)
+assert "matplotlib.figure" not in sys.modules
+import matplotlib.pyplot as plt
+from matplotlib import pyplot
+assert pyplot is plt
+fig = plt.figure()  # first use: the real pyplot loads
+assert not isinstance(sys.modules["matplotlib.pyplot"], DeferredModule)
+assert plt.gcf() is fig and sys.modules["matplotlib.pyplot"].gcf() is fig
+control.bode_plot(control.tf([1], [1, 1]))
+print("ok")
+"""
+
+
+def test_pyplot_loads_on_first_use_only():
+    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONPATH": str(ROOT)}
+    out = subprocess.run([sys.executable, "-c", CODE], capture_output=True, text=True, env=env,
+                         cwd=ROOT, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
