@@ -15,14 +15,15 @@ MuJoCo hand, objects, contacts, ``GraspEnv``, linearization). Both may use
 base of every griploop error. Importing :mod:`sim.hand` registers the
 Gymnasium id ``griploop/GraspLift-v0``.
 
-Importing ``sim`` defers ``matplotlib.pyplot`` (:mod:`sim.deferred`): python-control
-imports it at import time, but it is loaded only when a figure is drawn.
+Importing ``sim`` defers ``matplotlib.pyplot`` and python-control's plot grids
+(:mod:`sim.deferred`): python-control imports them at import time, but they are
+loaded only when a figure is drawn.
 """
 
 import os as _os
 import sys as _sys
 
-from sim.deferred import defer_module as _defer_module
+from sim.deferred import defer_plotting as _defer_plotting
 
 
 def _choose_headless_gl(environ=None, platform: str = _sys.platform) -> None:
@@ -41,7 +42,7 @@ def _choose_headless_gl(environ=None, platform: str = _sys.platform) -> None:
 
 _choose_headless_gl()
 # python-control imports pyplot at import time; draw-free processes never load it
-_defer_module("matplotlib.pyplot")
+_defer_plotting()
 
 #: Public names, imported on first use so that ``import sim`` (and
 #: :class:`sim.errors.GriploopError`) stays light: ``name -> module``.

@@ -29,10 +29,11 @@ from typing import Any
 class DeferredModule(types.ModuleType):
     """Stand-in for a module not imported yet; imports it on first attribute use."""
 
-    def __init__(self, name: str, spec: Any) -> None:
+    def __init__(self, name: str, spec: Any, functions: frozenset[str] = frozenset()) -> None:
         super().__init__(name)
         self.__spec__ = spec
         self.__deferred_real__: types.ModuleType | None = None
+        self.__deferred_functions__ = functions
 
     def _real(self) -> types.ModuleType:
         real = self.__dict__.get("__deferred_real__")
@@ -48,7 +49,17 @@ class DeferredModule(types.ModuleType):
         if attr.startswith("__") and attr.endswith("__"):
             # the import system probes __file__, __path__, __cached__...: not a use
             raise AttributeError(attr)
+        if attr in self.__deferred_functions__ and self.__dict__["__deferred_real__"] is None:
+            return self._deferred_function(attr)  # ``from module import f``: not a use yet
         return getattr(self._real(), attr)
+
+    def _deferred_function(self, attr: str) -> Any:
+        def call(*args: Any, **kwargs: Any) -> Any:
+            return getattr(self._real(), attr)(*args, **kwargs)
+
+        call.__name__ = call.__qualname__ = attr
+        call.__doc__ = f"{self.__name__}.{attr}, imported on the first call."
+        return call
 
     def __dir__(self) -> list[str]:
         return dir(self._real())
@@ -57,8 +68,11 @@ class DeferredModule(types.ModuleType):
 class _StandInLoader(importlib.abc.Loader):
     """Creates a :class:`DeferredModule` instead of executing the module."""
 
+    def __init__(self, functions: frozenset[str]) -> None:
+        self.functions = functions
+
     def create_module(self, spec: importlib.machinery.ModuleSpec) -> types.ModuleType:
-        return DeferredModule(spec.name, spec)
+        return DeferredModule(spec.name, spec, self.functions)
 
     def exec_module(self, module: types.ModuleType) -> None:
         """Nothing to run: the real module runs on first use."""
@@ -68,25 +82,38 @@ class _DeferringFinder(importlib.abc.MetaPathFinder):
     """Answers the first import of each deferred name with a stand-in."""
 
     def __init__(self) -> None:
-        self.names: set[str] = set()
+        self.names: dict[str, frozenset[str]] = {}
 
     def find_spec(self, fullname: str, path: Any, target: Any = None
                   ) -> importlib.machinery.ModuleSpec | None:
         if fullname not in self.names:
             return None
-        self.names.discard(fullname)  # the real import, later, goes to the normal finders
-        return importlib.machinery.ModuleSpec(fullname, _StandInLoader())
+        functions = self.names.pop(fullname)  # the real import, later, goes to the normal finders
+        return importlib.machinery.ModuleSpec(fullname, _StandInLoader(functions))
 
 
 _FINDER = _DeferringFinder()
 
 
-def defer_module(name: str) -> bool:
+#: What griploop defers (:func:`defer_plotting`): python-control imports these at import
+#: time for its plots (pyplot; its pole-zero grids pull matplotlib's axes and axisartist).
+PLOTTING = (("matplotlib.pyplot", ()), ("control.grid", ("nogrid", "sgrid", "zgrid")))
+
+
+def defer_plotting() -> None:
+    """Defer the plotting modules of :data:`PLOTTING` until a figure is drawn."""
+    for name, functions in PLOTTING:
+        defer_module(name, functions)
+
+
+def defer_module(name: str, functions: tuple[str, ...] = ()) -> bool:
     """Defer ``name`` (e.g. ``"matplotlib.pyplot"``): its first import binds a stand-in.
 
     Costs nothing now (nothing is imported); the first ``import name`` anywhere
     gets a :class:`DeferredModule`, which imports the real module on its first
-    attribute use. No effect if ``name`` is already imported.
+    attribute use. ``functions`` are names that ``from name import f`` may take
+    without using them: they are handed out as wrappers that import the module
+    when called. No effect if ``name`` is already imported.
 
     Returns
     -------
@@ -95,7 +122,7 @@ def defer_module(name: str) -> bool:
     """
     if name in sys.modules:
         return False
-    _FINDER.names.add(name)
+    _FINDER.names[name] = frozenset(functions)
     if _FINDER not in sys.meta_path:
         sys.meta_path.insert(0, _FINDER)
     return True

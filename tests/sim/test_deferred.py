@@ -13,7 +13,7 @@ import sim  # defers matplotlib.pyplot
 import control  # imports matplotlib.pyplot at its top
 from sim.deferred import DeferredModule
 assert isinstance(sys.modules["matplotlib.pyplot"], DeferredModule)
-assert "matplotlib.figure" not in sys.modules
+assert "matplotlib.figure" not in sys.modules and "mpl_toolkits.axisartist" not in sys.modules
 import matplotlib.pyplot as plt
 from matplotlib import pyplot
 assert pyplot is plt
@@ -21,6 +21,8 @@ fig = plt.figure()  # first use: the real pyplot loads
 assert not isinstance(sys.modules["matplotlib.pyplot"], DeferredModule)
 assert plt.gcf() is fig and sys.modules["matplotlib.pyplot"].gcf() is fig
 control.bode_plot(control.tf([1], [1, 1]))
+control.pzmap(control.tf([1], [1, 1, 1]), grid=True)  # the deferred grid functions
+assert "mpl_toolkits.axisartist" in sys.modules
 print("ok")
 """
 
