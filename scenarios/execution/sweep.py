@@ -777,13 +777,14 @@ def run_sweep(
 
 
 def design_group(scenario: Scenario) -> str:
-    """What a worker can reuse between scenarios: the object and the controller (JSON).
+    """What a worker can reuse between scenarios: the object and the control rate (JSON).
 
-    Two scenarios of one group need the same plant family and controller design,
-    which a worker process keeps in memory once it has built or loaded them.
+    Scenarios of one group share the object's plant family (linearized over the
+    force grid at the control period), which a worker keeps in memory once it
+    has built or loaded it, with the controller designs made on it.
     """
     return json.dumps([scenario.kind, scenario.object.model_dump(mode="json"),
-                       scenario.controller.model_dump(mode="json")], sort_keys=True)
+                       scenario.controller.control_hz], sort_keys=True)
 
 
 class _Lookahead:
@@ -826,8 +827,9 @@ def local_outcomes(
     start or stop): each child is forked from the driver, which has already
     imported the task's modules, so a worker starts in milliseconds and shares
     those modules' memory with the driver and the other workers. A worker keeps
-    its child (and the designs it holds) from one scenario to the next and is
-    handed scenarios of the group it ran last (:func:`design_group`). A
+    its child (and the plant families and designs it holds) from one scenario
+    to the next and is handed scenarios of the group it ran last
+    (:func:`design_group`), so two workers do not build one object's plants. A
     scenario past ``time_limit_s`` is a ``timeout`` failure; one whose child
     dies is run once more in a fresh child, then recorded as ``killed``.
     Stopping the generator (or an exception in it, e.g. Ctrl-C) kills every child.
