@@ -21,7 +21,6 @@ import gc
 import importlib
 import itertools
 import json
-import logging
 import math
 import os
 import signal
@@ -450,11 +449,6 @@ def _shield_from_stop_signals() -> None:
         pass
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-
-
-def _ignore_sigint() -> None:
-    """Run on local dask workers: they share the terminal's process group."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _die_with_parent() -> None:
@@ -918,7 +912,7 @@ def _outcomes(
 
     if isinstance(task, str):
         resolve_task(task)  # fail in the driver, once, rather than in every worker
-    with _client(workers, scheduler) as client:
+    with _client(scheduler) as client:
         n_workers = max(1, len(client.scheduler_info().get("workers", {})) or workers)
         futures: dict[Any, PlannedScenario] = {}
         queue = as_completed()
@@ -949,32 +943,17 @@ def _outcomes(
 
 
 @contextmanager
-def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
-    """A dask client on an existing scheduler or on a fresh LocalCluster."""
-    from distributed import Client, LocalCluster
+def _client(scheduler: str) -> Iterator[Any]:
+    """A dask client on an existing scheduler."""
+    from distributed import Client
 
     # A half-built Client from an earlier failed connection closes itself in __del__;
-    # if the garbage collector runs that inside a new cluster's IO-loop thread, the
+    # if the garbage collector runs that inside a new client's IO-loop thread, the
     # loop never starts (distributed waits 10 s, then fails). Collect it here first.
     gc.collect()
-    if scheduler is not None:
-        try:
-            client = Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise SweepError(f"cannot connect to dask scheduler {scheduler} ({exc})") from None
-        with client:
-            yield client
-        return
-    cluster = LocalCluster(
-        n_workers=workers,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",  # any free port: several sweeps may share a machine
-        silence_logs=logging.ERROR,
-    )
-    with cluster, Client(cluster) as client:
-        try:  # the workers share the terminal's process group: Ctrl-C is the driver's
-            client.run(_ignore_sigint)
-        except Exception:  # noqa: BLE001  (best effort: the driver ignores their failures)
-            pass
+    try:
+        client = Client(scheduler, timeout="10s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise SweepError(f"cannot connect to dask scheduler {scheduler} ({exc})") from None
+    with client:
         yield client
