@@ -95,13 +95,16 @@ class _DeferringFinder(importlib.abc.MetaPathFinder):
 _FINDER = _DeferringFinder()
 
 
-#: What griploop defers (:func:`defer_plotting`): python-control imports these at import
-#: time for its plots (pyplot; its pole-zero grids pull matplotlib's axes and axisartist).
-PLOTTING = (("matplotlib.pyplot", ()), ("control.grid", ("nogrid", "sgrid", "zgrid")))
+#: What griploop defers (:func:`defer_plotting`), with the functions other modules take
+#: from them at import time: python-control imports pyplot and its pole-zero grids (which
+#: pull matplotlib's axes and axisartist) for its plots; scipy.signal (which python-control
+#: imports) takes one function of scipy.stats for its peak finder, scikit-learn two.
+PLOTTING = (("matplotlib.pyplot", ()), ("control.grid", ("nogrid", "sgrid", "zgrid")),
+            ("scipy.stats", ("scoreatpercentile", "rankdata", "spearmanr")))
 
 
 def defer_plotting() -> None:
-    """Defer the plotting modules of :data:`PLOTTING` until a figure is drawn."""
+    """Defer the modules of :data:`PLOTTING` until they are used (a figure is drawn)."""
     for name, functions in PLOTTING:
         defer_module(name, functions)
 

@@ -1,4 +1,4 @@
-"""matplotlib.pyplot is deferred: python-control imports it, it loads when a figure is drawn."""
+"""Deferred modules: python-control imports pyplot and scipy.stats; they load when used."""
 
 import os
 import subprocess
@@ -14,6 +14,13 @@ import control  # imports matplotlib.pyplot at its top
 from sim.deferred import DeferredModule
 assert isinstance(sys.modules["matplotlib.pyplot"], DeferredModule)
 assert "matplotlib.figure" not in sys.modules and "mpl_toolkits.axisartist" not in sys.modules
+assert isinstance(sys.modules["scipy.stats"], DeferredModule)  # imported by scipy.signal
+import numpy as np
+import scipy.signal
+peaks = scipy.signal.find_peaks_cwt(np.sin(np.linspace(0, 20, 400)) + 1.0, np.arange(5, 30))
+assert len(peaks) >= 2  # through the deferred scoreatpercentile
+from scipy import stats
+assert stats.norm.cdf(0.0) == 0.5 and not isinstance(sys.modules["scipy.stats"], DeferredModule)
 import matplotlib.pyplot as plt
 from matplotlib import pyplot
 assert pyplot is plt
