@@ -22,8 +22,10 @@ test: $(STAMP)
 	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks
 	$(PY) -m pytest -q
 
+# every benchmarks/bench_*.py in its own process, then the table of their GOAL lines
+BENCH_ARGS ?= --markdown bench_results.md
 bench: $(STAMP)
-	for f in benchmarks/bench_*.py; do echo "== $$f"; $(PY) $$f || exit 1; done
+	$(PY) benchmarks/run_all.py $(BENCH_ARGS)
 
 lint: $(STAMP)
 	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks

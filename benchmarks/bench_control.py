@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _timing import time_call  # noqa: E402
+from _timing import goal_line, time_call  # noqa: E402
 
 from controllers.base import Observation  # noqa: E402
 from controllers.design import cached_plant_family, design_for_object  # noqa: E402
@@ -65,6 +65,9 @@ def main() -> int:
             f"  goal <= {TARGET_STEP_US:g} us: {'met' if met else 'NOT MET'}")
         print(f"{name:24s} {us:6.2f} us per step ({us / rows[0][1]:.2f}x the fixed PI){goal}")
     print("command: .venv/bin/python benchmarks/bench_control.py")
+    for name, us in rows[1:]:
+        goal_line(f"{name} controller step <= {TARGET_STEP_US:g} us", us, "us",
+                  limit=TARGET_STEP_US, reference=f"fixed PI {rows[0][1]:.2f} us")
     return 0 if ok else 1
 
 

@@ -18,14 +18,18 @@ import argparse
 import platform
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 from scipy import signal
 
-from estimation.features import extract_features
-from sim.user.emg_stats import REAL_RANGES, STAT_KEYS, population_statistics
-from sim.user.intent import paper_protocol
-from sim.user.subjects import make_generator, make_population
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _timing import goal_line  # noqa: E402
+
+from estimation.features import extract_features  # noqa: E402
+from sim.user.emg_stats import REAL_RANGES, STAT_KEYS, population_statistics  # noqa: E402
+from sim.user.intent import paper_protocol  # noqa: E402
+from sim.user.subjects import make_generator, make_population  # noqa: E402
 
 GOALS = {"noise": 10_000.0, "motor_units": 50.0}
 
@@ -113,6 +117,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"session {duration:.1f} s at 200 Hz, 8 channels")
     print(f"{'generator':<26}{'generate ms':>12}{'x real time':>13}{'session ms':>12}"
           f"{'x real time':>13}  goal")
+    goals = []
     for name, settings in cases:
         gen = make_generator(name, **settings)
         drive = subject.drive(profile.intent, 200.0, rng, gen)
@@ -125,6 +130,10 @@ def main(argv: list[str] | None = None) -> int:
         x_gen = duration / t_gen
         print(f"{label:<26}{1e3 * t_gen:>12.2f}{x_gen:>13.0f}{1e3 * t_rec:>12.2f}"
               f"{duration / t_rec:>13.0f}  >= {goal:,.0f}x {'ok' if x_gen >= goal else 'MISSED'}")
+        goals.append((f"sEMG generator {label} >= {goal:,.0f}x real time", x_gen, goal,
+                      f"{duration:.1f} s session generated in {1e3 * t_gen:.2f} ms"))
+    for text, figure, goal, reference in goals:
+        goal_line(text, figure, "x real time", limit=goal, better="higher", reference=reference)
     pop = make_population(10, seed=0)
     for name in ("noise", "motor_units"):
         t = best_time(lambda n=name: [s.paper_session(generator=n) for s in pop], 1)

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _timing import time_call  # noqa: E402
+from _timing import goal_line, time_call  # noqa: E402
 
 from estimation.features import emg_features, window_samples  # noqa: E402
 
@@ -52,6 +52,9 @@ def main() -> None:
     print(f"plain per-window Python loop: {t_loop * 1e3:9.1f} ms")
     print(f"vectorized emg_features:      {t_fast * 1e3:9.3f} ms")
     print(f"speed-up: {t_loop / t_fast:,.0f}x (goal >= 1000x); outputs identical: {identical}")
+    goal_line("vectorized MAV/RMS/WL features >= 1000x a per-window Python loop",
+              t_loop / t_fast, "x", limit=1000.0, better="higher",
+              reference=f"plain loop {t_loop * 1e3:.0f} ms, vectorized {t_fast * 1e3:.2f} ms")
     if not identical:
         raise SystemExit("outputs differ")
 

@@ -1,17 +1,50 @@
-"""Sweep engine speed: throughput on 1 vs 2 workers, and store overhead per result.
+"""Sweep speed and memory on real episodes: 1 vs 2 workers, against main's executor.
 
-Goals (griploop issue 6): throughput scaling 1 -> 2 workers >= 1.7x on the same
-sweep; store overhead under 5 ms per result.
+Goals (griploop issue 14):
 
-The sweep runs a CPU-bound pure-Python task of about ``--task-ms`` per
-scenario (single-threaded, so no BLAS threads blur the scaling). One worker
-runs in-process; two workers run on a dask LocalCluster (processes, one thread
-each), whose start-up is timed separately and reported apart, since a long
-sweep pays it once.
+1. scaling from 1 to 2 workers >= 1.8x on the same sweep (wall time of
+   :func:`scenarios.execution.sweep.run_sweep`, the driver's whole job);
+2. scenarios per minute per worker, at 2 workers, >= 2x main's executor
+   measured in the same run;
+3. a 2-worker sweep uses < 600 MB for its whole process tree (driver and
+   workers), peak proportional set size (PSS: a page shared by n processes
+   counts 1/n in each, so the sum is the memory the tree really holds; the
+   plain RSS sum, which counts pages shared after fork once per process, is
+   printed next to it).
+
+The sweep is ``scenarios/library/demo.yaml`` (54 closed-loop episodes: can over
+mass x friction, PID / lead-lag / MPC, oracle and free-run MLP reference), or
+its first ``--scenarios`` scenarios.
+
+**Main's executor, the reference.** Before issue 14, a sweep of more than one
+worker started a dask ``LocalCluster`` (one process per worker plus a nanny
+each and a scheduler), each worker imported griploop itself and forked its
+sandbox from there, and every worker designed every controller it met (only
+plant families were cached on disk). The reference here runs exactly that
+path of today's code: a ``LocalCluster`` started by this script and given to
+:func:`run_sweep` as a scheduler address (the dask path is unchanged), with
+``GRIPLOOP_DESIGN_CACHE=off``; the cluster's start and shutdown are counted in
+its wall time, as ``griploop sweep --workers 2`` on main paid them. Measured on
+main itself before the change (same 54 episodes, warm plant cache, loaded
+machine): 1 worker 34.3 s, 2 workers 27.6 s (1.24x; 58.7 scenarios/min/worker);
+2 workers held 811-838 MB RSS.
+
+**Ours.** ``run_sweep(workers=n)`` forks ``n`` sandbox children from the driver
+(already importing griploop) and reuses designs from the disk cache
+(:mod:`controllers.design_cache`). All runs share one fresh cache directory; a
+first, untimed-for-goals pass fills it (its time is printed as "cold": plant
+families linearized and designs made once, as a first sweep on a new machine
+pays), then the configurations are timed interleaved, ``--repeat`` times each
+(median reported). Each timed run writes to a new store, so every scenario
+runs.
+
+Timings need two free cores: on a machine shared with other jobs the 2-worker
+figures are pessimistic. The load average and the CPU time of the workers are
+printed so a loaded run can be recognized.
 
 Run::
 
-    .venv/bin/python benchmarks/bench_sweep.py [--scenarios 40] [--task-ms 250]
+    MUJOCO_GL=egl .venv/bin/python benchmarks/bench_sweep.py [--scenarios 54] [--repeat 1]
 """
 
 from __future__ import annotations
@@ -20,118 +53,198 @@ import argparse
 import logging
 import os
 import shlex
+import statistics
 import sys
 import tempfile
+import threading
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
-import numpy as np
+from _timing import goal_line
 
-from scenarios.execution.sweep import plan, run_sweep
-from scenarios.schema import Scenario, expand_sweep, parse_sweep
-from scenarios.store import Outcome, ResultStore, content_hash, encode_traces
-
-_LOOPS = 200_000  # rounds of spin(); set by calibrate(), shipped to workers with spin
+ROOT = Path(__file__).resolve().parent.parent
+DEMO = ROOT / "scenarios" / "library" / "demo.yaml"
+MEMORY_LIMIT_MB = 600.0
 
 
-def spin(scenario: Scenario) -> dict:
-    """CPU-bound task: ``_LOOPS`` rounds of integer arithmetic seeded by the scenario."""
-    acc = scenario.seed % 1000
-    for i in range(_LOOPS):
-        acc = (acc * 1103515245 + i) % 2147483648
-    return {"acc": acc}
+# ------------------------------------------------------------------ memory of a process tree
+def _children() -> dict[int, list[int]]:
+    tree: dict[int, list[int]] = {}
+    for entry in os.scandir("/proc"):
+        if not entry.name.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry.name}/stat") as fh:
+                ppid = int(fh.read().rsplit(")", 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            continue
+        tree.setdefault(ppid, []).append(int(entry.name))
+    return tree
 
 
-def calibrate(task_ms: float) -> int:
-    """Rounds of :func:`spin` that take about ``task_ms`` on this machine."""
-    best_s = np.inf
-    for _ in range(3):
+def tree_pids(root: int) -> list[int]:
+    """``root`` and every descendant process."""
+    tree, out, todo = _children(), [], [root]
+    while todo:
+        pid = todo.pop()
+        out.append(pid)
+        todo.extend(tree.get(pid, ()))
+    return out
+
+
+def memory_mb(pid: int) -> tuple[float, float]:
+    """``(rss, pss)`` of one process, MB (0 if it is gone)."""
+    rss = pss = 0.0
+    try:
+        with open(f"/proc/{pid}/smaps_rollup") as fh:
+            for line in fh:
+                if line.startswith("Rss:"):
+                    rss = float(line.split()[1]) / 1024
+                elif line.startswith("Pss:"):
+                    pss = float(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return rss, pss
+
+
+class TreeMemory:
+    """Peak RSS sum and PSS sum of this process's tree, sampled every ``interval_s``."""
+
+    def __init__(self, interval_s: float = 0.2) -> None:
+        self.interval_s = interval_s
+        self.peak_rss_mb = self.peak_pss_mb = 0.0
+        self.max_processes = 0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            pids = tree_pids(os.getpid())
+            samples = [memory_mb(p) for p in pids]
+            self.peak_rss_mb = max(self.peak_rss_mb, sum(r for r, _ in samples))
+            self.peak_pss_mb = max(self.peak_pss_mb, sum(p for _, p in samples))
+            self.max_processes = max(self.max_processes, len(pids))
+            self._stop.wait(self.interval_s)
+
+    def __enter__(self) -> TreeMemory:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join()
+
+
+# ------------------------------------------------------------------ one timed sweep
+def children_cpu_s() -> float:
+    """CPU time (user + system) of this process's finished children, s."""
+    t = os.times()
+    return t.children_user + t.children_system
+
+
+@contextmanager
+def main_executor(workers: int):
+    """A dask LocalCluster as `griploop sweep --workers n` started on main, no design cache."""
+    from distributed import LocalCluster
+
+    os.environ["GRIPLOOP_DESIGN_CACHE"] = "off"  # inherited by the cluster's processes only
+    try:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=":0", silence_logs=logging.ERROR)
+    finally:
+        del os.environ["GRIPLOOP_DESIGN_CACHE"]
+    with cluster:
+        yield cluster.scheduler_address
+
+
+def timed_sweep(planned, tmp: Path, label: str, workers: int, reference: bool) -> dict:
+    """Run the sweep into a new store; wall time, peak memory and worker CPU time."""
+    from scenarios.execution.sweep import run_sweep
+    from scenarios.store import ResultStore
+
+    db = tmp / f"{label}-{time.monotonic_ns()}.sqlite"
+    cpu0 = children_cpu_s()
+    with TreeMemory() as mem:
         t0 = time.perf_counter()
-        spin(Scenario(seed=1))
-        best_s = min(best_s, time.perf_counter() - t0)
-    return max(1, int(_LOOPS / (best_s * 1e3) * task_ms))
-
-
-def sweep_items(n: int):
-    spec = parse_sweep({"name": "bench", "seed": 1, "replicates": n, "base": {}})
-    return plan(expand_sweep(spec), spin, version="bench")
-
-
-def throughput(n: int, workers: int, tmp: Path) -> tuple[float, float]:
-    """Wall time of the sweep and mean wall time of one task on its worker, s."""
-    with ResultStore(tmp / f"w{workers}.sqlite") as store:
-        summary = run_sweep(sweep_items(n), store, task=spin, workers=workers,
-                            progress=False, version="bench")
-        task_s = float(np.mean([r["duration_s"] for r in store.rows()]))
-    assert summary.ok == n, summary
-    return summary.elapsed_s, task_s
-
-
-def cluster_startup_s() -> float:
-    from distributed import Client, LocalCluster
-
-    t0 = time.perf_counter()
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=":0", silence_logs=logging.ERROR) as cluster:
-        with Client(cluster) as client:
-            client.wait_for_workers(2)
-            elapsed = time.perf_counter() - t0
-    return elapsed
-
-
-def store_overhead_ms(n: int, tmp: Path, trace_samples: int) -> np.ndarray:
-    rng = np.random.default_rng(0)
-    blob = encode_traces({"force_n": rng.standard_normal((trace_samples, 3))}) \
-        if trace_samples else None
-    config = Scenario(seed=0).canonical_json()
-    times = np.empty(n)
-    with ResultStore(tmp / f"store{trace_samples}.sqlite") as store:
-        for i in range(n):
-            out = Outcome(hash=content_hash(config, str(i), "bench"), status="ok",
-                          result={"r2": float(rng.random()), "nrmse": 0.5, "slips": 2,
-                                  "estimator": "ss_kf"},
-                          traces=blob, error=None, traceback=None, started_at=0.0,
-                          finished_at=1.0, duration_s=1.0, worker="bench:0")
-            t0 = time.perf_counter()
-            store.record(out, kind="episode", config_json=config, task="bench", version="b")
-            times[i] = time.perf_counter() - t0
-    return times * 1e3
+        with ResultStore(db) as store:
+            if reference:
+                with main_executor(workers) as address:
+                    summary = run_sweep(planned, store, scheduler=address, progress=False)
+            else:
+                summary = run_sweep(planned, store, workers=workers, progress=False)
+            busy_s = sum(r["duration_s"] for r in store.rows())
+        wall = time.perf_counter() - t0
+    if summary.ok + summary.failed != len(planned) or summary.failed:
+        raise SystemExit(f"{label}: expected {len(planned)} ok scenarios, found {summary}")
+    return {"wall_s": wall, "rate": 60 * len(planned) / wall / workers,
+            "rss_mb": mem.peak_rss_mb, "pss_mb": mem.peak_pss_mb,
+            "processes": mem.max_processes, "busy_s": busy_s,
+            "cpu_s": children_cpu_s() - cpu0}
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenarios", type=int, default=40)
-    parser.add_argument("--task-ms", type=int, default=250)
-    parser.add_argument("--store-rows", type=int, default=500)
+    parser.add_argument("--sweep", type=Path, default=DEMO, help="sweep file (default: demo)")
+    parser.add_argument("--scenarios", type=int, default=None,
+                        help="run only the first N scenarios of the sweep")
+    parser.add_argument("--repeat", type=int, default=1, help="timed runs per configuration")
+    parser.add_argument("--no-reference", action="store_true",
+                        help="skip main's executor (dask LocalCluster, no design cache)")
     args = parser.parse_args()
-    global _LOOPS
-    _LOOPS = calibrate(args.task_ms)
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
     print("command:", shlex.join([sys.executable, *sys.argv]))
-    print(f"sweep: {args.scenarios} scenarios of ~{args.task_ms} ms CPU each; "
-          f"{os.cpu_count()} CPUs, load average before {os.getloadavg()[0]:.2f}")
-    with tempfile.TemporaryDirectory() as name:
+
+    from scenarios.execution.sweep import plan
+    from scenarios.schema import expand_sweep, load_sweep
+
+    spec = load_sweep(args.sweep)
+    planned = plan(expand_sweep(spec))[: args.scenarios]
+    n = len(planned)
+    with tempfile.TemporaryDirectory(prefix="bench-sweep-") as name:
         tmp = Path(name)
-        startup = cluster_startup_s()
-        t1, task1 = throughput(args.scenarios, 1, tmp)
-        t2, task2 = throughput(args.scenarios, 2, tmp)
-        rate1 = 60 * args.scenarios / t1
-        rate2 = 60 * args.scenarios / t2
-        rate2_warm = 60 * args.scenarios / max(t2 - startup, 1e-9)
-        print(f"1 worker (in-process):      {t1:6.2f} s  {rate1:7.1f} scenarios/min")
-        print(f"2 workers (dask, all-in):   {t2:6.2f} s  {rate2:7.1f} scenarios/min  "
-              f"scaling {rate2 / rate1:.2f}x")
-        print(f"dask LocalCluster start-up: {startup:6.2f} s (measured alone)")
-        print(f"2 workers minus start-up:   {t2 - startup:6.2f} s  {rate2_warm:7.1f} "
-              f"scenarios/min  scaling {rate2_warm / rate1:.2f}x  (goal >= 1.7x)")
-        print(f"mean task time: {task1 * 1e3:.0f} ms on 1 worker, {task2 * 1e3:.0f} ms on 2 "
-              "(a rise means the two workers did not get two free cores)")
-        print(f"load average after the sweeps: {os.getloadavg()[0]:.2f}")
-        for samples in (0, 3000):
-            ms = store_overhead_ms(args.store_rows, tmp, samples)
-            label = f"with a {samples}x3 trace" if samples else "scalars only"
-            print(f"store.record ({label}): median {np.median(ms):.3f} ms, "
-                  f"p95 {np.percentile(ms, 95):.3f} ms, mean {ms.mean():.3f} ms over "
-                  f"{ms.size} results (goal < 5 ms)")
+        os.environ["GRIPLOOP_CACHE_DIR"] = str(tmp / "cache")
+        print(f"sweep: {args.sweep.name}, {n} scenarios; {os.cpu_count()} CPUs, "
+              f"load average {os.getloadavg()[0]:.2f}; cache {tmp / 'cache'} (fresh)")
+        cold = timed_sweep(planned, tmp, "cold", 2, reference=False)
+        print(f"cold (plants and designs built once, 2 workers): {cold['wall_s']:.1f} s")
+        configs = [("ours, 1 worker", 1, False), ("ours, 2 workers", 2, False)]
+        if not args.no_reference:
+            configs.insert(0, ("main's executor, 2 workers", 2, True))
+        runs: dict[str, list[dict]] = {label: [] for label, _, _ in configs}
+        for _ in range(args.repeat):
+            for label, workers, reference in configs:
+                runs[label].append(timed_sweep(planned, tmp, label.split(",")[0][:4], workers,
+                                               reference))
+        print(f"load average after: {os.getloadavg()[0]:.2f}")
+        med = {label: {k: statistics.median(r[k] for r in rs) for k in rs[0]}
+               for label, rs in runs.items()}
+        print(f"{'configuration':<28} {'wall s':>7} {'/min/worker':>12} {'PSS MB':>7} "
+              f"{'RSS MB':>7} {'procs':>5} {'task s':>7} {'CPU s':>7}")
+        for label, m in med.items():
+            print(f"{label:<28} {m['wall_s']:7.1f} {m['rate']:12.1f} {m['pss_mb']:7.0f} "
+                  f"{m['rss_mb']:7.0f} {m['processes']:5.0f} {m['busy_s']:7.1f} "
+                  f"{m['cpu_s']:7.1f}")
+        print("(task s: summed scenario durations; CPU s: user+system of the finished child "
+              "processes; a 2-worker task s far above 1 worker's means the cores were busy)")
+    one, two = med["ours, 1 worker"], med["ours, 2 workers"]
+    scaling = one["wall_s"] / two["wall_s"]
+    goal_line("sweep scaling 1 -> 2 workers >= 1.8x", scaling, "x", limit=1.8, better="higher",
+              reference=f"{n} episodes: 1 worker {one['wall_s']:.1f} s, "
+              f"2 workers {two['wall_s']:.1f} s")
+    if not args.no_reference:
+        ref = med["main's executor, 2 workers"]
+        goal_line("scenarios/min/worker at 2 workers >= 2x main's executor",
+                  two["rate"] / ref["rate"], "x", limit=2.0, better="higher",
+                  reference=f"main's executor {ref['rate']:.1f}/min/worker, "
+                  f"ours {two['rate']:.1f}/min/worker")
+    main_label = "main's executor, 2 workers"
+    memory_ref = f"RSS sum {two['rss_mb']:.0f} MB"
+    if main_label in med:
+        memory_ref += f"; main's executor: PSS {med[main_label]['pss_mb']:.0f} MB"
+    goal_line(f"2-worker sweep memory, process tree peak PSS < {MEMORY_LIMIT_MB:g} MB",
+              two["pss_mb"], "MB", limit=MEMORY_LIMIT_MB, reference=memory_ref)
     return 0
 
 

@@ -7,12 +7,22 @@ pyplot state, works headless) and saved to PNG.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from controllers.analysis import LoopMargins, frequency_grid, minimal_tf
 from controllers.plant import frequency_response
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+
+def _new_figure(**kwargs: Any) -> Figure:
+    """A matplotlib Figure (matplotlib's figure module is imported when a figure is drawn)."""
+    from matplotlib.figure import Figure
+
+    return Figure(**kwargs)
 
 
 def bode_figure(margins: LoopMargins, title: str = "") -> Figure:
@@ -20,7 +30,7 @@ def bode_figure(margins: LoopMargins, title: str = "") -> Figure:
     loop = margins.loop
     omega = frequency_grid(loop)
     resp = frequency_response(loop, omega)
-    fig = Figure(figsize=(7, 6), layout="constrained")
+    fig = _new_figure(figsize=(7, 6), layout="constrained")
     ax_mag, ax_ph = fig.subplots(2, 1, sharex=True)
     ax_mag.semilogx(omega, 20 * np.log10(np.abs(resp)), color="C0")
     ax_mag.axhline(0.0, color="0.5", lw=0.8, ls="--")
@@ -54,7 +64,7 @@ def nyquist_figure(margins: LoopMargins, title: str = "") -> Figure:
     loop = margins.loop
     omega = frequency_grid(loop)
     resp = frequency_response(loop, omega)
-    fig = Figure(figsize=(6, 6), layout="constrained")
+    fig = _new_figure(figsize=(6, 6), layout="constrained")
     ax = fig.subplots()
     ax.plot(resp.real, resp.imag, color="C0", label="L(jw), w > 0")
     ax.plot(resp.real, -resp.imag, color="C0", ls="--", alpha=0.5, label="w < 0")
@@ -87,7 +97,7 @@ def nyquist_figure(margins: LoopMargins, title: str = "") -> Figure:
 def pole_zero_figure(margins: LoopMargins, title: str = "") -> Figure:
     """Open-loop poles/zeros and closed-loop poles, with the unit circle for discrete loops."""
     loop = margins.loop
-    fig = Figure(figsize=(6, 6), layout="constrained")
+    fig = _new_figure(figsize=(6, 6), layout="constrained")
     ax = fig.subplots()
     tf = minimal_tf(loop)
     poles, zeros = tf.poles(), tf.zeros()
@@ -140,7 +150,7 @@ def margins_over_force_figure(analyses: dict[str, list], title: str = "") -> Fig
     title : str
         Figure title (the object).
     """
-    fig = Figure(figsize=(7.5, 6.5), layout="constrained")
+    fig = _new_figure(figsize=(7.5, 6.5), layout="constrained")
     ax_gm, ax_pm, ax_wc = fig.subplots(3, 1, sharex=True)
     for i, (name, points) in enumerate(analyses.items()):
         good = [a for a in points if a.ok]

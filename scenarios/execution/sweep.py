@@ -1,13 +1,14 @@
-"""Resumable sweep execution: in-process or on dask.distributed, recorded as results arrive.
+"""Resumable sweep execution: local worker processes or dask, recorded as results arrive.
 
 A sweep is planned (:func:`plan`: each expanded scenario gets its content
 hash), the hashes already finished in the store are skipped, and the rest are
-run by :func:`execute` -- in the driver for one worker, on a dask
-``LocalCluster`` (processes, one thread each) or an existing scheduler
-otherwise. Results are recorded by the driver in completion order, one commit
-each. :func:`execute` turns any exception of the task into a ``failed``
-outcome with its traceback, so one bad scenario never stops a sweep; a lost
-worker is recorded the same way.
+run by :func:`execute` -- in worker processes forked from the driver
+(:func:`local_outcomes`: one :class:`Sandbox` per worker, fed by the driver, no
+cluster to start) or on an existing dask scheduler given by address. Results
+are recorded by the driver in completion order, one commit each.
+:func:`execute` turns any exception of the task into a ``failed`` outcome with
+its traceback, so one bad scenario never stops a sweep; a lost worker is
+recorded the same way.
 
 Tasks are importable callables ``task(scenario) -> ResultRow`` given as a
 callable or as ``"package.module:function"``; the default is
@@ -18,7 +19,7 @@ from __future__ import annotations
 
 import gc
 import itertools
-import logging
+import json
 import math
 import os
 import signal
@@ -288,6 +289,9 @@ class Sandbox:
     def __init__(self) -> None:
         self._pid: int | None = None
         self._conn: Any = None
+        self._started = self._t0 = 0.0
+        self._deadline = math.inf
+        self._worker = self._hash = ""
 
     def __enter__(self) -> Sandbox:
         return self
@@ -301,7 +305,13 @@ class Sandbox:
         parent, child = multiprocessing.Pipe()
         sys.stdout.flush()
         sys.stderr.flush()
+        # The child shares the parent's imported modules page by page (copy on write);
+        # frozen objects are never traversed by the child's garbage collector, so their
+        # pages stay shared instead of being copied by the collector's bookkeeping.
+        gc.freeze()
         pid = os.fork()
+        if pid != 0:
+            gc.unfreeze()
         if pid == 0:  # the child: serve tasks until the parent goes away
             code = 0
             try:
@@ -336,6 +346,62 @@ class Sandbox:
         _, status = os.waitpid(pid, 0)
         return os.waitstatus_to_exitcode(status)
 
+    @property
+    def connection(self) -> Any:
+        """The parent's end of the pipe to the child (readable when a result is ready)."""
+        return self._conn
+
+    @property
+    def deadline(self) -> float:
+        """``time.perf_counter()`` value by which the running scenario must finish."""
+        return self._deadline
+
+    def submit(self, task: Task, scenario: Scenario, hash_: str,
+               time_limit_s: float | None) -> None:
+        """Send one scenario to the child (forked now if needed) without waiting for it.
+
+        Its outcome is then read with :meth:`collect` once :attr:`connection` is
+        readable, or the child is stopped with :meth:`time_out` past :attr:`deadline`.
+        """
+        if self._pid is None:
+            self._start()
+        self._started, self._t0 = time.time(), time.perf_counter()
+        self._deadline = math.inf if time_limit_s is None else self._t0 + time_limit_s
+        self._worker = f"{socket.gethostname()}:{self._pid}"
+        self._hash = hash_
+        try:
+            self._conn.send((task, scenario, hash_))
+        except OSError:
+            pass  # the child is gone: the pipe reads as closed and collect() says so
+
+    def collect(self) -> Outcome:
+        """The outcome of the submitted scenario (blocks until the child answers).
+
+        Raises
+        ------
+        _Crashed
+            The child died (killed by a signal, or exited) during the scenario.
+        """
+        try:
+            return self._conn.recv()
+        except (EOFError, OSError):
+            pass
+        self._conn.close()
+        code = self._kill()
+        duration = time.perf_counter() - self._t0
+        how = f"signal {-code} ({signal.Signals(-code).name})" if code < 0 else f"exit {code}"
+        raise _Crashed(f"its process died ({how}) after {duration:.1f} s")
+
+    def time_out(self, time_limit_s: float | None) -> Outcome:
+        """Stop the child running an overdue scenario; its ``timeout`` failure."""
+        self._conn.close()
+        self._kill()
+        return _failed(
+            self._hash,
+            f"timeout: still running after {time_limit_s:g} s (time_limit_s); stopped",
+            self._started, time.perf_counter() - self._t0, self._worker,
+        )
+
     def run(self, task: Task, scenario: Scenario, hash_: str,
             time_limit_s: float | None) -> Outcome:
         """Run one scenario in the child; a ``timeout`` failure past ``time_limit_s``.
@@ -345,28 +411,12 @@ class Sandbox:
         _Crashed
             The child died (killed by a signal, or exited) during the scenario.
         """
-        if self._pid is None:
-            self._start()
-        started, t0 = time.time(), time.perf_counter()
-        worker = f"{socket.gethostname()}:{self._pid}"
+        self.submit(task, scenario, hash_, time_limit_s)
         try:
-            self._conn.send((task, scenario, hash_))
             ready = self._conn.poll(time_limit_s)
-            if ready:
-                return self._conn.recv()
         except (EOFError, OSError):
             ready = True
-        self._conn.close()
-        code = self._kill()
-        duration = time.perf_counter() - t0
-        if not ready:
-            return _failed(
-                hash_,
-                f"timeout: still running after {time_limit_s:g} s (time_limit_s); stopped",
-                started, duration, worker,
-            )
-        how = f"signal {-code} ({signal.Signals(-code).name})" if code < 0 else f"exit {code}"
-        raise _Crashed(f"its process died ({how}) after {duration:.1f} s")
+        return self.collect() if ready else self.time_out(time_limit_s)
 
 
 def _serve(conn: Any) -> None:
@@ -394,11 +444,6 @@ def _shield_from_stop_signals() -> None:
         pass
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-
-
-def _ignore_sigint() -> None:
-    """Run on local dask workers: they share the terminal's process group."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _die_with_parent() -> None:
@@ -440,11 +485,7 @@ def run_guarded(box: Sandbox, task: Task, scenario: Scenario, hash_: str,
             return box.run(task, scenario, hash_, time_limit_s)
         except _Crashed as exc:
             reasons.append(str(exc))
-    return _failed(
-        hash_,
-        f"killed: the scenario killed its process twice ({'; '.join(reasons)})",
-        started, time.time() - started, f"{socket.gethostname()}:{os.getpid()}",
-    )
+    return _killed_twice(hash_, reasons, started)
 
 
 class Progress:
@@ -604,8 +645,8 @@ def run_sweep(
     task : str or callable
         ``task(scenario) -> ResultRow``; default :func:`scenarios.runners.dispatch.run_scenario`.
     workers : int
-        1 runs in a child process of this one; more start a dask
-        ``LocalCluster`` with that many single-threaded worker processes.
+        Number of worker processes, each a child of this one forked after the
+        task's modules are imported (:func:`local_outcomes`).
     scheduler : str, optional
         Address of an existing dask scheduler (``workers`` is then ignored).
     sweep_name : str
@@ -724,6 +765,125 @@ def run_sweep(
     )
 
 
+def design_group(scenario: Scenario) -> str:
+    """What a worker can reuse between scenarios: the object and the control rate (JSON).
+
+    Scenarios of one group share the object's plant family (linearized over the
+    force grid at the control period), which a worker keeps in memory once it
+    has built or loaded it, with the controller designs made on it.
+    """
+    return json.dumps([scenario.kind, scenario.object.model_dump(mode="json"),
+                       scenario.controller.control_hz], sort_keys=True)
+
+
+class _Lookahead:
+    """The next few scenarios of a stream, handed out so that workers keep their groups.
+
+    A worker gets the next scenario of the group it ran last; else the first
+    scenario of a group no other worker holds; else the first one. Only
+    ``size`` scenarios are taken (and claimed) from the stream ahead of time.
+    """
+
+    def __init__(self, items: Iterator[PlannedScenario], size: int,
+                 group: Callable[[Scenario], str]) -> None:
+        self._items = items
+        self._size = size
+        self._group = group
+        self._buffer: list[tuple[str, PlannedScenario]] = []
+
+    def take(self, prefer: str | None, held: set[str]) -> tuple[str, PlannedScenario] | None:
+        """The next scenario for a worker whose last group was ``prefer``, and its group."""
+        while len(self._buffer) < self._size:
+            p = next(self._items, None)
+            if p is None:
+                break
+            self._buffer.append((self._group(p.scenario), p))
+        if not self._buffer:
+            return None
+        pick = next((i for i, (g, _) in enumerate(self._buffer) if g == prefer), None)
+        if pick is None:
+            pick = next((i for i, (g, _) in enumerate(self._buffer) if g not in held), 0)
+        return self._buffer.pop(pick)
+
+
+def local_outcomes(
+    todo: Iterable[PlannedScenario], task: Task, workers: int, time_limit_s: float | None,
+    *, group: Callable[[Scenario], str] = design_group, lookahead: int = 8,
+) -> Iterator[tuple[PlannedScenario, Outcome]]:
+    """Run scenarios on ``workers`` sandbox processes forked from this one, as they finish.
+
+    The driver's main thread feeds every :class:`Sandbox` (no dask cluster to
+    start or stop): each child is forked from the driver, which has already
+    imported the task's modules, so a worker starts in milliseconds and shares
+    those modules' memory with the driver and the other workers. A worker keeps
+    its child (and the plant families and designs it holds) from one scenario
+    to the next and is handed scenarios of the group it ran last
+    (:func:`design_group`), so two workers do not build one object's plants. A
+    scenario past ``time_limit_s`` is a ``timeout`` failure; one whose child
+    dies is run once more in a fresh child, then recorded as ``killed``.
+    Stopping the generator (or an exception in it, e.g. Ctrl-C) kills every child.
+
+    Yields
+    ------
+    (PlannedScenario, Outcome)
+        In completion order.
+    """
+    from multiprocessing.connection import wait
+
+    boxes = [Sandbox() for _ in range(workers)]
+    last: list[str | None] = [None] * workers
+    running: dict[int, tuple[PlannedScenario, list[str], float]] = {}
+    queue = _Lookahead(iter(todo), max(lookahead * workers, 1), group)
+    try:
+        while True:
+            for i, box in enumerate(boxes):
+                if i in running:
+                    continue
+                held = {last[j] for j in range(workers) if j != i and last[j] is not None}
+                taken = queue.take(last[i], held)
+                if taken is None:
+                    break
+                last[i], p = taken
+                box.submit(task, p.scenario, p.hash, time_limit_s)
+                running[i] = (p, [], time.time())
+            if not running:
+                return
+            timeout = None
+            if time_limit_s is not None:
+                soonest = min(boxes[i].deadline for i in running)
+                timeout = max(0.0, soonest - time.perf_counter())
+            ready = wait([boxes[i].connection for i in running], timeout)
+            for i in sorted(running):
+                box = boxes[i]
+                p, reasons, started = running[i]
+                if box.connection in ready:
+                    try:
+                        outcome = box.collect()
+                    except _Crashed as exc:
+                        reasons.append(str(exc))
+                        if len(reasons) < 2:
+                            box.submit(task, p.scenario, p.hash, time_limit_s)
+                            continue
+                        outcome = _killed_twice(p.hash, reasons, started)
+                elif time.perf_counter() >= box.deadline:
+                    outcome = box.time_out(time_limit_s)
+                else:
+                    continue
+                del running[i]
+                yield p, outcome
+    finally:
+        for box in boxes:
+            box.close()
+
+
+def _killed_twice(hash_: str, reasons: list[str], started: float) -> Outcome:
+    return _failed(
+        hash_,
+        f"killed: the scenario killed its process twice ({'; '.join(reasons)})",
+        started, time.time() - started, f"{socket.gethostname()}:{os.getpid()}",
+    )
+
+
 def _untally(bar: Progress | None) -> None:
     if bar is not None:
         bar.total -= 1
@@ -738,18 +898,16 @@ def _outcomes(
     if first is None:
         return
     items = itertools.chain([first], items)
-    if workers == 1 and scheduler is None:
+    if scheduler is None:
         if isinstance(task, str):
-            resolve_task(task)  # fail in the driver rather than in the child
-        with Sandbox() as box:
-            for p in items:
-                yield p, run_guarded(box, task, p.scenario, p.hash, time_limit_s)
+            resolve_task(task)  # fail in the driver rather than in the children
+        yield from local_outcomes(items, task, workers, time_limit_s)
         return
     from distributed import as_completed
 
     if isinstance(task, str):
         resolve_task(task)  # fail in the driver, once, rather than in every worker
-    with _client(workers, scheduler) as client:
+    with _client(scheduler) as client:
         n_workers = max(1, len(client.scheduler_info().get("workers", {})) or workers)
         futures: dict[Any, PlannedScenario] = {}
         queue = as_completed()
@@ -780,32 +938,17 @@ def _outcomes(
 
 
 @contextmanager
-def _client(workers: int, scheduler: str | None) -> Iterator[Any]:
-    """A dask client on an existing scheduler or on a fresh LocalCluster."""
-    from distributed import Client, LocalCluster
+def _client(scheduler: str) -> Iterator[Any]:
+    """A dask client on an existing scheduler."""
+    from distributed import Client
 
     # A half-built Client from an earlier failed connection closes itself in __del__;
-    # if the garbage collector runs that inside a new cluster's IO-loop thread, the
+    # if the garbage collector runs that inside a new client's IO-loop thread, the
     # loop never starts (distributed waits 10 s, then fails). Collect it here first.
     gc.collect()
-    if scheduler is not None:
-        try:
-            client = Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise SweepError(f"cannot connect to dask scheduler {scheduler} ({exc})") from None
-        with client:
-            yield client
-        return
-    cluster = LocalCluster(
-        n_workers=workers,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",  # any free port: several sweeps may share a machine
-        silence_logs=logging.ERROR,
-    )
-    with cluster, Client(cluster) as client:
-        try:  # the workers share the terminal's process group: Ctrl-C is the driver's
-            client.run(_ignore_sigint)
-        except Exception:  # noqa: BLE001  (best effort: the driver ignores their failures)
-            pass
+    try:
+        client = Client(scheduler, timeout="10s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise SweepError(f"cannot connect to dask scheduler {scheduler} ({exc})") from None
+    with client:
         yield client

@@ -572,11 +572,17 @@ def cached_design(obj: ObjectSpec, controller: str, control_dt_s: float,
                   spec: Mapping[str, Any] | None) -> ControllerDesign:
     """:func:`controllers.design.design_for_object` memoized per object, kind, period and spec.
 
+    In memory per process, and on disk for every process of the machine
+    (:mod:`controllers.design_cache`, with the loop analyses made so far), so
+    sweep workers and later commands load a design instead of redoing it.
     A design is reset at the start of every episode, so episodes in one process
     share it (and the analyses it has cached). A fragile object's break force
     is the user's force limit (the hand's "fragile" setting), which bounds the
     MPC and the slip reflex.
     """
+    from controllers import design_cache
+    from controllers.design_plant import DEFAULT_FORCE_GRID_N
+
     spec = dict(spec or {})
     if obj.break_force_n is not None:
         spec.setdefault("force_max_n", float(obj.break_force_n))
@@ -584,7 +590,10 @@ def cached_design(obj: ObjectSpec, controller: str, control_dt_s: float,
            tuple(sorted((k, tuple(sorted(v.items())) if isinstance(v, Mapping) else v)
                         for k, v in spec.items())))
     if key not in _DESIGNS:
-        _DESIGNS[key] = design_for_object(obj, controller, control_dt_s=control_dt_s, **spec)
+        forces_n = tuple(float(f) for f in spec.get("forces_n", DEFAULT_FORCE_GRID_N))
+        _DESIGNS[key], _ = design_cache.cached_design(
+            obj, controller, float(control_dt_s), spec, forces_n,
+            lambda: design_for_object(obj, controller, control_dt_s=control_dt_s, **spec))
     return _DESIGNS[key]
 
 

@@ -333,3 +333,23 @@ def test_bad_scheduler_address_is_a_sweep_error(tmp_path):
         with pytest.raises(SweepError, match="cannot connect to dask scheduler nonsense"):
             run_sweep(planned(), store, task="tasks:seeded", scheduler="nonsense",
                       progress=False)
+
+
+# ------------------------------------------------------------------ local workers
+
+
+def test_local_workers_keep_their_object_and_share_the_work(tmp_path):
+    """Two forked workers: every scenario once, each object's scenarios mostly on one worker."""
+    items = planned("tasks:sleepy", masses=(0.1, 0.3, 0.5, 0.7), kinds=("pid", "lead_lag", "mpc"))
+    with ResultStore(tmp_path / "r.sqlite") as store:
+        summary = run_sweep(items, store, task="tasks:sleepy", workers=2, progress=False)
+        rows = by_hash(store)
+    assert (summary.ok, summary.failed) == (12, 0) and rows.keys() == {p.hash for p in items}
+    workers = {}
+    for p in items:
+        assert rows[p.hash]["result"]["draw"] == tasks.seeded(p.scenario)["draw"]
+        workers.setdefault(p.scenario.object.mass_kg, set()).add(rows[p.hash]["worker"])
+    pids = {w.split(":")[1] for ws in workers.values() for w in ws}
+    assert len(pids) == 2 and str(os.getpid()) not in pids  # two children of the driver
+    # an object's scenarios go to the worker that ran it last; only the last one may be split
+    assert sum(len(ws) == 1 for ws in workers.values()) >= 3, workers

@@ -195,3 +195,39 @@ def test_threads_of_one_worker_process_do_not_share_a_sandbox():
     for p, out in zip(items, outs, strict=True):
         assert out.status == "ok", out.error
         assert out.hash == p.hash and out.result["draw"] == tasks.seeded(p.scenario)["draw"]
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_two_local_workers_and_their_children(tmp_path):
+    """Ctrl-C on a 2-worker sweep: exit 130 at once, no child left, no claim, resume completes."""
+    import signal
+
+    from test_cli_interrupt import SWEEP, N, _claims, _env, _rows
+
+    path = tmp_path / "stop.yaml"
+    path.write_text(SWEEP)
+    db = tmp_path / "r.sqlite"
+    argv = [sys.executable, "-m", "scenarios.cli", "sweep", str(path), "--db", str(db),
+            "--task", "tasks:solves_qps", "--workers", "2"]
+    proc = subprocess.Popen(argv, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    deadline = time.monotonic() + 60
+    while not _rows(db) and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    assert proc.poll() is None, proc.communicate()
+    time.sleep(0.4)
+    children = [int(p) for p in subprocess.run(["pgrep", "-P", str(proc.pid)],
+                                               capture_output=True, text=True).stdout.split()]
+    assert len(children) == 2  # the two workers, forked from the driver
+    os.killpg(proc.pid, signal.SIGINT)  # a terminal's Ctrl-C: the whole process group
+    sent = time.monotonic()
+    _, err = proc.communicate(timeout=30)
+    assert time.monotonic() - sent < 5.0 and proc.returncode == 130, err
+    assert "stopped by SIGINT" in err and "Traceback" not in err
+    assert not any(_running(pid) for pid in children)
+    stopped = _rows(db)
+    assert 1 <= len(stopped) < N and all(s == "ok" for _, s, _ in stopped) and _claims(db) == 0
+    rerun = subprocess.run([*argv, "--no-progress"], env=_env(), capture_output=True, text=True,
+                           timeout=120)
+    assert rerun.returncode == 0, rerun.stderr
+    assert f"{len(stopped)} already stored, {N - len(stopped)} ok, 0 failed" in rerun.stdout

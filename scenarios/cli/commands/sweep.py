@@ -57,13 +57,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         type=int,
         default=None,
         metavar="N",
-        help="1 runs in this process (default); N > 1 starts a local dask cluster of N "
-        "single-threaded worker processes",
+        help="number of worker processes, forked from this one (default 1); each runs its "
+        "scenarios one at a time",
     )
     parser.add_argument(
         "--scheduler",
         metavar="ADDRESS",
-        help="run on an existing dask scheduler, e.g. tcp://host:8786, instead of a local cluster",
+        help="run on an existing dask scheduler, e.g. tcp://host:8786, instead of local workers",
     )
     parser.add_argument(
         "--db", default=DEFAULT_DB, metavar="PATH", help=f"results store (default: {DEFAULT_DB})"
