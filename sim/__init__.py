@@ -16,16 +16,10 @@ base of every griploop error and :mod:`sim.registry` the named registries every
 extension family uses (sEMG generators in :mod:`sim.user.generators`, objects in
 :mod:`sim.hand.objects`). Importing :mod:`sim.hand` registers the
 Gymnasium id ``griploop/GraspLift-v0``.
-
-Importing ``sim`` defers ``matplotlib.pyplot`` and python-control's plot grids
-(:mod:`sim.deferred`): python-control imports them at import time, but they are
-loaded only when a figure is drawn.
 """
 
 import os as _os
 import sys as _sys
-
-from sim.deferred import defer_plotting as _defer_plotting
 
 
 def _choose_headless_gl(environ=None, platform: str = _sys.platform) -> None:
@@ -43,8 +37,6 @@ def _choose_headless_gl(environ=None, platform: str = _sys.platform) -> None:
 
 
 _choose_headless_gl()
-# python-control imports pyplot at import time; draw-free processes never load it
-_defer_plotting()
 
 #: Public names, imported on first use so that ``import sim`` (and
 #: :class:`sim.errors.GriploopError`) stays light: ``name -> module``.

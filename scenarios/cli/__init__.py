@@ -4,6 +4,6 @@ May import everything; importing this package itself stays light (argparse only)
 so that ``griploop --help`` is fast.
 """
 
-from scenarios.cli.main import main
+from scenarios.cli.main import entry, main
 
-__all__ = ["main"]
+__all__ = ["entry", "main"]

@@ -1,7 +1,5 @@
 """``python -m scenarios.cli``: the ``griploop`` command line."""
 
-import sys
+from scenarios.cli.main import entry
 
-from scenarios.cli.main import main
-
-sys.exit(main())
+entry()

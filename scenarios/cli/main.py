@@ -144,5 +144,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
 
 
-if __name__ == "__main__":
+def entry() -> None:
+    """The ``griploop`` console script: defer plotting modules, run :func:`main`, exit.
+
+    python-control imports ``matplotlib.pyplot`` at import time; in the ``griploop``
+    process it is loaded only if a figure is drawn (:mod:`scenarios.cli.deferred`).
+    """
+    from scenarios.cli.deferred import defer_plotting
+
+    defer_plotting()
     sys.exit(main())
+
+
+if __name__ == "__main__":
+    entry()

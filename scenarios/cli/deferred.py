@@ -11,9 +11,9 @@ which every lookup goes to the real module.
 
 (:class:`importlib.util.LazyLoader` does not serve here: the import system
 reads ``__spec__`` of a module found in ``sys.modules``, which loads it.)
-:mod:`sim` defers ``matplotlib.pyplot`` when it is imported, so every
-griploop command (the CLI imports :mod:`sim.errors` first) and sweep worker
-gets the stand-in.
+Only the ``griploop`` process itself defers (:func:`scenarios.cli.main.entry`,
+before any command is imported; sweep workers are forked from it): importing
+griploop's packages as a library changes nothing in the importing process.
 """
 
 from __future__ import annotations
