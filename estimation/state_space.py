@@ -192,8 +192,6 @@ class SSEstimator(ForceEstimator):
         self.R_ = np.array([[self.sigma_v2_]])
         self.poles_ = np.linalg.eigvals(self.A_)
         self.stable_ = bool(np.max(np.abs(self.poles_)) < 1.0)
-        self.controllable_ = bool(np.linalg.matrix_rank(_ctrb(self.A_, self.B_)) == n)
-        self.observable_ = bool(np.linalg.matrix_rank(_ctrb(self.A_.T, self.C_.T)) == n)
         self.n_features_in_ = n_inputs
         self.order_ = n
         self.rls_ = res
@@ -205,6 +203,18 @@ class SSEstimator(ForceEstimator):
             self.kalman_poles_ = kf.poles
         self._lti_cache: dict[str, tuple[np.ndarray, ...]] = {}
         return self
+
+    @property
+    def controllable_(self) -> bool:
+        """``(A_, B_)`` controllable (rank test; computed when read, not in :meth:`fit`)."""
+        self._check_fitted()
+        return bool(np.linalg.matrix_rank(_ctrb(self.A_, self.B_)) == self.order_)
+
+    @property
+    def observable_(self) -> bool:
+        """``(A_, C_)`` observable (rank test; computed when read, not in :meth:`fit`)."""
+        self._check_fitted()
+        return bool(np.linalg.matrix_rank(_ctrb(self.A_.T, self.C_.T)) == self.order_)
 
     @property
     def model_(self) -> control.StateSpace:
