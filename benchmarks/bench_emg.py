@@ -83,7 +83,7 @@ def calibration(generator: str) -> dict[str, tuple[float, float]]:
 
 
 TARGETS = {
-    "rest std (LSB)": "1.0-4.7 (real recordings, issue 10)",
+    "rest std (LSB)": "1.0-4.7 (real recordings)",
     "rest within +/-1 LSB": "real 0.55",
     "RMS ch6-8 at medium force (LSB)": "5-45",
     "median frequency (Hz)": "45-80 (real 64)",
@@ -151,7 +151,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def versus_real(population: list) -> str:
-    """Issue 10's table: median [min-max] over subjects, real recordings vs both generators."""
+    """The population table: median [min-max] over subjects, real recordings vs both generators."""
 
     def cell(median: float, lo: float, hi: float) -> str:
         return f"{median:.3g} [{lo:.3g}-{hi:.3g}]"

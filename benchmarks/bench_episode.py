@@ -4,11 +4,11 @@ Run: ``MUJOCO_GL=egl .venv/bin/python benchmarks/bench_episode.py [--repeat 5]``
 
 Goals:
 
-- issue 5: the episode loop (sEMG generation, features, estimator, controller,
+- the episode loop (sEMG generation, features, estimator, controller,
   physics) runs at least 50x faster than real time on one core. The same 6 s
   grasp-lift-hold of the can (0.4 kg, mu 0.5) with the ss_kf estimator in free
   run and a PID at 100 Hz, for several seeds, after one warm-up episode.
-- issue 14: a whole ``griploop episode --controller pid --estimator oracle
+- a whole ``griploop episode --controller pid --estimator ss_kf
   --object can`` process takes at most 1.5 s of wall time with a warm disk
   cache (plant family and controller design with its margins on disk, from an
   earlier run), and ``griploop --help`` at most 0.5 s.
@@ -18,8 +18,8 @@ directory warmed by one untimed run; each command is timed ``--repeat``
 times, interleaved, and the best time is the figure (timeit's convention: the
 slower runs measure the machine's other jobs; the median is printed too). Printed next to them, from
 the same run: the episode process with the design cache off (designs and
-margins made again, as before issue 14: the reference), and the import of the
-episode command alone (what no cache can save). Main, before issue 14,
+margins made again, as without the design cache: the reference), and the import of the
+episode command alone (what no cache can save). Main, before the design cache and the lazy imports,
 measured 3.66 s for the episode process (2.4-4.2 s of it imports, python-control
 importing pyplot included). On a machine shared with other jobs the figures
 are pessimistic; the load average is printed.
@@ -44,13 +44,13 @@ from _timing import goal_line  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 STAGES = ("t_semg_s", "t_features_s", "t_estimator_s", "t_controller_s", "t_physics_s")
-EPISODE = ["episode", "--controller", "pid", "--estimator", "oracle", "--object", "can"]
+EPISODE = ["episode", "--controller", "pid", "--estimator", "ss_kf", "--object", "can"]
 EPISODE_LIMIT_S = 1.5
 HELP_LIMIT_S = 0.5
 
 
 def episode_loop() -> float:
-    """Real-time factor of the episode loop (issue 5), printing the split by stage."""
+    """Real-time factor of the episode loop , printing the split by stage."""
     from scenarios.runners.episode import run_episode
     from sim.hand.objects import make_object
     from sim.user.subjects import VirtualSubject

@@ -6,7 +6,7 @@ Prints, for one virtual subject's calibration session (first 50 % of windows):
 - streaming step time per update in a Python loop, median;
 - batch prediction throughput (updates per second);
 
-each next to the paper's figure and the ratio, and the two speed goals of issue 14 as
+each next to the paper's figure and the ratio, and the two speed goals as
 ``GOAL`` lines (``benchmarks/_timing.goal_line``), each against a reference measured in
 the same run, interleaved:
 
@@ -144,7 +144,7 @@ def main(argv: list[str] | None = None) -> int:
         Y_big = fs.y[rng.integers(0, fs.n_windows, n_batch)]
         t_batch = median_time(lambda: pipe.predict(U_big, Y_big, mode="one_step"), 5)
 
-        # issue 14 goals, each with its reference interleaved in the same run
+        # speed goals, each with its reference interleaved in the same run
         train_goal = interleaved_medians({
             "doubling": lambda: make_estimator("ss_kf", order=4).fit(X_id, y_id),
             "scipy": lambda: make_estimator("ss_kf", order=4,
@@ -172,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
           f"{t_dare['scipy'] * 1e3:.3f} ms, control.dlqe {t_dare['control'] * 1e3:.3f} ms")
     print(f"streaming step per-chunk spread: p10 {np.percentile(per_update, 10) * 1e6:.3f} us, "
           f"p90 {np.percentile(per_update, 90) * 1e6:.3f} us")
-    print(f"\nissue 14 goals (BLAS 1 thread; load average {os.getloadavg()[0]:.2f} on "
+    print(f"\nspeed goals (BLAS 1 thread; load average {os.getloadavg()[0]:.2f} on "
           f"{os.cpu_count()} cores; medians, candidates interleaved):")
     goal_line("SS + KF training <= 0.5 ms", train_goal["doubling"] * 1e3, "ms", limit=0.5,
               better="lower",

@@ -4,7 +4,7 @@ Run: ``.venv/bin/python benchmarks/bench_features.py``
 
 Measures both on the same 10-minute, 8-channel, 200 Hz int8 recording (400 ms
 windows every 125 ms), checks the outputs are identical, and prints the ratio.
-Goal (issue 2): ratio >= 1000.
+Goal: ratio >= 1000.
 """
 
 from __future__ import annotations

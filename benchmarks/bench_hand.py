@@ -8,7 +8,7 @@ same number of physics substeps per control period:
   calls ``mj_step`` at every substep, as ``GraspEnv.step`` does);
 
 the environment's overhead (contact reading, outcomes, reward, observation,
-info) must stay within 10 % of raw stepping (issue 14). Then a whole
+info) must stay within 10 % of raw stepping. Then a whole
 closed-loop episode (scheduled PI of ``controllers.design.design_for_object``
 + ``GraspEnv``, the episode runner's loop) is timed against the physics alone
 (the recorded commands and wrist path replayed with raw ``mj_step`` from the same
@@ -250,7 +250,7 @@ def closed_loop_factor(obj_name: str, episode_s: float, repeats: int) -> tuple[f
 
 PHYSICS_OPTIONS = {
     "used (noslip 5, ccd_tolerance 1e-6, multiccd on)": {},
-    "ccd_tolerance 1e-9 (used before issue 14)": {"ccd_tolerance": 1e-9},
+    "ccd_tolerance 1e-9 (used before the physics evaluation)": {"ccd_tolerance": 1e-9},
     "noslip_iterations 0": {"noslip_iterations": 0},
     "multiccd off": {"multiccd": False},
     "noslip 0 and multiccd off": {"noslip_iterations": 0, "multiccd": False},

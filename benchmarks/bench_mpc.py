@@ -1,6 +1,6 @@
 """MPC step time at horizon 20 on QPs recorded from a MuJoCo grasp: daqp against osqp and proxqp.
 
-Goals (issue 14): MPC step median <= 0.05 ms and p99 <= 0.5 ms, the reference
+Goals: MPC step median <= 0.05 ms and p99 <= 0.5 ms, the reference
 being osqp through ``casadi.conic`` measured in the same run.
 
 1. Record. A scheduled MPC (the library design for a 0.3 kg can at friction 0.5,

@@ -1,6 +1,6 @@
 """Sweep speed and memory on real episodes: 1 vs 2 workers, against main's executor.
 
-Goals (griploop issue 14):
+Goals:
 
 1. scaling from 1 to 2 workers >= 1.8x on the same sweep (wall time of
    :func:`scenarios.execution.sweep.run_sweep`, the driver's whole job);
@@ -16,7 +16,7 @@ The sweep is ``scenarios/library/demo.yaml`` (54 closed-loop episodes: can over
 mass x friction, PID / lead-lag / MPC, oracle and free-run MLP reference), or
 its first ``--scenarios`` scenarios.
 
-**Main's executor, the reference.** Before issue 14, a sweep of more than one
+**Main's executor, the reference.** Before the forked workers, a sweep of more than one
 worker started a dask ``LocalCluster`` (one process per worker plus a nanny
 each and a scheduler), each worker imported griploop itself and forked its
 sandbox from there, and every worker designed every controller it met (only

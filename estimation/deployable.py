@@ -32,17 +32,13 @@ whose ``a`` is chosen on the validation split (``a = 0`` is no smoothing).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
+from sklearn.ensemble import HistGradientBoostingRegressor
 
 from estimation.base import ForceEstimator
 from estimation.errors import EstimationInputError, check_features, check_mode, check_target
 from estimation.normalize import MinMaxScaling
 from sim.errors import GriploopError
-
-if TYPE_CHECKING:
-    from sklearn.ensemble import HistGradientBoostingRegressor
 
 
 class StreamingRateError(GriploopError, ValueError):
@@ -299,8 +295,6 @@ class BoostedLogRidge(LogRidge):
         self.random_state = random_state
 
     def _hgb(self, n_trees: int) -> HistGradientBoostingRegressor:
-        from sklearn.ensemble import HistGradientBoostingRegressor  # heavy: imported on use
-
         seed = int(np.random.default_rng(self.random_state).integers(0, 2**31 - 1)) \
             if not isinstance(self.random_state, int) else self.random_state
         return HistGradientBoostingRegressor(

@@ -6,10 +6,18 @@ data) and follow :class:`estimation.state_space.SSEstimator`'s interface:
 and a class attribute ``modes``.
 """
 
-from estimation.baselines.lda_qpf import LDAQPF
-from estimation.baselines.mlp import MLPBaseline
-from estimation.baselines.narx import NARXBaseline
-from estimation.baselines.persistence import Persistence
-from estimation.baselines.single_feature import SingleFeatureLinear
+#: Public names, imported on first use: using one baseline does not import the
+#: others (the MLP and LDA modules import scikit-learn's networks and discriminants).
+_LAZY = {"LDAQPF": "estimation.baselines.lda_qpf", "MLPBaseline": "estimation.baselines.mlp",
+         "NARXBaseline": "estimation.baselines.narx",
+         "Persistence": "estimation.baselines.persistence",
+         "SingleFeatureLinear": "estimation.baselines.single_feature"}
+__all__ = sorted(_LAZY)
 
-__all__ = ["LDAQPF", "MLPBaseline", "NARXBaseline", "Persistence", "SingleFeatureLinear"]
+
+def __getattr__(name: str) -> object:
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -15,6 +15,7 @@ squeeze lies in the validation half.
 from __future__ import annotations
 
 import numpy as np
+from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
 
 from estimation.base import ForceEstimator
 from estimation.errors import ConstantInputError, check_features, check_mode, check_target
@@ -59,8 +60,6 @@ class LDAQPF(ForceEstimator):
                             self.n_levels - 1)
         if np.unique(levels).size < 2:
             raise ConstantInputError("fewer than 2 force levels populated; LDA needs 2 classes")
-        from sklearn.discriminant_analysis import LinearDiscriminantAnalysis  # heavy: on use
-
         self.lda_ = LinearDiscriminantAnalysis(n_components=1, solver="svd").fit(U, levels)
         self.projection_ = self.lda_.scalings_[:, 0].copy()
         z = self._project(U)

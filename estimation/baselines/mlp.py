@@ -13,20 +13,17 @@ training loss. ``n_epochs_`` records the real count.
 from __future__ import annotations
 
 import warnings
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.special import expit
 from sklearn.exceptions import ConvergenceWarning
+from sklearn.neural_network import MLPRegressor
 
 from estimation.base import ForceEstimator
 from estimation.deployable import check_period
 from estimation.errors import check_features, check_mode, check_target
 from estimation.normalize import MinMaxScaling
 from estimation.streaming import scaled
-
-if TYPE_CHECKING:
-    from sklearn.neural_network import MLPRegressor
 
 
 def seed_from(rng: np.random.Generator | int | None) -> int:
@@ -39,8 +36,6 @@ def make_mlp(hidden: int, *, max_epochs: int, learning_rate: float, rho: float, 
              validation_fraction: float = 0.2, alpha: float = 1e-4,
              batch_size: int = 1) -> MLPRegressor:
     """The paper's network as an unfitted :class:`~sklearn.neural_network.MLPRegressor`."""
-    from sklearn.neural_network import MLPRegressor  # heavy: imported when a network is made
-
     return MLPRegressor(
         hidden_layer_sizes=(hidden,), activation="logistic", solver="adam",
         beta_1=0.0, beta_2=rho, learning_rate_init=learning_rate, batch_size=batch_size,
