@@ -6,7 +6,11 @@ faceted outcome grids, loop designs;
 :mod:`~scenarios.report.figures` draws PNGs in memory (every text at 9 pt or more),
 :mod:`~scenarios.report.html` renders the Jinja2 templates of ``templates/``
 (autoescaped), and
-:mod:`~scenarios.report.build` puts the sections together.
+:mod:`~scenarios.report.build` puts the sections together; the sections themselves are
+registered in :mod:`~scenarios.report.sections` (one builder per section, in page order).
+
+May import: :mod:`scenarios.store`, :mod:`scenarios.schema`, :mod:`controllers` (loop
+figures), matplotlib and Jinja2.
 """
 
 from scenarios.report.build import ReportResult, build_report
