@@ -10,8 +10,8 @@ crossover) with a ``report_``. Controller kinds are named in
 schedules it, :mod:`controllers.analysis` and :mod:`controllers.measure` give
 its margins, predicted and measured.
 
-May import: numpy, scipy, python-control, DAQP and CasADi (the MPC's QP), matplotlib (figures), and
-:mod:`sim` (the hand, for plants and loop measurement; :mod:`sim.errors`,
+May import: numpy, scipy, python-control, DAQP and CasADi (the MPC's QP), matplotlib
+(figures), and :mod:`sim` (the hand, for plants and loop measurement; :mod:`sim.errors`,
 :mod:`sim.registry`). Never :mod:`estimation` or :mod:`scenarios`.
 
 The public names below are imported on first use, so that ``import
