@@ -19,6 +19,8 @@ controllers.registry`` (listing the controller kinds) does not import
 python-control.
 """
 
+from sim.lazy import lazy_exports
+
 #: Public names, imported on first use: ``name -> module``.
 _LAZY = {
     "LoopMargins": "controllers.analysis", "loop_margins": "controllers.analysis",
@@ -45,9 +47,4 @@ _LAZY = {
 __all__ = sorted(_LAZY)
 
 
-def __getattr__(name: str):
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'controllers' has no attribute {name!r}")
+__getattr__ = lazy_exports(__name__, _LAZY)

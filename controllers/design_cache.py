@@ -35,12 +35,12 @@ from __future__ import annotations
 
 import copyreg
 import dataclasses
+import functools
 import hashlib
 import io
 import json
 import os
 import pickle
-import tempfile
 from collections.abc import Callable, Mapping
 from importlib import metadata, resources
 from pathlib import Path
@@ -71,8 +71,10 @@ def cache_dir() -> Path | None:
     return None if plants is None else plants.parent / "designs"
 
 
-def _source_digest() -> str:
-    h = hashlib.sha256(plant_cache._source_digest().encode())
+@functools.cache
+def source_digest() -> str:
+    """SHA-256 of the plant cache's sources, the design modules and the versions (once)."""
+    h = hashlib.sha256(plant_cache.source_digest().encode())
     for package, name in _SOURCES:
         h.update(resources.files(package).joinpath(name).read_bytes())
     for dist in ("griploop", "control"):
@@ -104,7 +106,7 @@ def design_key(obj: ObjectSpec, kind: str, control_dt_s: float, spec: Mapping[st
     payload = json.dumps({"format": FORMAT, "object": dataclasses.asdict(obj), "kind": kind,
                           "dt": float(control_dt_s), "spec": dict(spec),
                           "forces": [float(f) for f in forces_n],
-                          "source": _source_digest()}, sort_keys=True, default=str)
+                          "source": source_digest()}, sort_keys=True, default=str)
     return hashlib.sha256(payload.encode()).hexdigest()[:32]
 
 
@@ -165,18 +167,6 @@ def loads(data: bytes, key: str) -> Any:
     return pickle.loads(payload)
 
 
-def _write(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _read(path: Path, key: str) -> Any:
     """The value stored at ``path``, or None when missing, corrupted or foreign."""
     try:
@@ -199,7 +189,7 @@ class _WrittenThrough(dict):
         stored = _read(self._path, self._key)  # another process may have added some
         merged = {**(stored if isinstance(stored, dict) else {}), **self}
         try:
-            _write(self._path, dumps(merged, self._key))
+            plant_cache.write_atomic(self._path, dumps(merged, self._key))
         except (OSError, pickle.PicklingError, TypeError, AttributeError):
             pass  # not cached: the analysis is still returned
 
@@ -238,7 +228,7 @@ def cached_design(obj: ObjectSpec, kind: str, control_dt_s: float, spec: Mapping
     else:
         design = build()
         try:
-            _write(design_path, dumps(design, key))
+            plant_cache.write_atomic(design_path, dumps(design, key))
             source = "built"
         except (OSError, pickle.PicklingError, TypeError, AttributeError):
             source = "built (cache not writable)"

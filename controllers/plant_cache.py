@@ -19,7 +19,9 @@ skipped (the family is still returned).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
+import io
 import json
 import os
 import tempfile
@@ -50,7 +52,12 @@ def cache_dir() -> Path | None:
     return base / "plants"
 
 
-def _source_digest() -> str:
+@functools.cache
+def source_digest() -> str:
+    """SHA-256 of the modules that produce a family and the griploop version.
+
+    Computed once per process: the source files do not change while it runs.
+    """
     h = hashlib.sha256()
     for package, name in _SOURCES:
         h.update(resources.files(package).joinpath(name).read_bytes())
@@ -65,7 +72,7 @@ def family_key(obj: ObjectSpec, control_dt_s: float, forces_n: tuple[float, ...]
     """Hex digest naming a family: object, period, grid, version and source."""
     payload = json.dumps({"format": FORMAT, "object": dataclasses.asdict(obj),
                           "dt": float(control_dt_s), "forces": [float(f) for f in forces_n],
-                          "source": _source_digest()}, sort_keys=True, default=str)
+                          "source": source_digest()}, sort_keys=True, default=str)
     return hashlib.sha256(payload.encode()).hexdigest()[:32]
 
 
@@ -86,11 +93,22 @@ def save_family(family: PlantFamily, path: Path) -> None:
     meta = {"format": FORMAT, "control_dt_s": family.control_dt_s,
             "build_s": family.build_s, "points": points}
     arrays["meta"] = np.array(json.dumps(meta, default=float))
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    write_atomic(path, buffer.getvalue())
+
+
+def write_atomic(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file renamed into place.
+
+    Concurrent readers (other sweep workers) see the old file or the new one,
+    never half of one. Creates the directory if needed.
+    """
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".npz")
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
     try:
         with os.fdopen(fd, "wb") as f:
-            np.savez(f, **arrays)
+            f.write(data)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -16,6 +16,8 @@ The public names below are imported on first use, so that ``import
 estimation.registry`` (listing the estimator names) does not import scikit-learn.
 """
 
+from sim.lazy import lazy_exports
+
 #: Public names, imported on first use: ``name -> module``.
 _LAZY = {
     "FEATURES": "estimation.features", "PAPER_CHANNELS": "estimation.features",
@@ -41,9 +43,4 @@ _LAZY = {
 __all__ = sorted(_LAZY)
 
 
-def __getattr__(name: str):
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'estimation' has no attribute {name!r}")
+__getattr__ = lazy_exports(__name__, _LAZY)

@@ -38,6 +38,8 @@ def _choose_headless_gl(environ=None, platform: str = _sys.platform) -> None:
 
 _choose_headless_gl()
 
+from sim.lazy import lazy_exports  # noqa: E402
+
 #: Public names, imported on first use so that ``import sim`` (and
 #: :class:`sim.errors.GriploopError`) stays light: ``name -> module``.
 _LAZY = {
@@ -51,9 +53,4 @@ _LAZY = {
 __all__ = sorted(_LAZY)
 
 
-def __getattr__(name: str):
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'sim' has no attribute {name!r}")
+__getattr__ = lazy_exports(__name__, _LAZY)

@@ -6,6 +6,8 @@ data) and follow :class:`estimation.state_space.SSEstimator`'s interface:
 and a class attribute ``modes``.
 """
 
+from sim.lazy import lazy_exports
+
 #: Public names, imported on first use: using one baseline does not import the
 #: others (the MLP and LDA modules import scikit-learn's networks and discriminants).
 _LAZY = {"LDAQPF": "estimation.baselines.lda_qpf", "MLPBaseline": "estimation.baselines.mlp",
@@ -15,9 +17,4 @@ _LAZY = {"LDAQPF": "estimation.baselines.lda_qpf", "MLPBaseline": "estimation.ba
 __all__ = sorted(_LAZY)
 
 
-def __getattr__(name: str) -> object:
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_exports(__name__, _LAZY)

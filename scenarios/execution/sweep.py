@@ -241,29 +241,19 @@ def _one_line(exc: BaseException) -> str:
 
 
 def _lost(p: PlannedScenario, exc: BaseException) -> Outcome:
-    now = time.time()
-    return Outcome(
-        hash=p.hash,
-        status="failed",
-        result={},
-        traces=None,
-        error=f"worker lost: {_one_line(exc)}",
-        traceback="".join(traceback.format_exception(exc)),
-        started_at=now,
-        finished_at=now,
-        duration_s=0.0,
-        worker="",
-    )
+    return _failed(p.hash, f"worker lost: {_one_line(exc)}", time.time(), 0.0, "",
+                   trace_text="".join(traceback.format_exception(exc)))
 
 
-def _failed(hash_: str, error: str, started: float, duration: float, worker: str) -> Outcome:
+def _failed(hash_: str, error: str, started: float, duration: float, worker: str, *,
+            trace_text: str | None = None) -> Outcome:
     return Outcome(
         hash=hash_,
         status="failed",
         result={},
         traces=None,
         error=error,
-        traceback=None,
+        traceback=trace_text,
         started_at=started,
         finished_at=started + duration,
         duration_s=duration,

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sim.errors import GriploopError
-from sim.registry import Registry, UnresolvableEntryError, import_reference
+from sim.registry import RegistrationError, Registry, UnresolvableEntryError, import_reference
 
 if TYPE_CHECKING:
     from estimation.features import FeatureSet
@@ -78,8 +78,6 @@ def register_kind(kind: str, runner: Runner | str | None = None, *,
     sim.registry.RegistrationError
         Malformed runner reference, or kind already registered (a ``ValueError``).
     """
-    if isinstance(runner, str) and runner.count(":") != 1:
-        raise ValueError(f"runner reference must be 'package.module:function' (found {runner!r})")
     _KINDS.register(kind, None, replace=replace, protocols=tuple(protocols))
     if runner is not None:
         register_runner(kind, runner, replace=True)
@@ -122,15 +120,18 @@ def register_runner(kind: str, runner: Runner | str, *, replace: bool = False) -
 
     Raises
     ------
-    ValueError
-        Unknown kind, malformed reference, or kind already registered.
+    sim.registry.RegistrationError
+        Unknown kind, malformed reference, or kind already registered (a ``ValueError``).
     """
     if kind not in _KINDS:
-        raise ValueError(f"scenario kind must be one of {scenario_kinds()} (found {kind!r})")
+        raise RegistrationError(
+            f"scenario kind must be one of {scenario_kinds()} (found {kind!r})")
     if isinstance(runner, str) and runner.count(":") != 1:
-        raise ValueError(f"runner reference must be 'package.module:function' (found {runner!r})")
+        raise RegistrationError(
+            f"runner reference must be 'package.module:function' (found {runner!r})")
     if kind in _REGISTRY and not replace:
-        raise ValueError(f"a runner for kind {kind!r} is already registered ({_REGISTRY[kind]!r})")
+        raise RegistrationError(
+            f"a runner for kind {kind!r} is already registered ({_REGISTRY[kind]!r})")
     _REGISTRY[kind] = runner
 
 
