@@ -49,6 +49,7 @@ from typing import Any
 import control
 
 from controllers import plant_cache
+from sim.cache import write_atomic
 from sim.hand.objects import ObjectSpec
 
 FORMAT = 1
@@ -189,7 +190,7 @@ class _WrittenThrough(dict):
         stored = _read(self._path, self._key)  # another process may have added some
         merged = {**(stored if isinstance(stored, dict) else {}), **self}
         try:
-            plant_cache.write_atomic(self._path, dumps(merged, self._key))
+            write_atomic(self._path, dumps(merged, self._key))
         except (OSError, pickle.PicklingError, TypeError, AttributeError):
             pass  # not cached: the analysis is still returned
 
@@ -228,7 +229,7 @@ def cached_design(obj: ObjectSpec, kind: str, control_dt_s: float, spec: Mapping
     else:
         design = build()
         try:
-            plant_cache.write_atomic(design_path, dumps(design, key))
+            write_atomic(design_path, dumps(design, key))
             source = "built"
         except (OSError, pickle.PicklingError, TypeError, AttributeError):
             source = "built (cache not writable)"

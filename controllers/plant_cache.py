@@ -23,8 +23,6 @@ import functools
 import hashlib
 import io
 import json
-import os
-import tempfile
 from importlib import metadata, resources
 from pathlib import Path
 
@@ -33,6 +31,7 @@ import numpy as np
 
 from controllers.design_plant import DesignPlant, OperatingPoint, PlantFamily
 from controllers.errors import PlantError
+from sim.cache import cache_subdir, write_atomic
 from sim.hand.objects import ObjectSpec
 
 FORMAT = 1
@@ -45,11 +44,7 @@ _SOURCES = (("sim.hand", "model.py"), ("sim.hand", "grasp_env.py"), ("sim.hand",
 
 def cache_dir() -> Path | None:
     """The plant cache directory, or None when disabled (``GRIPLOOP_CACHE_DIR=off``)."""
-    root = os.environ.get("GRIPLOOP_CACHE_DIR", "")
-    if root.lower() in ("off", "0", "none"):
-        return None
-    base = Path(root) if root else Path.home() / ".cache" / "griploop"
-    return base / "plants"
+    return cache_subdir("plants")
 
 
 @functools.cache
@@ -96,23 +91,6 @@ def save_family(family: PlantFamily, path: Path) -> None:
     buffer = io.BytesIO()
     np.savez(buffer, **arrays)
     write_atomic(path, buffer.getvalue())
-
-
-def write_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file renamed into place.
-
-    Concurrent readers (other sweep workers) see the old file or the new one,
-    never half of one. Creates the directory if needed.
-    """
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def load_family(path: Path, obj: ObjectSpec) -> PlantFamily:

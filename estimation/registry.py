@@ -14,6 +14,7 @@ features_mav  linear fit of the MAV columns (both, no force); also _rms, _wl
 ridge         ridge on sqrt-compressed features, lags, smoother chosen on validation (deployable)
 gbt           ridge plus boosted trees on its residuals (deployable)
 ss_sim        paper SS structure refined on the free-run simulation error (free_run)
+transfer_mlp  MLP ensemble pretrained on virtual subjects, fine-tuned on the person (deployable)
 ============  ==============================================================
 
 Every estimator is a scikit-learn regressor (:class:`estimation.base.ForceEstimator`):
@@ -210,3 +211,5 @@ register_estimator("gbt", "estimation.deployable:BoostedLogRidge", takes_seed=Tr
                    takes_dt=True, deployable=True, label="GBT")
 register_estimator("ss_sim", "estimation.ss_sim:SimulationErrorSS", modes=("free_run",),
                    takes_dt=True, deployable=True, label="SS_SIM")
+register_estimator("transfer_mlp", "estimation.transfer:TransferMLP", takes_seed=True,
+                   takes_dt=True, deployable=True, label="TRANSFER")

@@ -28,6 +28,9 @@ from estimation.evaluation import aggregate, evaluate_subject, split_index
 from estimation.features import PAPER_CHANNELS, extract_features
 from estimation.order import select_order
 from estimation.paper import PAPER_ORDER, SECTION_4_2, TABLE2_SUMMARY, TABLE3
+from estimation.real_recordings import SOURCE as REAL_SOURCE
+from estimation.real_recordings import real_free_run, transfer_agreement
+from estimation.recommendation import recommend
 from estimation.registry import (
     deployable_estimators,
     estimator_info,
@@ -229,6 +232,8 @@ def _run(make_population: object, n_subjects: int, seed: int, generator: str, or
     result["nn_epochs"] = {name: [s[name]["info"].get("n_epochs") for s in per_subject]
                            for name in estimators if estimator_info(name)["neural"]}
     result["training"] = training
+    result["recommendation"] = recommendation(result)
+    result["transfer"] = transfer_table(result)
     return to_jsonable(result)
 
 
@@ -365,33 +370,68 @@ def format_table3(result: dict) -> str:
     return "\n".join(lines)
 
 
-def recommendation(result: dict) -> str:
-    """One sentence: which estimator a deployed prosthesis should use, and why."""
+def free_run_summary(result: dict) -> dict[str, dict]:
+    """``{name: {"r2_mean", "r2_min", "n_ok", "n"}}`` of every estimator with a free_run mode."""
     est = result["estimators"]
-    free = {n: est[n]["free_run"] for n in est if "free_run" in est[n]
-            and est[n]["free_run"]["r2_mean"] is not None
-            and est[n]["free_run"]["n_ok"] == len(est[n]["free_run"]["per_subject"])}
-    if not free:
-        return "No estimator ran in free_run on every subject; none can be recommended."
-    best = max(free, key=lambda n: free[n]["r2_mean"])
-    b = free[best]
-    ref = est.get("ss_kf", {}).get("one_step", {}).get("r2_mean")
-    ss_free = est.get("ss_kf", {}).get("free_run", {}).get("r2_mean")
-    label = estimator_label(best)
+    return {n: {"r2_mean": est[n]["free_run"]["r2_mean"], "r2_min": est[n]["free_run"]["r2_min"],
+                "n_ok": est[n]["free_run"]["n_ok"], "n": len(est[n]["free_run"]["per_subject"])}
+            for n in est if "free_run" in est[n]}
+
+
+def recommendation(result: dict) -> dict | None:
+    """The JSON contract's ``recommendation`` (:func:`estimation.recommendation.recommend`)."""
     channels = result.get("config", {}).get("channels", result.get("recording", {}).get(
         "channels"))
-    on = "" if channels is None else (
-        " on all channels" if channels == "all" else f" on channels {','.join(channels)}")
-    text = (f"A deployed prosthesis has no force sensor, so it should use {label} in free_run"
-            f"{on}: it has the best sEMG-only mean R2 ({b['r2_mean']:.3f}, worst subject "
-            f"{b['r2_min']:.3f})")
-    if ref is not None:
-        verdict = "above" if b["r2_mean"] >= ref else "below"
-        text += (f", {verdict} the paper's SS_KF one_step figure ({ref:.3f}), which needs the "
-                 "measured force at k-1 and cannot run on an amputee")
-    if ss_free is not None:
-        text += f"; the paper's SS_KF itself scores {ss_free:.3f} in free_run"
-    return text + "."
+    ref = result["estimators"].get("ss_kf", {}).get("one_step", {}).get("r2_mean")
+    return recommend(free_run_summary(result), channels=channels, one_step_reference=ref)
+
+
+def transfer_table(result: dict) -> dict | None:
+    """Virtual next to real per estimator (free_run), with the agreement of issue 18.
+
+    Only for all 8 channels, the real recordings' setting; None otherwise.
+    """
+    if result.get("config", {}).get("channels") != "all":
+        return None
+    summary = free_run_summary(result)
+    agreement = transfer_agreement({n: e["r2_mean"] for n, e in summary.items()})
+    rows = []
+    for n in summary:
+        real = real_free_run(n)
+        rows.append({"estimator": n, "virtual_mean": summary[n]["r2_mean"],
+                     "virtual_min": summary[n]["r2_min"],
+                     "real_mean": None if real is None else real["r2_mean"],
+                     "real_min": None if real is None else real["r2_min"]})
+    rows.sort(key=lambda r: -(r["real_mean"] if r["real_mean"] is not None else -9.0))
+    return {"source": REAL_SOURCE, "rows": rows, "agreement": agreement}
+
+
+def format_transfer(result: dict) -> str:
+    """The virtual-vs-real table and the agreement line (empty without ``transfer``)."""
+    tr = result.get("transfer")
+    if not tr:
+        return ""
+    lines = ["Virtual subjects next to real people (free_run, all 8 channels; real: "
+             f"{tr['source']})",
+             f"  {'estimator':13s}{'virtual mean':>13s}{'(worst)':>9s}{'real mean':>11s}"
+             f"{'(worst)':>9s}{'difference':>12s}"]
+    for r in tr["rows"]:
+        real, vm = r["real_mean"], r["virtual_mean"]
+        diff = None if real is None or vm is None else vm - real
+        lines.append(f"  {r['estimator']:13s}{_fmt(vm, 13, 3)}{_fmt(r['virtual_min'], 9, 2)}"
+                     f"{_fmt(real, 11, 3)}{_fmt(r['real_min'], 9, 2)}"
+                     f"{'' if diff is None else f'{diff:+12.3f}'}")
+    a = tr["agreement"]
+    if a["spearman"] is None:
+        lines.append(f"  agreement: fewer than 3 estimators reach {a['floor']} on either side")
+    else:
+        lines.append(
+            f"  agreement over the {a['n']} estimators reaching R2 {a['floor']} on either side: "
+            f"Spearman {a['spearman']:.2f} (goal >= {a['thresholds']['spearman']}), mean "
+            f"|virtual - real| {a['mean_abs_diff']:.3f} (<= {a['thresholds']['mean_abs_diff']}),"
+            f" largest {a['max_abs_diff']:.3f} for {a['worst']} "
+            f"(<= {a['thresholds']['max_abs_diff']})")
+    return "\n".join(lines)
 
 
 def format_deployable(result: dict) -> str:
@@ -416,7 +456,9 @@ def format_deployable(result: dict) -> str:
                          f"(min {_fmt(e.get('r2_min'), 6, 3)}; needs the measured force)")
     lines.append("  (* built for deployment: all settings chosen on a validation split of the "
                  "identification half)")
-    lines.append(recommendation(result))
+    rec = result.get("recommendation") or recommendation(result)
+    lines.append(rec["reason"] if rec else "No estimator ran in free_run on every subject; "
+                 "none can be recommended.")
     return "\n".join(lines)
 
 
@@ -427,6 +469,8 @@ def format_report(result: dict) -> str:
         parts += [format_table2(result, mode), format_others(result, mode)]
     parts.append(format_table3(result))
     parts.append(format_deployable(result))
+    if result.get("transfer"):
+        parts.append(format_transfer(result))
     sel = result.get("order_selection", {})
     if sel.get("chosen_orders"):
         parts.append(f"AIC order per subject (1..12): {sel['chosen_orders']}; tables use "

@@ -70,5 +70,6 @@ def calibration_session(subject: VirtualSubject, rng: np.random.Generator, *,
         MAV, RMS and WL of the paper's channels, ``X`` shape (n_windows, 9), ``y`` in N.
     """
     profile = calibration_profile(rng, fs_hz=CALIBRATION_FS_HZ, min_duration_s=min_duration_s)
-    recording = subject.record(profile, generator=generator, fs_hz=CALIBRATION_FS_HZ, rng=rng)
+    recording = subject.record(profile, generator=generator, fs_hz=CALIBRATION_FS_HZ, rng=rng,
+                               rig=True)
     return recording, extract_features(recording, channels=PAPER_CHANNELS)

@@ -23,9 +23,14 @@ import numpy as np
 from scipy import signal
 
 from sim.errors import GriploopError
+from sim.user.muscles import slow_fluctuation
 
 N_CHANNELS = 8
 INT8_MIN, INT8_MAX = -128, 127
+_DRIFT_SHARED = 0.7  # share of the noise-floor drift common to every electrode
+_ARTIFACT_S = (0.02, 0.12)  # burst duration, s
+_ARTIFACT_LSB = (40.0, 160.0)  # burst amplitude, counts
+_ARTIFACT_SPREAD = 0.3  # weight of a burst on the neighbouring electrodes
 
 
 class ArmbandError(GriploopError, ValueError):
@@ -138,6 +143,15 @@ class Armband:
         Electrode-skin contact gain per channel (multiplies that channel).
     front_end : FrontEnd
         Analog band-limiting before the ADC.
+    noise_drift_std : float
+        Log-SD of a slow drift of the noise floor (dry electrode-skin impedance changing
+        with sweat and pressure): the noise std is multiplied by ``exp(z(t))``, ``z`` an
+        Ornstein-Uhlenbeck process, 70 % shared by all channels. 0 = stationary noise.
+    noise_drift_time_s : float
+        Correlation time of that drift, seconds.
+    artifact_rate_hz : float
+        Rate of contact artifacts: bursts of 20-120 ms, 40-160 counts, on one electrode
+        (30 % on its neighbours) when a dry electrode briefly loses contact. 0 = none.
     """
 
     crosstalk_length: float = 0.55
@@ -146,12 +160,21 @@ class Armband:
     extra_noise_lsb: float = 0.0
     channel_gain: tuple[float, ...] = (1.0,) * N_CHANNELS
     front_end: FrontEnd = field(default_factory=FrontEnd)
+    noise_drift_std: float = 0.0
+    noise_drift_time_s: float = 10.0
+    artifact_rate_hz: float = 0.0
 
     def __post_init__(self) -> None:
         if self.crosstalk_length <= 0 or self.noise_lsb < 0 or self.extra_noise_lsb < 0:
             raise ArmbandError(
                 "Armband: expected crosstalk_length > 0 and noise levels >= 0, found "
                 f"{self.crosstalk_length}, {self.noise_lsb}, {self.extra_noise_lsb}"
+            )
+        if self.noise_drift_std < 0 or self.noise_drift_time_s <= 0 or self.artifact_rate_hz < 0:
+            raise ArmbandError(
+                "Armband: expected noise_drift_std >= 0, noise_drift_time_s > 0 and "
+                f"artifact_rate_hz >= 0, found {self.noise_drift_std}, "
+                f"{self.noise_drift_time_s}, {self.artifact_rate_hz}"
             )
         if len(self.channel_gain) != N_CHANNELS:
             raise ArmbandError(
@@ -176,8 +199,37 @@ class Armband:
         pos = np.arange(N_CHANNELS) + self.electrode_shift
         return [int(np.mod(np.rint(p), N_CHANNELS)) for p in pos]
 
+    def noise_std_lsb(self, n_samples: int, fs_hz: float,
+                      rng: np.random.Generator) -> np.ndarray | float:
+        """Additive noise std in counts: a constant, or shape (n_samples, n_channels) with drift."""
+        if self.noise_drift_std == 0:
+            return self.total_noise_lsb
+        common = slow_fluctuation(n_samples, fs_hz, np.array([1.0]), self.noise_drift_time_s, rng)
+        own = slow_fluctuation(n_samples, fs_hz, np.ones(N_CHANNELS), self.noise_drift_time_s,
+                               rng)
+        z = self.noise_drift_std * (np.sqrt(_DRIFT_SHARED) * common
+                                    + np.sqrt(1.0 - _DRIFT_SHARED) * own)
+        return self.total_noise_lsb * np.exp(z - 0.5 * self.noise_drift_std ** 2)
+
+    def artifacts_lsb(self, n_samples: int, fs_hz: float,
+                      rng: np.random.Generator) -> np.ndarray | None:
+        """Contact-artifact bursts in counts, shape (n_samples, n_channels), or None."""
+        if self.artifact_rate_hz == 0:
+            return None
+        out = np.zeros((n_samples, N_CHANNELS))
+        for _ in range(int(rng.poisson(self.artifact_rate_hz * n_samples / fs_hz))):
+            start = int(rng.integers(0, n_samples))
+            length = max(2, int(rng.uniform(*_ARTIFACT_S) * fs_hz))
+            burst = rng.uniform(*_ARTIFACT_LSB) * rng.standard_normal(length) * np.hanning(length)
+            burst = burst[: n_samples - start]
+            ch = int(rng.integers(0, N_CHANNELS))
+            for c, weight in ((ch, 1.0), ((ch + 1) % N_CHANNELS, _ARTIFACT_SPREAD),
+                              ((ch - 1) % N_CHANNELS, _ARTIFACT_SPREAD)):
+                out[start:start + burst.size, c] += weight * burst
+        return out
+
     def digitize(
-        self, muscle_emg_lsb: np.ndarray, rng: np.random.Generator
+        self, muscle_emg_lsb: np.ndarray, rng: np.random.Generator, *, fs_hz: float = 200.0
     ) -> tuple[np.ndarray, int]:
         """Mix muscle signals onto the electrodes, add noise and quantize to int8.
 
@@ -187,6 +239,8 @@ class Armband:
             Each muscle's sEMG after the front end, at the ADC rate, in counts
             as an electrode directly above it would see it.
         rng : numpy.random.Generator
+        fs_hz : float
+            ADC rate in hertz (time scale of the noise drift and the artifacts).
 
         Returns
         -------
@@ -196,7 +250,10 @@ class Armband:
         """
         s = np.asarray(muscle_emg_lsb, dtype=float)
         x = s @ self.mixing_matrix(s.shape[1]).T
-        x += self.total_noise_lsb * rng.standard_normal(x.shape)
+        x += self.noise_std_lsb(x.shape[0], fs_hz, rng) * rng.standard_normal(x.shape)
+        bursts = self.artifacts_lsb(x.shape[0], fs_hz, rng)
+        if bursts is not None:
+            x += bursts
         q = np.rint(x)
         n_sat = int(np.count_nonzero((q < INT8_MIN) | (q > INT8_MAX)))
         return np.clip(q, INT8_MIN, INT8_MAX).astype(np.int8), n_sat

@@ -116,6 +116,31 @@ def shaped_noise(
     return scipy.fft.irfft(spectrum, n=n_fft, axis=0)[:n_samples]
 
 
+def laplace_mixture(shape: tuple[int, ...], mix: float, rng: np.random.Generator) -> np.ndarray:
+    """Unit-power scale factors that turn unit Gaussian noise towards a Laplacian.
+
+    ``sqrt((1 - mix) + mix w) / c`` with ``w`` exponential of mean 1, independent per
+    sample: a Gaussian times it is a Gaussian scale mixture whose marginal is Gaussian at
+    ``mix = 0`` and Laplacian at ``mix = 1`` (variance kept at 1, ``c = 1``). Independent
+    factors leave the autocorrelation at lags > 0 scaled by ``E[s]^2`` and add a white
+    part, which flattens the folded sEMG spectrum slightly.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        Shape of the noise to scale.
+    mix : float
+        0..1.
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    ndarray
+        Factors of mean square 1, shape ``shape``.
+    """
+    return np.sqrt((1.0 - mix) + mix * rng.exponential(1.0, shape))
+
+
 @dataclass(frozen=True)
 class NoiseEmgGenerator:
     """Amplitude-modulated noise sEMG with activation-dynamics force.
@@ -168,6 +193,8 @@ class NoiseEmgGenerator:
             sigma = sigma * amp[:, None]
         else:
             noise = shaped_noise(n, fs_hz, width_s, front_end, rng)
+        if muscles.carrier_laplace > 0:
+            noise *= laplace_mixture(noise.shape, muscles.carrier_laplace, rng)
         force = muscle_force(e, fs_hz, muscles.array("activation_cutoff_hz"),
                              muscles.array("emd_s"))
         noise *= sigma

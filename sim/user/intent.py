@@ -5,9 +5,9 @@ cues the subject followed. Profiles are built from segments (hold a level, or
 move to a new level along a raised-cosine ramp), so every profile shares the
 same machinery:
 
-* :func:`paper_protocol`: the paper's session: three squeezes at small,
-  medium and highest force after start cues, released after end cues, with
-  rests between (timing, levels and reaction times jittered per subject);
+* :func:`paper_protocol`: the paper's session: rounds of three squeezes at
+  small, medium and highest force after start cues, released after end cues,
+  with rests between (timing, levels and reaction times jittered per session);
 * :func:`ramp_profile`: slow trapezoidal ramps (force tracking);
 * :func:`grasp_lift_hold`: rest, ramp to a hold level, hold, release (the
   intent of a closed-loop grasp-and-lift episode).
@@ -135,20 +135,49 @@ def from_segments(
                          tuple(float(v) for v in levels), name)
 
 
+#: Cued rounds of (small, medium, strong) squeezes in one calibration session. The paper
+#: describes one round; its real recordings (shared/REAL_RECORDINGS.md) hold 6-9 squeezes
+#: (two rounds, plus re-crossings of the 20 % line), with a duty of 0.32-0.54.
+PROTOCOL_ROUNDS = 2
+
+
+def _session_levels(g: np.random.Generator, rounds: int) -> list[tuple[float, float, float]]:
+    """Squeeze levels of each round as a person produces them without force feedback.
+
+    The strongest squeeze of the first round is 85-100 % MVC; later rounds reach 75-100 %
+    of it. The small squeeze is 30-70 % of the round's strongest (people grade their
+    effort less than instructed: the real recordings' peaks vary with a CV of 0.17-0.63),
+    the medium one halfway. Each level is then scaled by a log-normal error whose SD
+    (0.05-0.3) is drawn per session.
+    """
+    small = g.uniform(0.30, 0.70)
+    spread = g.uniform(0.05, 0.30)
+    strong0 = g.uniform(0.85, 1.00)
+    out = []
+    for r in range(rounds):
+        strong = strong0 if r == 0 else strong0 * g.uniform(0.75, 1.00)
+        out.append(tuple(float(np.clip(strong * f * np.exp(spread * g.standard_normal()),
+                                       0.05, 1.0))
+                         for f in (small, 0.5 * (1.0 + small), 1.0)))
+    return out
+
+
 def paper_protocol(
     rng: np.random.Generator | int | None = None,
     *,
     fs_hz: float = 200.0,
     levels: Sequence[float] | None = None,
+    rounds: int = PROTOCOL_ROUNDS,
 ) -> IntentProfile:
-    """The paper's calibration session: three squeezes of increasing force.
+    """The paper's calibration session: rounds of three squeezes (small, medium, strongest).
 
-    Timing (uniform jitter per call): initial rest 3-4 s; for each squeeze a
-    start cue, a reaction time of 0.2-0.4 s, a 0.6-1.0 s ramp up, a hold so
-    that cue-to-cue lasts 3-5 s, an end cue, the reaction time again, a
-    0.5-0.9 s ramp down and a 3-4 s rest (4-6 s after the last squeeze, so
-    that the 50 % split falls inside the medium squeeze). Levels: 20-35 %,
-    45-60 % and 80-100 % of MVC. A session lasts about 28-40 s.
+    Timing (uniform jitter per call): an initial rest of 3-4 s; for each squeeze a start
+    cue, a reaction time of 0.2-0.4 s, a 0.6-1.0 s ramp up, a hold so that cue-to-cue
+    lasts the session's hold time (3-6 s, each squeeze within 15 % of it), an end cue,
+    the reaction time again, a 0.5-0.9 s ramp down and a rest (the session's rest time,
+    2.5-5.5 s, within 15 %; 4-6 s after the last squeeze). With two rounds the 50 % split
+    of the paper's protocol falls near the end of the first round, so identification
+    sees one round and validation the other. A two-round session lasts about 45-75 s.
 
     Parameters
     ----------
@@ -157,35 +186,49 @@ def paper_protocol(
     fs_hz : float
         Sampling rate in hertz.
     levels : sequence of 3 floats, optional
-        Fixed squeeze levels instead of the jittered ones.
+        Fixed squeeze levels (every round) instead of the drawn ones
+        (:func:`_session_levels`).
+    rounds : int
+        Rounds of three cued squeezes (default :data:`PROTOCOL_ROUNDS`).
 
     Returns
     -------
     IntentProfile
-        With cues ``start, end`` for each squeeze, in time order.
+        With cues ``start, end`` for each squeeze, in time order, and one level per squeeze.
+
+    Raises
+    ------
+    ProfileError
+        ``levels`` not of length 3, or ``rounds < 1``.
     """
     g = as_rng(rng)
+    if int(rounds) < 1:
+        raise ProfileError(f"paper_protocol needs at least 1 round, found {rounds}")
     if levels is None:
-        lv = (g.uniform(0.20, 0.35), g.uniform(0.45, 0.60), g.uniform(0.80, 1.00))
+        per_round = _session_levels(g, int(rounds))
     else:
         lv = tuple(float(v) for v in levels)
         if len(lv) != 3:
             raise ProfileError(f"paper_protocol needs 3 levels, found {len(lv)}")
+        per_round = [lv] * int(rounds)
+    hold_s = g.uniform(3.0, 6.0)
+    rest_s = g.uniform(2.5, 5.5)
     t = g.uniform(3.0, 4.0)
     segments: list[tuple[float, float]] = [(t, 0.0)]
     cues: list[tuple[str, float]] = []
-    for i, level in enumerate(lv):
+    flat = [level for lv in per_round for level in lv]
+    for i, level in enumerate(flat):
         reaction = g.uniform(0.2, 0.4)
         rise = g.uniform(0.6, 1.0)
-        squeeze = g.uniform(3.0, 5.0)
+        squeeze = max(hold_s * g.uniform(0.85, 1.15), rise + 0.5)
         fall = g.uniform(0.5, 0.9)
-        rest = g.uniform(3.0, 4.0) if i < len(lv) - 1 else g.uniform(4.0, 6.0)
+        rest = rest_s * g.uniform(0.85, 1.15) if i < len(flat) - 1 else g.uniform(4.0, 6.0)
         cues.append(("start", t))
         segments += [(reaction, 0.0), (rise, level), (squeeze - rise, level)]
         cues.append(("end", t + reaction + squeeze))
         segments += [(reaction, level), (fall, 0.0), (rest, 0.0)]
         t += reaction + squeeze + reaction + fall + rest
-    return from_segments(segments, fs_hz=fs_hz, cues=cues, levels=lv, name="paper_protocol")
+    return from_segments(segments, fs_hz=fs_hz, cues=cues, levels=flat, name="paper_protocol")
 
 
 def ramp_profile(

@@ -86,6 +86,18 @@ class MuscleParams:
     fatigue_per_min : float
         Fatigue rate: per minute of recording the median frequency falls by
         this fraction and the sEMG amplitude rises by twice it (0 = none).
+    carrier_laplace : float
+        Noise generator: shape of the sEMG's amplitude distribution, from Gaussian (0)
+        to Laplacian (1), as a Gaussian scale mixture. Surface EMG lies between the two,
+        nearer the Laplacian at low and moderate contraction (Clancy & Hogan 1999, IEEE
+        TBME 46:730; Nazarpour et al. 2013, IEEE TBME 60:1418); it makes RMS features
+        noisier than MAV features.
+    cocontraction_drift_std : float
+        Relative std of a slow fluctuation of the drive of the muscles that do not
+        contribute to grip (antagonists and stabilizers): co-contraction varies from one
+        squeeze to the next while the grip does not. 0 = a fixed synergy.
+    cocontraction_drift_time_s : float
+        Correlation time of that fluctuation, seconds.
     anatomy_seed : int
         Seed of the subject's fixed motor-unit anatomy (MUAP shapes, sizes),
         so that every session of a subject uses the same motor units.
@@ -104,6 +116,9 @@ class MuscleParams:
     fluctuation_time_s: float = 1.0
     emg_gain_time_s: float = 0.5
     fatigue_per_min: float = 0.0
+    carrier_laplace: float = 0.0
+    cocontraction_drift_std: float = 0.0
+    cocontraction_drift_time_s: float = 8.0
     anatomy_seed: int = 0
 
     def __post_init__(self) -> None:
@@ -121,11 +136,17 @@ class MuscleParams:
                     )
         if sum(self.grip_share) <= 0:
             raise MuscleParamsError("MuscleParams.grip_share: expected a positive sum, found 0")
-        if self.fatigue_per_min < 0 or min(self.fluctuation_time_s, self.emg_gain_time_s) <= 0:
+        if self.fatigue_per_min < 0 or min(self.fluctuation_time_s, self.emg_gain_time_s,
+                                           self.cocontraction_drift_time_s) <= 0:
             raise MuscleParamsError(
                 "MuscleParams: expected fatigue_per_min >= 0 and positive correlation times, "
                 f"found {self.fatigue_per_min}, {self.fluctuation_time_s}, "
-                f"{self.emg_gain_time_s}"
+                f"{self.emg_gain_time_s}, {self.cocontraction_drift_time_s}"
+            )
+        if not 0.0 <= self.carrier_laplace <= 1.0 or self.cocontraction_drift_std < 0:
+            raise MuscleParamsError(
+                "MuscleParams: expected carrier_laplace in 0..1 and cocontraction_drift_std "
+                f">= 0, found {self.carrier_laplace}, {self.cocontraction_drift_std}"
             )
 
     def array(self, name: str) -> np.ndarray:

@@ -36,7 +36,7 @@ from sim.user.generators import (  # noqa: F401  (UnknownGeneratorError re-expor
     generator_names,
     make_generator,
 )
-from sim.user.intent import IntentProfile, as_rng, paper_protocol
+from sim.user.intent import PROTOCOL_ROUNDS, IntentProfile, as_rng, paper_protocol
 from sim.user.muscles import (
     MUSCLE_ABBREVIATIONS,
     MUSCLE_ROLES,
@@ -48,16 +48,31 @@ from sim.user.muscles import (
 
 # Per-role uniform ranges of the sampled muscle parameters: (low, high).
 _SYNERGY = {"flexor": (0.80, 1.00), "extensor": (0.50, 0.78), "other": (0.10, 0.30)}
-_EXPONENT = {"flexor": (0.85, 1.15), "extensor": (1.00, 1.80), "other": (1.00, 2.00)}
+# sEMG amplitude = drive ** p. Below 1 for the flexors: amplitude cancellation makes
+# surface EMG grow less than linearly with drive at high contraction (Keenan et al. 2005,
+# J Appl Physiol 98:120); with it a linear fit of force on sEMG is as good as a compressed
+# one, as on the real recordings (shared/REAL_RECORDINGS.md: RIDGE's square root gains
+# 0.003 over a linear MAV fit there).
+_EXPONENT = {"flexor": (0.68, 1.08), "extensor": (0.78, 1.38), "other": (0.78, 1.58)}
 _AMPLITUDE_LSB = {"flexor": (22.0, 34.0), "extensor": (20.0, 35.0), "other": (15.0, 30.0)}
 # Subject-level log-uniform factors: overall sEMG size (all muscles) and extensor
 # co-contraction (extensor amplitudes on top of size). Real recordings (docs/SUBJECTS.md):
 # active RMS varies about 5x across subjects, flexor/extensor RMS ratio about 1.
-_AMPLITUDE_SCALE = (0.45, 2.8)
+_AMPLITUDE_SCALE = (0.40, 2.5)
 _EXTENSOR_SCALE = (1.8, 3.6)
 _CROSSTALK_LENGTH = (0.45, 0.75)  # electrode spacings
 _NOISE_LSB = (1.05, 4.6)  # log-uniform; real rest std 1.0-4.7 LSB
 _MUAP_WIDTH_MS = (1.4, 1.7)
+# What the real recordings of the protocol show beyond the sEMG statistics (docs/SUBJECTS.md,
+# "Against the real recordings' estimation verdicts"):
+_CONTACT_STD = (0.08, 0.12)  # FSR contact fluctuation: real persistence R^2 0.969 at 125 ms
+_CONTACT_TIME_S = (0.2, 0.4)
+_CARRIER_LAPLACE = (0.6, 1.0)  # sEMG amplitude distribution between Gaussian and Laplacian
+_COCONTRACTION_DRIFT = (0.15, 0.35)  # squeeze-to-squeeze variation of co-contraction
+_NOISE_DRIFT = (0.3, 0.6)  # log-SD of the electrode noise-floor drift
+_ARTIFACT_PROBABILITY = 0.3  # share of sessions with a loose electrode
+_ARTIFACT_RATE_HZ = (0.1, 0.6)  # log-uniform, when there is one
+_RIG_LAG_S = (0.0, 0.15)  # sEMG stream behind the FSR stream in the recording rig
 # Motor-unit MUAP-size exponent gamma that gives, with the default pool, about
 # the same log-log sEMG-force slope over 3-100 % MVC as ``amplitude_exponent``
 # p in the noise generator (measured: p = 0.16 + 0.77 gamma for gamma in 0.3..1.6).
@@ -89,6 +104,11 @@ class VirtualSubject:
         sensor); seen by the FSR only, not by the sEMG.
     contact_time_s : float
         Correlation time of that fraction, seconds.
+    rig_lag_s : float
+        Latency of the sEMG stream behind the FSR stream in the calibration rig (MYO over
+        Bluetooth and the FSR over the Arduino's serial line, logged by one PC), seconds.
+        Applied to calibration sessions (:meth:`paper_session`, ``record(rig=True)``), not
+        to the prosthesis' own sEMG path.
     """
 
     subject_id: int
@@ -99,6 +119,14 @@ class VirtualSubject:
     fsr: FSR402 = field(default_factory=FSR402)
     contact_std: float = 0.23
     contact_time_s: float = 0.15
+    rig_lag_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.rig_lag_s <= 2.0 or self.contact_std < 0 or self.contact_time_s <= 0:
+            raise ValueError(
+                f"VirtualSubject: expected rig_lag_s in 0..2 s, contact_std >= 0 and "
+                f"contact_time_s > 0, found {self.rig_lag_s}, {self.contact_std}, "
+                f"{self.contact_time_s}")
 
     # -------------------------------------------------------------- creation
     @classmethod
@@ -141,15 +169,29 @@ class VirtualSubject:
             noise_lsb=float(np.exp(rng.uniform(*np.log(_NOISE_LSB)))),
             channel_gain=tuple(float(v) for v in np.exp(0.1 * rng.standard_normal(N_MUSCLES))),
         )
+        mvc_n = float(rng.uniform(30.0, 50.0))
+        fsr = FSR402.sample(rng)
+        contact_std = float(rng.uniform(*_CONTACT_STD))
+        contact_time_s = float(rng.uniform(*_CONTACT_TIME_S))
+        # drawn last, so that the parameters above keep their draws
+        muscles = dataclasses.replace(
+            muscles, carrier_laplace=float(rng.uniform(*_CARRIER_LAPLACE)),
+            cocontraction_drift_std=float(rng.uniform(*_COCONTRACTION_DRIFT)))
+        loose = rng.random() < _ARTIFACT_PROBABILITY
+        rate = float(np.exp(rng.uniform(*np.log(_ARTIFACT_RATE_HZ))))
+        armband = dataclasses.replace(
+            armband, noise_drift_std=float(rng.uniform(*_NOISE_DRIFT)),
+            artifact_rate_hz=rate if loose else 0.0)
         return cls(
             subject_id=int(subject_id),
             seed=int(seed),
-            mvc_n=float(rng.uniform(30.0, 50.0)),
+            mvc_n=mvc_n,
             muscles=muscles,
             armband=armband,
-            fsr=FSR402.sample(rng),
-            contact_std=float(rng.uniform(0.12, 0.16)),
-            contact_time_s=float(rng.uniform(0.1, 0.2)),
+            fsr=fsr,
+            contact_std=contact_std,
+            contact_time_s=contact_time_s,
+            rig_lag_s=float(rng.uniform(*_RIG_LAG_S)),
         )
 
     def with_scenario(
@@ -204,6 +246,7 @@ class VirtualSubject:
             "fsr": self.fsr.to_dict(),
             "contact_std": self.contact_std,
             "contact_time_s": self.contact_time_s,
+            "rig_lag_s": self.rig_lag_s,
         }
 
     # -------------------------------------------------------------- recording
@@ -217,7 +260,8 @@ class VirtualSubject:
         """Neural drive per muscle, shape (n_samples, n_muscles), 0..1.
 
         Each muscle aims at the force ``target_m = synergy_m u (1 + eta_m)``
-        (``eta_m`` an independent Ornstein-Uhlenbeck fluctuation); the drive
+        (``eta_m`` an independent Ornstein-Uhlenbeck fluctuation; the muscles that do not
+        grip also vary their co-contraction slowly, ``cocontraction_drift_std``); the drive
         is the inverse of the generator's steady force-drive curve at that
         target (identity for the noise generator, the convex recruitment and
         rate-coding curve for motor units), clipped to 0..1.
@@ -227,6 +271,13 @@ class VirtualSubject:
         eta = slow_fluctuation(u.size, fs_hz, self.muscles.array("fluctuation_std"),
                                self.muscles.fluctuation_time_s, rng)
         target = np.clip(self.muscles.array("synergy")[None, :] * u[:, None] * (1.0 + eta), 0, 1)
+        if self.muscles.cocontraction_drift_std > 0:
+            # co-contraction of the muscles that do not grip varies from squeeze to squeeze
+            others = self.muscles.array("grip_share") == 0
+            std = np.full(int(others.sum()), self.muscles.cocontraction_drift_std)
+            drift = slow_fluctuation(u.size, fs_hz, std, self.muscles.cocontraction_drift_time_s,
+                                     rng)
+            target[:, others] = np.clip(target[:, others] * np.clip(1.0 + drift, 0.2, None), 0, 1)
         grid = np.repeat(np.linspace(0.0, 1.0, 257)[:, None], N_MUSCLES, axis=1)
         curve = np.maximum.accumulate(gen.steady_force(grid, self.muscles), axis=0)
         return np.stack(
@@ -240,6 +291,7 @@ class VirtualSubject:
         generator: str | EmgGenerator = "noise",
         fs_hz: float = 200.0,
         rng: np.random.Generator | int | None = None,
+        rig: bool = False,
     ) -> Recording:
         """Record sEMG and FSR force while the subject follows ``profile``.
 
@@ -253,6 +305,9 @@ class VirtualSubject:
             MYO sampling rate in hertz.
         rng : numpy.random.Generator, int or None
             Session noise; ``None`` uses :meth:`session_rng` (reproducible).
+        rig : bool
+            Recorded by the calibration rig: the sEMG stream lags the FSR stream by
+            ``rig_lag_s`` (its first sample held before).
 
         Returns
         -------
@@ -271,7 +326,10 @@ class VirtualSubject:
                               self.muscles.emg_gain_time_s, g)
         gain = np.clip(1.0 + xi, 0.0, None)
         muscle_lsb = out.emg * gain * self.muscles.array("amplitude_lsb")
-        emg, n_sat = self.armband.digitize(muscle_lsb, g)
+        emg, n_sat = self.armband.digitize(muscle_lsb, g, fs_hz=fs_hz)
+        lag = int(round(self.rig_lag_s * fs_hz)) if rig else 0
+        if 0 < lag < emg.shape[0]:
+            emg = np.concatenate([np.repeat(emg[:1], lag, axis=0), emg[:-lag]])
         share = self.muscles.array("grip_share")
         grip_n = self.mvc_n * (out.force @ share) / float(self.muscles.array("synergy") @ share)
         contact = 1.0 + slow_fluctuation(grip_n.size, fs_hz, np.array([self.contact_std]),
@@ -288,6 +346,7 @@ class VirtualSubject:
             "profile": prof.to_metadata(),
             "cues": [[k, float(t)] for k, t in prof.cues],
             "n_saturated": n_sat,
+            "rig_lag_s": lag / fs_hz,
             "generator_info": out.info,
             "params": self.params(),
         }
@@ -309,15 +368,16 @@ class VirtualSubject:
         *,
         generator: str | EmgGenerator = "noise",
         fs_hz: float = 200.0,
+        rounds: int = PROTOCOL_ROUNDS,
     ) -> Recording:
-        """A whole paper-protocol calibration session (about 25-36 s).
+        """A whole paper-protocol calibration session (two rounds, about 45-75 s), by the rig.
 
         The protocol's timing and levels and the session noise both come from
         ``rng`` (``None``: the subject's reproducible :meth:`session_rng`).
         """
         g = self.session_rng() if rng is None else as_rng(rng)
-        profile = paper_protocol(g, fs_hz=fs_hz)
-        return self.record(profile, generator=generator, fs_hz=fs_hz, rng=g)
+        profile = paper_protocol(g, fs_hz=fs_hz, rounds=rounds)
+        return self.record(profile, generator=generator, fs_hz=fs_hz, rng=g, rig=True)
 
 
 def make_population(n: int = 10, seed: int = 0) -> list[VirtualSubject]:

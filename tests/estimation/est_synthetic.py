@@ -72,3 +72,37 @@ def toy_recording(*, fs_hz: float = 200.0, duration_s: float = 30.0, seed: int =
     return Recording(emg=emg.astype(np.int8), fs_hz=fs_hz,
                      force_n=force if with_force else None, intent=intent,
                      metadata={"toy": True, "seed": seed}, source=f"toy{seed}")
+
+
+def synthetic_corpus(*, n_inputs: int, n_subjects: int, seed: int,
+                     n_windows: int = 160) -> list[tuple[np.ndarray, np.ndarray, int]]:
+    """A pretraining corpus for any number of inputs (``estimation.transfer`` tests).
+
+    Per subject: a force of repeated raised-sine squeezes and features that follow its
+    square root with subject gains and noise, min-max scaled on the first half.
+    """
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n_subjects):
+        t = np.arange(n_windows)
+        y = np.clip(np.sin(2 * np.pi * t / 40.0), 0, None) * rng.uniform(0.5, 1.0)
+        U = rng.uniform(0.5, 1.5, n_inputs) * np.sqrt(y)[:, None] \
+            + 0.03 * rng.standard_normal((n_windows, n_inputs))
+        n_id = n_windows // 2
+        span = np.ptp(U[:n_id], axis=0)
+        span[span == 0] = 1.0
+        out.append(((U - U[:n_id].min(axis=0)) / span,
+                    (y - y[:n_id].min()) / np.ptp(y[:n_id]), n_id))
+    return out
+
+
+#: Small pretraining settings on :func:`synthetic_corpus` (registered as "synthetic-test").
+SMALL_TRANSFER = {"corpus": "synthetic-test", "pretrain_subjects": 4, "pretrain_epochs": 5,
+                  "hidden": (8,), "n_networks": 2, "validation_subjects": 2}
+
+
+def register_synthetic_corpus() -> None:
+    """Register :func:`synthetic_corpus` as ``"synthetic-test"`` (idempotent)."""
+    from estimation.transfer import register_corpus
+
+    register_corpus("synthetic-test", synthetic_corpus, replace=True)

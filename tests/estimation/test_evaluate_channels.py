@@ -75,7 +75,9 @@ def test_recommendation_follows_the_numbers():
         "ridge": {"free_run": _entry([0.90, 0.88])},
         "mlp": {"free_run": _entry([0.99, None])},  # not run on every subject: not eligible
     }}
-    text = recommendation(result)
-    assert "use RIDGE in free_run on all channels" in text and "below" in text
+    rec = recommendation(result)
+    assert rec["estimator"] == "ridge" and rec["channels"] == "all" and rec["mode"] == "free_run"
+    assert "use RIDGE in free_run on all 8 channels" in rec["reason"] and "below" in rec["reason"]
+    assert rec["r2_mean"] == pytest.approx(0.89) and rec["r2_min"] == pytest.approx(0.88)
     result["estimators"]["ridge"]["free_run"] = _entry([0.97, 0.96])
-    assert "above the paper's SS_KF one_step figure (0.940)" in recommendation(result)
+    assert "above the paper's SS_KF one_step figure (0.940)" in recommendation(result)["reason"]

@@ -7,7 +7,7 @@ import pickle
 import numpy as np
 import pytest
 import sklearn.metrics
-from est_synthetic import toy_recording
+from est_synthetic import SMALL_TRANSFER, register_synthetic_corpus, toy_recording
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.model_selection import KFold, cross_val_score
@@ -22,12 +22,18 @@ from estimation.pipeline import ForcePipeline
 from estimation.registry import ESTIMATOR_NAMES, make_estimator
 from estimation.ss_sim import SimulationErrorSS
 from estimation.state_space import SSEstimator
+from estimation.transfer import TransferMLP
 
 # Short training for the networks; one column per channel for the single-feature
 # fits in the checks (their default layout needs columns in blocks of mav, rms, wl).
+# transfer_mlp pretrains on a small synthetic corpus that fits any number of inputs (the
+# virtual corpus makes 24 or 9); tests/scenarios/test_transfer_to_real.py runs the real one.
+register_synthetic_corpus()
 FAST = {"mlp": {"max_epochs": 20, "random_state": 0},
-        "narx": {"max_epochs": 20, "random_state": 0}}
+        "narx": {"max_epochs": 20, "random_state": 0},
+        "transfer_mlp": dict(SMALL_TRANSFER, random_state=0)}
 CHECK_PARAMS = {"mlp": {"max_epochs": 5}, "narx": {"max_epochs": 5}, "gbt": {"max_trees": 5},
+                "transfer_mlp": SMALL_TRANSFER,
                 "features_mav": {"features": ("mav",)}, "features_rms": {"features": ("rms",)},
                 "features_wl": {"features": ("wl",)}}
 
@@ -45,7 +51,7 @@ def expected_failed_checks(est: object) -> dict[str, str]:
     """Checks that cannot apply to ``est``, with the reason (reported as xfail)."""
     inner = est.estimator if isinstance(est, ForcePipeline) else est
     out: dict[str, str] = {}
-    if isinstance(inner, (SSEstimator, NARXBaseline, LatentKalman)):
+    if isinstance(inner, (SSEstimator, NARXBaseline, LatentKalman, TransferMLP)):
         out["check_methods_sample_order_invariance"] = ORDER
         out["check_methods_subset_invariance"] = ORDER
     if isinstance(inner, SSEstimator):

@@ -65,7 +65,8 @@ def test_fatigue_lowers_median_frequency_and_raises_amplitude(muscles):
     # Checked at 1 kHz: at the MYO's 200 Hz, aliasing folds the compressed spectrum
     # back and can hide the fall of the median frequency (see docs/SUBJECTS.md).
     fs = 1000.0
-    tired = dataclasses.replace(muscles, fatigue_per_min=0.2)
+    # a Gaussian carrier: the Laplace mixture adds a white part that would blur the shift
+    tired = dataclasses.replace(muscles, fatigue_per_min=0.2, carrier_laplace=0.0)
     n = int(120 * fs)
     drive = np.full((n, 8), 0.5)
     out = NoiseEmgGenerator().generate(drive, tired, FrontEnd(), fs_hz=fs,
@@ -87,3 +88,24 @@ def test_same_rng_gives_identical_output(muscles):
                                      rng=np.random.default_rng(9))
     np.testing.assert_array_equal(a.emg, b.emg)
     np.testing.assert_array_equal(a.force, b.force)
+
+
+def test_laplace_mixture_keeps_the_power_and_makes_the_amplitude_heavy_tailed(muscles):
+    drive = np.full((100_000, 8), 0.6)
+    rng = np.random.default_rng(5)
+    gauss = NoiseEmgGenerator().generate(
+        drive, dataclasses.replace(muscles, carrier_laplace=0.0), FrontEnd(), fs_hz=200.0,
+        rng=rng).emg[:, 6]
+    laplace = NoiseEmgGenerator().generate(
+        drive, dataclasses.replace(muscles, carrier_laplace=1.0), FrontEnd(), fs_hz=200.0,
+        rng=rng).emg[:, 6]
+    assert laplace.std() == pytest.approx(gauss.std(), rel=0.03)
+
+    def kurtosis(x):
+        return float(np.mean((x - x.mean()) ** 4) / x.var() ** 2)
+
+    assert kurtosis(gauss) == pytest.approx(3.0, abs=0.15)  # Gaussian
+    assert kurtosis(laplace) == pytest.approx(6.0, abs=0.6)  # Laplacian: 6
+    # RMS over MAV: sqrt(pi / 2) = 1.25 for a Gaussian, sqrt(2) = 1.41 for a Laplacian
+    assert gauss.std() / np.abs(gauss).mean() == pytest.approx(np.sqrt(np.pi / 2), rel=0.02)
+    assert laplace.std() / np.abs(laplace).mean() == pytest.approx(np.sqrt(2.0), rel=0.03)

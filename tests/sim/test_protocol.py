@@ -15,15 +15,20 @@ from sim.user.intent import (
 
 
 @pytest.mark.parametrize("seed", range(5))
-def test_paper_protocol_has_three_increasing_squeezes_between_ordered_cues(seed):
+def test_paper_protocol_has_two_rounds_of_three_squeezes_between_ordered_cues(seed):
     p = paper_protocol(seed)
-    small, medium, high = p.levels
-    assert 0.20 <= small <= 0.35 and 0.45 <= medium <= 0.60 and 0.80 <= high <= 1.0
+    assert len(p.levels) == 6
+    first, second = p.levels[:3], p.levels[3:]
+    # the strongest squeeze of the first round is 85-100 % MVC; the small one 30-70 % of it,
+    # each level then scaled by a log-normal error of SD <= 0.3 (3 SD: x0.41..2.46)
+    assert all(0.05 <= v <= 1.0 for v in p.levels)
+    assert max(first) >= 0.85 * np.exp(-0.9)
+    assert max(second) <= 1.0 and np.mean(second) <= np.mean(first) * 2.5
     kinds = [k for k, _ in p.cues]
     times = [t for _, t in p.cues]
-    assert kinds == ["start", "end"] * 3
-    assert np.all(np.diff(times) > 2.5)
-    assert 25.0 <= p.duration_s <= 40.0
+    assert kinds == ["start", "end"] * 6
+    assert np.all(np.diff(times) > 2.5 * 0.85 - 0.5)
+    assert 45.0 <= p.duration_s <= 80.0
     assert p.intent[0] == 0.0 and p.intent[-1] == 0.0
     assert p.intent.min() >= 0.0 and p.intent.max() <= 1.0
     for level, t0, t1 in zip(p.levels, times[::2], times[1::2], strict=True):
@@ -33,6 +38,24 @@ def test_paper_protocol_has_three_increasing_squeezes_between_ordered_cues(seed)
         assert np.all(p.intent[before & (p.t_s > t0 - 2.0)] == 0.0)  # rest before the cue
     # smooth: the steepest raised-cosine ramp (1.0 level over >= 0.6 s) bounds the slope
     assert np.max(np.abs(np.diff(p.intent))) * p.fs_hz <= np.pi / 2 / 0.6 + 1e-9
+
+
+def test_the_identification_half_holds_the_first_round():
+    # with two rounds the paper's 50 % split falls near the end of the first round
+    for seed in range(20):
+        p = paper_protocol(seed)
+        ends = p.cue_times("end")
+        starts = p.cue_times("start")
+        half = p.duration_s / 2
+        assert ends[2] - 1.0 < half < starts[3] + 1.0
+
+
+def test_fixed_levels_and_rounds():
+    p = paper_protocol(0, levels=(0.2, 0.5, 0.9), rounds=1)
+    assert p.levels == (0.2, 0.5, 0.9) and len(p.cues) == 6
+    assert paper_protocol(0, levels=(0.2, 0.5, 0.9), rounds=3).levels == (0.2, 0.5, 0.9) * 3
+    with pytest.raises(ProfileError, match="at least 1 round"):
+        paper_protocol(0, rounds=0)
 
 
 def test_paper_protocol_is_reproducible_and_jittered():

@@ -1,0 +1,582 @@
+"""Transfer from virtual subjects: networks pretrained on a population, fine-tuned on a person.
+
+``TransferMLP`` (``"transfer_mlp"``) is an ensemble of small multilayer perceptrons. Each is
+pretrained once on the calibration sessions of many virtual subjects (a *corpus*) and then,
+for every person, fine-tuned for a few epochs on that person's identification half; the
+estimate is the ensemble mean. It needs sEMG only at run time (``free_run``), like the other
+deployable estimators, and it never sees the person's validation half.
+
+Why this and not a network trained from scratch: one calibration session holds a few
+hundred windows, too few to learn a nonlinear map of 72 inputs; a population of virtual
+subjects shows the network how sEMG features relate to grip force across many forearms,
+electrode placements and sessions, and fine-tuning adapts that to the person. The logistic
+hidden units saturate, so an sEMG excursion outside the calibration range (a loose
+electrode, a noisier rest) moves the estimate less than it moves a linear model.
+
+Inputs (normalized features, min-max on the identification data as for every estimator):
+``r(k) = [u(k), u(k-1), ..., u(k-lags)]`` (the first window repeated before the start).
+
+Everything that is not fitted per person is chosen on virtual subjects, never on the
+person: the corpus (``pretrain_subjects`` subjects of population ``pretrain_seed``), and the
+fine-tuning length and step size, chosen on ``VALIDATION_SUBJECTS`` other virtual subjects
+(population ``pretrain_seed + 1``) by the mean of their validation R^2 and their worst
+subject's. The pretrained weights and that choice are cached on disk as arrays and JSON
+(``$GRIPLOOP_CACHE_DIR/pretrained``), keyed by the settings, the corpus and the source of
+the modules that make the corpus; a missing, unreadable or mismatched file is rebuilt,
+never trusted. Pretraining is deterministic for a seed (one BLAS thread, seeded networks).
+
+Corpora are registered by name (:func:`register_corpus`); ``"virtual"`` is the paper's
+protocol recorded from :func:`sim.user.subjects.make_population` subjects with the noise
+generator (:mod:`scenarios.runners.pretraining`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from importlib import metadata, resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.special import expit
+
+from estimation.base import ForceEstimator
+from estimation.deployable import check_period
+from estimation.errors import EstimationInputError, check_features, check_mode, check_target
+from estimation.normalize import MinMaxScaling
+from estimation.streaming import scaled
+from sim.cache import cache_subdir, write_atomic
+from sim.registry import RegistrationError, Registry
+
+#: Version of the cache format (weights NPZ + JSON); another version is rebuilt.
+FORMAT = 1
+#: Population seed of the default corpus: far from the seeds people evaluate with.
+PRETRAIN_SEED = 7_000_003
+#: Virtual subjects that choose the fine-tuning settings (population ``pretrain_seed + 1``).
+VALIDATION_SUBJECTS = 12
+#: Candidate fine-tuning step sizes and epochs (in stages of ``EPOCH_STAGE``).
+FINETUNE_RATES = (3e-4, 1e-3)
+EPOCH_STAGE = 5
+MAX_FINETUNE_EPOCHS = 30
+#: Pretraining mini-batch and Adam step size (about 20 s for 3 networks on 40 subjects).
+PRETRAIN_BATCH = 128
+PRETRAIN_RATE = 2e-3
+
+Corpus = list[tuple[np.ndarray, np.ndarray, int]]
+
+
+class UnknownCorpusError(EstimationInputError, LookupError):
+    """A pretraining corpus name is not registered."""
+
+
+_CORPORA = Registry("pretraining corpus", UnknownCorpusError)
+
+
+def register_corpus(name: str, builder: Callable[..., Corpus] | str, *,
+                    replace: bool = False) -> None:
+    """Register a pretraining corpus.
+
+    Parameters
+    ----------
+    name : str
+        Name used by ``TransferMLP(corpus=name)``.
+    builder : callable or str
+        ``builder(*, n_inputs, n_subjects, seed) -> [(U, y, n_id), ...]``: per subject,
+        normalized features ``U`` (n_windows, n_inputs), normalized force ``y`` and the
+        number of identification windows; or its ``"module:attribute"`` reference.
+    replace : bool
+        Allow replacing an existing registration.
+    """
+    _CORPORA.register(name, builder, replace=replace)
+
+
+register_corpus("virtual", "scenarios.runners.pretraining:virtual_corpus")
+
+
+def lagged(U: np.ndarray, lags: int) -> np.ndarray:
+    """``[u(k), u(k-1), ..., u(k-lags)]`` per row, the first row repeated before the start.
+
+    Parameters
+    ----------
+    U : ndarray, shape (n_samples, n_inputs)
+    lags : int
+
+    Returns
+    -------
+    ndarray, shape (n_samples, n_inputs (lags + 1))
+    """
+    n = U.shape[0]
+    P = np.vstack([np.repeat(U[:1], lags, axis=0), U])
+    return np.hstack([P[lags - j: lags - j + n] for j in range(lags + 1)])
+
+
+# ----------------------------------------------------------------------- networks
+@dataclass(frozen=True)
+class Network:
+    """Weights of one logistic MLP: ``coefs[l]`` (n_in, n_out) and ``intercepts[l]`` (n_out,)."""
+
+    coefs: tuple[np.ndarray, ...]
+    intercepts: tuple[np.ndarray, ...]
+
+    def predict(self, X: np.ndarray) -> np.ndarray:
+        """Output for rows ``X`` (n_samples, n_in), shape (n_samples,)."""
+        h = X
+        last = len(self.coefs) - 1
+        for i, (W, b) in enumerate(zip(self.coefs, self.intercepts, strict=True)):
+            h = h @ W + b
+            if i < last:
+                h = expit(h)
+        return h[:, 0]
+
+
+def _regressor(hidden: Sequence[int], seed: int, **options: Any) -> Any:
+    from sklearn.neural_network import MLPRegressor
+
+    settings = {"hidden_layer_sizes": tuple(hidden), "activation": "logistic", "solver": "adam",
+                "learning_rate_init": 1e-3, "batch_size": 64, "alpha": 1e-4, "tol": 0.0,
+                "early_stopping": False, "shuffle": True, "random_state": int(seed)}
+    settings.update(options)
+    settings.setdefault("n_iter_no_change", int(settings.get("max_iter", 200)) + 1)
+    return MLPRegressor(**settings)
+
+
+def _fit_quietly(net: Any, X: np.ndarray, y: np.ndarray) -> Any:
+    from sklearn.exceptions import ConvergenceWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        return net.fit(X, y)
+
+
+def _as_network(net: Any) -> Network:
+    return Network(tuple(np.array(W) for W in net.coefs_),
+                   tuple(np.array(b) for b in net.intercepts_))
+
+
+def finetune(network: Network, X: np.ndarray, y: np.ndarray, *, epochs: int,
+             learning_rate: float, seed: int, hidden: Sequence[int],
+             stages: Callable[[Network, int], None] | None = None) -> Network:
+    """Continue training ``network`` on ``(X, y)`` for ``epochs`` epochs (in stages of 5).
+
+    scikit-learn's ``MLPRegressor`` is initialized on two rows, given the pretrained
+    weights and trained with ``warm_start`` in stages of :data:`EPOCH_STAGE` epochs
+    (each stage restarts Adam's moments), shuffling with ``seed``.
+
+    Parameters
+    ----------
+    network : Network
+        Pretrained weights (not modified).
+    X : ndarray, shape (n_samples, n_in)
+    y : ndarray, shape (n_samples,)
+    epochs : int
+        A multiple of :data:`EPOCH_STAGE` (0 returns ``network``).
+    learning_rate : float
+        Adam's step size.
+    seed : int
+        Shuffling seed.
+    hidden : sequence of int
+        Hidden layer sizes of ``network``.
+    stages : callable, optional
+        Called as ``stages(weights, epochs_so_far)`` after every stage (the selection of
+        the fine-tuning length scores each stage).
+    """
+    if epochs <= 0:
+        return network
+    net = _regressor(hidden, seed, learning_rate_init=learning_rate, batch_size=32,
+                     max_iter=EPOCH_STAGE)
+    _fit_quietly(net.set_params(max_iter=1, batch_size=2), X[:2], y[:2])  # allocate only
+    net.coefs_ = [W.copy() for W in network.coefs]
+    net.intercepts_ = [b.copy() for b in network.intercepts]
+    net.set_params(warm_start=True, max_iter=EPOCH_STAGE, n_iter_no_change=EPOCH_STAGE + 1,
+                   batch_size=min(32, X.shape[0]))
+    done = 0
+    while done < epochs:
+        _fit_quietly(net, X, y)
+        done += EPOCH_STAGE
+        if stages is not None:
+            stages(_as_network(net), done)
+    return _as_network(net)
+
+
+# ----------------------------------------------------------------------- pretraining
+@dataclass(frozen=True)
+class Pretrained:
+    """Pretrained networks and the fine-tuning settings chosen on virtual subjects.
+
+    Attributes
+    ----------
+    networks : tuple of Network
+    epochs : int
+        Fine-tuning epochs chosen on the validation subjects.
+    learning_rate : float
+        Fine-tuning step size chosen there.
+    info : dict
+        Settings, corpus size, validation scores of every candidate, timing, key.
+    """
+
+    networks: tuple[Network, ...]
+    epochs: int
+    learning_rate: float
+    info: dict
+
+
+def _r2(y: np.ndarray, y_hat: np.ndarray) -> float:
+    ss = float(np.sum((y - y.mean()) ** 2))
+    return float(1.0 - np.sum((y - y_hat) ** 2) / ss) if ss > 0 else float("nan")
+
+
+def _choose_finetuning(networks: Sequence[Network], validation: Corpus, lags: int,
+                       hidden: Sequence[int]) -> tuple[int, float, dict]:
+    """Fine-tuning epochs and step size that serve the validation subjects best.
+
+    Score of a candidate: the mean of the subjects' validation R^2 and of the worst one.
+    """
+    preds: dict[tuple[float, int], list[list[np.ndarray]]] = {}
+    for X_raw, y, n_id in validation:
+        X = lagged(X_raw, lags)
+        for lr in FINETUNE_RATES:
+            X_val = X[n_id:]
+            per_epochs: dict[int, list[np.ndarray]] = {0: [n.predict(X_val) for n in networks]}
+            for k, net in enumerate(networks):
+                def keep(w: Network, done: int, store: dict = per_epochs,
+                         rows: np.ndarray = X_val) -> None:
+                    store.setdefault(done, []).append(w.predict(rows))
+                finetune(net, X[:n_id], y[:n_id], epochs=MAX_FINETUNE_EPOCHS,
+                         learning_rate=lr, seed=1000 + k, hidden=hidden, stages=keep)
+            for epochs, p in per_epochs.items():
+                preds.setdefault((lr, epochs), []).append(np.mean(p, axis=0))
+    scores = {}
+    for (lr, epochs), p in preds.items():
+        r2 = [_r2(y[n_id:], yh) for (_, y, n_id), yh in zip(validation, p, strict=True)]
+        scores[(lr, epochs)] = (float(np.mean(r2)), float(np.min(r2)))
+    best = max(scores, key=lambda c: (0.5 * (scores[c][0] + scores[c][1]), -c[1]))
+    table = [{"learning_rate": lr, "epochs": e, "r2_mean": m, "r2_min": w}
+             for (lr, e), (m, w) in sorted(scores.items())]
+    return best[1], best[0], {"candidates": table}
+
+
+_SOURCE_PACKAGES = ("sim.user", "estimation")
+_SOURCE_MODULES = (("sim", "recording.py"), ("scenarios.runners", "pretraining.py"))
+
+
+def source_digest() -> str:
+    """SHA-256 of everything that makes a corpus or a pretrained network, and the version.
+
+    Every module of :mod:`sim.user` (the virtual subjects) and :mod:`estimation` (features,
+    scaling, this module), the recording type and the corpus builder: an edit to any of
+    them makes the cached networks stale.
+    """
+    if _DIGEST:
+        return _DIGEST[0]
+    h = hashlib.sha256()
+    for package in _SOURCE_PACKAGES:
+        for entry in sorted(resources.files(package).iterdir(), key=lambda e: e.name):
+            if entry.name.endswith(".py"):
+                h.update(entry.name.encode() + entry.read_bytes())
+    for package, name in _SOURCE_MODULES:
+        h.update(resources.files(package).joinpath(name).read_bytes())
+    try:
+        h.update(metadata.version("griploop").encode())
+    except metadata.PackageNotFoundError:  # a source tree
+        h.update(b"source")
+    _DIGEST.append(h.hexdigest())
+    return _DIGEST[0]
+
+
+_DIGEST: list[str] = []
+_MEMO: dict[str, Pretrained] = {}
+
+
+def _settings(n_inputs: int, corpus: str, n_subjects: int, seed: int, hidden: Sequence[int],
+              lags: int, n_networks: int, epochs: int, validation_subjects: int) -> dict:
+    return {"format": FORMAT, "n_inputs": int(n_inputs), "corpus": corpus,
+            "pretrain_subjects": int(n_subjects), "pretrain_seed": int(seed),
+            "hidden": [int(h) for h in hidden], "lags": int(lags),
+            "n_networks": int(n_networks), "pretrain_epochs": int(epochs),
+            "pretrain_batch": PRETRAIN_BATCH, "pretrain_rate": PRETRAIN_RATE,
+            "validation_subjects": int(validation_subjects), "source": source_digest()}
+
+
+def _key(settings: dict) -> str:
+    return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:24]
+
+
+def build_pretrained(settings: dict) -> Pretrained:
+    """Pretrain the networks of ``settings`` and choose their fine-tuning (no cache)."""
+    import time
+
+    from estimation.threads import one_blas_thread
+
+    t0 = time.perf_counter()
+    builder = _CORPORA.entry(settings["corpus"]).resolve()
+    lags, hidden = settings["lags"], settings["hidden"]
+    with one_blas_thread():
+        train = builder(n_inputs=settings["n_inputs"], n_subjects=settings["pretrain_subjects"],
+                        seed=settings["pretrain_seed"])
+        validation = builder(n_inputs=settings["n_inputs"],
+                             n_subjects=settings["validation_subjects"],
+                             seed=settings["pretrain_seed"] + 1)
+        X = np.vstack([lagged(U, lags) for U, _, _ in train])
+        y = np.concatenate([t for _, t, _ in train])
+        networks = []
+        for k in range(settings["n_networks"]):
+            net = _regressor(hidden, settings["pretrain_seed"] + k,
+                             max_iter=settings["pretrain_epochs"], batch_size=PRETRAIN_BATCH,
+                             learning_rate_init=PRETRAIN_RATE)
+            networks.append(_as_network(_fit_quietly(net, X, y)))
+        epochs, lr, scores = _choose_finetuning(networks, validation, lags, hidden)
+    info = dict(settings, key=_key(settings), n_windows=int(X.shape[0]),
+                build_s=time.perf_counter() - t0, finetune=scores)
+    return Pretrained(tuple(networks), epochs, lr, info)
+
+
+def _save(path: Path, model: Pretrained) -> None:
+    arrays = {}
+    for k, net in enumerate(model.networks):
+        for i, (W, b) in enumerate(zip(net.coefs, net.intercepts, strict=True)):
+            arrays[f"net{k}_W{i}"] = W
+            arrays[f"net{k}_b{i}"] = b
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    write_atomic(path.with_suffix(".npz"), buffer.getvalue())
+    meta = dict(model.info, epochs=model.epochs, learning_rate=model.learning_rate)
+    write_atomic(path.with_suffix(".json"), json.dumps(meta, indent=1).encode())
+
+
+def _load(path: Path, settings: dict) -> Pretrained:
+    """Read a cached model; raise ``ValueError`` unless it is exactly what ``settings`` ask."""
+    meta = json.loads(path.with_suffix(".json").read_text())
+    if any(meta.get(k) != v for k, v in settings.items()) or meta.get("key") != _key(settings):
+        raise ValueError("settings differ")
+    sizes = [settings["n_inputs"] * (settings["lags"] + 1), *settings["hidden"], 1]
+    networks = []
+    with np.load(path.with_suffix(".npz"), allow_pickle=False) as z:
+        for k in range(settings["n_networks"]):
+            coefs = tuple(np.array(z[f"net{k}_W{i}"], dtype=float) for i in range(len(sizes) - 1))
+            intercepts = tuple(np.array(z[f"net{k}_b{i}"], dtype=float)
+                               for i in range(len(sizes) - 1))
+            for i, (W, b) in enumerate(zip(coefs, intercepts, strict=True)):
+                if W.shape != (sizes[i], sizes[i + 1]) or b.shape != (sizes[i + 1],) \
+                        or not (np.all(np.isfinite(W)) and np.all(np.isfinite(b))):
+                    raise ValueError(f"network {k} layer {i} has the wrong shape or non-finite")
+            networks.append(Network(coefs, intercepts))
+    epochs, lr = int(meta["epochs"]), float(meta["learning_rate"])
+    if epochs < 0 or epochs % EPOCH_STAGE or not lr > 0:
+        raise ValueError("bad fine-tuning settings")
+    return Pretrained(tuple(networks), epochs, lr, meta)
+
+
+def pretrained(n_inputs: int, *, corpus: str = "virtual", n_subjects: int = 40,
+               seed: int = PRETRAIN_SEED, hidden: Sequence[int] = (32, 16), lags: int = 2,
+               n_networks: int = 3, epochs: int = 60,
+               validation_subjects: int = VALIDATION_SUBJECTS) -> Pretrained:
+    """The pretrained ensemble for ``n_inputs`` features: memory, then disk, else built.
+
+    A cached file is used only if its JSON states exactly these settings and this source
+    digest and its arrays have the expected shapes and finite values; anything else
+    (missing, corrupt, another version) is rebuilt and rewritten. ``info["cache"]`` says
+    which happened (``"memory"``, ``"disk"``, ``"built"``, ``"rebuilt: <reason>"``).
+    """
+    settings = _settings(n_inputs, corpus, n_subjects, seed, hidden, lags, n_networks, epochs,
+                         validation_subjects)
+    key = _key(settings)
+    if key in _MEMO:
+        return _MEMO[key]
+    folder = cache_subdir("pretrained")
+    path = None if folder is None else folder / f"transfer_mlp-{key}"
+    status = "built"
+    if path is not None and (path.with_suffix(".json").exists()
+                             or path.with_suffix(".npz").exists()):
+        try:
+            model = _load(path, settings)
+            model.info["cache"] = "disk"
+            _MEMO[key] = model
+            return model
+        except (OSError, ValueError, KeyError, TypeError, json.JSONDecodeError) as exc:
+            status = f"rebuilt: {type(exc).__name__}: {exc}"
+    model = build_pretrained(settings)
+    model.info["cache"] = status
+    if path is not None:
+        _save(path, model)
+    _MEMO[key] = model
+    return model
+
+
+def clear_memory() -> None:
+    """Forget the pretrained ensembles held in this process (the disk cache stays)."""
+    _MEMO.clear()
+
+
+# ----------------------------------------------------------------------- estimator
+class TransferMLP(ForceEstimator):
+    """Ensemble of MLPs pretrained on virtual subjects and fine-tuned on the person.
+
+    Parameters
+    ----------
+    n_networks : int
+        Networks in the ensemble (each pretrained with its own seed).
+    hidden : tuple of int
+        Hidden layer sizes (logistic units).
+    lags : int
+        Past windows in the input.
+    corpus : str
+        Registered pretraining corpus (:func:`register_corpus`).
+    pretrain_subjects : int
+        Virtual subjects in the corpus.
+    pretrain_seed : int
+        Population seed of the corpus (validation subjects: ``pretrain_seed + 1``).
+    pretrain_epochs : int
+        Epochs of pretraining.
+    validation_subjects : int
+        Virtual subjects (population ``pretrain_seed + 1``) on which the fine-tuning
+        length and step size are chosen.
+    dt_s : float
+        Window increment in seconds; streams refuse a shorter ``period_s``.
+    random_state : numpy.random.Generator, int or None
+        Seeds the fine-tuning's shuffling.
+
+    Attributes
+    ----------
+    networks_ : tuple of Network
+        The fine-tuned networks.
+    finetune_epochs_, finetune_learning_rate_ : int, float
+        Fine-tuning settings (chosen on virtual validation subjects at pretraining).
+    pretrained_info_ : dict
+        Pretraining settings, cache status and validation scores.
+    """
+
+    modes = ("one_step", "free_run")  # the force is never used: both modes coincide
+
+    def __init__(self, *, n_networks: int = 3, hidden: tuple[int, ...] = (32, 16),
+                 lags: int = 2, corpus: str = "virtual", pretrain_subjects: int = 40,
+                 pretrain_seed: int = PRETRAIN_SEED, pretrain_epochs: int = 60,
+                 validation_subjects: int = VALIDATION_SUBJECTS, dt_s: float = 0.125,
+                 random_state: np.random.Generator | int | None = None) -> None:
+        self.n_networks = n_networks
+        self.hidden = hidden
+        self.lags = lags
+        self.corpus = corpus
+        self.pretrain_subjects = pretrain_subjects
+        self.pretrain_seed = pretrain_seed
+        self.pretrain_epochs = pretrain_epochs
+        self.validation_subjects = validation_subjects
+        self.dt_s = dt_s
+        self.random_state = random_state
+
+    def _check_settings(self) -> None:
+        ints = {"n_networks": self.n_networks, "lags": self.lags,
+                "pretrain_subjects": self.pretrain_subjects,
+                "pretrain_epochs": self.pretrain_epochs,
+                "validation_subjects": self.validation_subjects}
+        bad = {k: v for k, v in ints.items() if int(v) != v or v < (0 if k == "lags" else 1)}
+        if bad or not self.hidden or min(self.hidden) < 1:
+            raise EstimationInputError(
+                f"TransferMLP: expected positive counts and hidden sizes, found {bad or ''} "
+                f"hidden={self.hidden!r}")
+
+    def fit(self, U: np.ndarray, y: np.ndarray) -> TransferMLP:
+        """Fine-tune the pretrained ensemble on normalized features ``U`` and force ``y``.
+
+        Parameters
+        ----------
+        U : ndarray, shape (n_samples, n_inputs)
+            Normalized features of the person's identification data.
+        y : ndarray, shape (n_samples,)
+            Normalized force.
+
+        Raises
+        ------
+        EstimationInputError
+            Fewer than 8 windows, bad settings, or a feature layout the corpus cannot make.
+        """
+        U = check_features(U, who="TransferMLP", min_samples=8)
+        y = check_target(y, U.shape[0])
+        self._check_settings()
+        model = pretrained(U.shape[1], corpus=self.corpus, n_subjects=self.pretrain_subjects,
+                           seed=self.pretrain_seed, hidden=tuple(self.hidden), lags=self.lags,
+                           n_networks=self.n_networks, epochs=self.pretrain_epochs,
+                           validation_subjects=self.validation_subjects)
+        seeds = np.random.default_rng(self.random_state).integers(0, 2**31 - 1, self.n_networks)
+        X = lagged(U, self.lags)
+        self.networks_ = tuple(
+            finetune(net, X, y, epochs=model.epochs, learning_rate=model.learning_rate,
+                     seed=int(s), hidden=tuple(self.hidden))
+            for net, s in zip(model.networks, seeds, strict=True))
+        self.finetune_epochs_ = model.epochs
+        self.finetune_learning_rate_ = model.learning_rate
+        self.pretrained_info_ = {k: v for k, v in model.info.items() if k != "finetune"}
+        self.n_features_in_ = U.shape[1]
+        return self
+
+    def predict(self, U: np.ndarray, y: np.ndarray | None = None, *,
+                mode: str | None = None) -> np.ndarray:
+        """Force estimate (normalized), shape (n_samples,); ``y`` is ignored (sEMG only)."""
+        self._mode(mode, y)
+        U = check_features(U, n_inputs=self.n_features_in_, who="TransferMLP")
+        X = lagged(U, self.lags)
+        return np.mean([net.predict(X) for net in self.networks_], axis=0)
+
+    def streaming(self, mode: str = "free_run", *, scaling: MinMaxScaling | None = None,
+                  period_s: float | None = None) -> object:
+        """A stream equal to :meth:`predict`; ``period_s`` (s) shorter than ``dt_s`` is refused."""
+        check_mode(mode, self.modes, "TransferMLP")
+        check_period(period_s, self.dt_s, "TransferMLP")
+        return scaled(_TransferStream(self.networks_, self.lags, self.n_features_in_, mode),
+                      scaling)
+
+
+class _TransferStream:
+    """One window at a time: a ring of the last ``lags + 1`` inputs, then every network."""
+
+    uses_force = False
+
+    def __init__(self, networks: Sequence[Network], lags: int, n_inputs: int, mode: str) -> None:
+        self.mode = mode
+        self._lags = lags
+        self._n = n_inputs
+        self._x = np.empty(n_inputs * (lags + 1))
+        self._layers = [[(np.ascontiguousarray(W.T), b.copy(), np.empty(b.size))
+                         for W, b in zip(net.coefs, net.intercepts, strict=True)]
+                        for net in networks]
+        self._started = False
+
+    def reset(self) -> None:
+        """Forget the past windows."""
+        self._started = False
+
+    def step(self, u: np.ndarray, y_prev: float | None = None) -> float:
+        """Force estimate (normalized) for the newest window's features ``u`` (n_inputs,)."""
+        n, x = self._n, self._x
+        if not self._started:
+            for j in range(self._lags + 1):
+                x[j * n:(j + 1) * n] = u
+            self._started = True
+        else:
+            x[n:] = x[:-n].copy() if self._lags else x[n:]
+            x[:n] = u
+        total = 0.0
+        for layers in self._layers:
+            h = x
+            last = len(layers) - 1
+            for i, (Wt, b, out) in enumerate(layers):
+                Wt.dot(h, out=out)
+                out += b
+                if i < last:
+                    expit(out, out=out)
+                h = out
+            total += float(h[0])
+        return total / len(self._layers)
+
+
+def check_corpus(name: str) -> None:
+    """Raise :class:`UnknownCorpusError` unless ``name`` is a registered corpus."""
+    _CORPORA.entry(name)
+
+
+__all__ = ["Network", "Pretrained", "RegistrationError", "TransferMLP", "check_corpus",
+           "clear_memory", "finetune", "lagged", "pretrained", "register_corpus"]
