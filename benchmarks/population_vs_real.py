@@ -117,7 +117,7 @@ def main() -> None:
     names = [v.strip() for v in args.only.split(",") if v.strip()]
     print(f"population_vs_real: {args.subjects} subjects, seed {args.seed}, generator "
           f"{args.generator}, free_run on all 8 channels, validation half")
-    head = (f"| variant (removed) | Spearman | mean abs diff | largest (estimator) | "
+    head = ("| variant (removed) | Spearman | mean abs diff | largest (estimator) | "
             + " | ".join(SHOWN) + " |")
     print(head)
     print("|" + "---|" * (4 + len(SHOWN)))
