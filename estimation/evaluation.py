@@ -11,7 +11,8 @@ Result of :func:`evaluate_subject` (JSON-serializable)::
 
     {name: {"train_ms": float, "step_us": float, "step_mode": str,
             "modes": {mode: {"r2", "nrmse", "rmse_n", "volatility_n_per_s",
-                             "status"}},      # "ok", "unstable" or "riccati_failed"
+                             "status"}},      # "ok", "unstable", "riccati_failed" or
+                                              # "unsupported" (inputs it cannot take)
             "info": {...},                    # order, stability, epochs...
             "_pipeline": ForcePipeline}}      # the fitted estimator (not serialized)
 """
@@ -24,6 +25,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from estimation.errors import (
+    EstimationInputError,
     InsufficientDataError,
     RiccatiError,
     UnstableModelError,
@@ -118,14 +120,21 @@ def evaluate_subject(
         else {k: dict(v) for k, v in estimators.items()}
     y_val = y_n[n_id:]
     out: dict = {}
+    first_input_error: list[EstimationInputError] = []
     for name, params in specs.items():
         pipe: ForcePipeline = make_estimator(name, **params)
         t0 = time.perf_counter()
         try:
             pipe.fit(U[:n_id], y_n[:n_id])
-        except RiccatiError as exc:  # reported, never silently replaced by another design
+        except (RiccatiError, EstimationInputError) as exc:
+            # reported per estimator, never silently replaced by another design: a
+            # Riccati failure, or inputs this estimator cannot take (a channel set a
+            # pretrained estimator lacks); the other estimators still run
+            status = "riccati_failed" if isinstance(exc, RiccatiError) else "unsupported"
+            if status == "unsupported":
+                first_input_error.append(exc)
             failed = {"r2": None, "nrmse": None, "rmse_n": None, "volatility_n_per_s": None,
-                      "status": "riccati_failed", "message": str(exc)}
+                      "status": status, "message": str(exc)}
             out[name] = {"train_ms": None, "step_us": None, "step_mode": None,
                          "modes": {m: dict(failed) for m in pipe.modes}, "info": {}}
             continue
@@ -154,6 +163,8 @@ def evaluate_subject(
             step_us = _step_times_us(stream, U[n_id:], y_val, stream.uses_force)
         out[name] = {"train_ms": train_ms, "step_us": step_us, "step_mode": step_mode,
                      "modes": modes, "info": _info(pipe.estimator), "_pipeline": pipe}
+    if out and all("_pipeline" not in r for r in out.values()) and first_input_error:
+        raise first_input_error[0]  # the recording itself is unusable: say why, once
     return out
 
 
@@ -178,8 +189,9 @@ def aggregate(per_subject: Sequence[Mapping[str, Mapping]]) -> dict:
         ``{"estimators": {name: {mode: {"r2_mean", "r2_sd", "r2_min", "nrmse_mean",
         "nrmse_sd", "rmse_n_mean", "n_ok", "per_subject": [...]}}},
         "timing": {name: {"train_ms_median", "step_us_median", ...}}}``.
-        Subjects whose model was unstable in a mode (``status`` ``"unstable"``) or
-        whose Kalman design failed (``"riccati_failed"``) are listed but excluded
+        Subjects whose model was unstable in a mode (``status`` ``"unstable"``),
+        whose Kalman design failed (``"riccati_failed"``) or whose inputs the estimator
+        cannot take (``"unsupported"``) are listed but excluded
         from that mode's mean (``n_ok`` counts the rest).
     """
     names = list(per_subject[0]) if per_subject else []

@@ -201,7 +201,9 @@ def _subtitle(results: Path, sweep: str | None, rows: Sequence[dict], split: D.S
 # ---------------------------------------------------------------- 1. paper tables
 
 
-def _paper_section(sources: Sequence[tuple[str, D.ScoreTable]]) -> Section:
+def _paper_section(sources: Sequence[tuple[str, D.ScoreTable]],
+                   reproduction: Path | None = None,
+                   json_config: Mapping[str, Any] | None = None) -> Section:
     title = "3. Paper tables: ours next to the paper's"
     if not sources:
         return Section("paper", title, note("No reproduction rows in the store and no "
@@ -215,7 +217,11 @@ def _paper_section(sources: Sequence[tuple[str, D.ScoreTable]]) -> Section:
         for mode in scores:
             parts.append(_summary_table(scores[mode], mode))
             parts.append(_per_subject_table(scores[mode], mode))
-        parts.append(note(_deployment_sentence(scores)))
+        from_json = reproduction is not None and label.startswith(Path(reproduction).name)
+        channels = (json_config or {}).get("channels") if from_json else None
+        parts.append(note(_deployment_sentence(scores, channels)))
+        if from_json:
+            parts.append(_transfer_table(reproduction))
         parts.append(_timing_table(scores))
         parts.append(img(F.png_bytes(F.score_bars_figure(scores, f"Scores ({label})")),
                          f"R2 and NRMSE bars per estimator and mode, {label}"))
@@ -238,23 +244,52 @@ def _summary_table(scores: Mapping[str, D.EstimatorScores], mode: str) -> str:
     return table(headers, rows, f"Summary, mode {mode}")
 
 
-def _deployment_sentence(scores: D.ScoreTable) -> str:
-    """Which estimator a deployed prosthesis (no force sensor) should use, from the numbers."""
+def _deployment_sentence(scores: D.ScoreTable, channels: Any = None) -> str:
+    """Which estimator a deployed prosthesis (no force sensor) should use, from the numbers.
+
+    The same rule and sentence as ``griploop reproduce`` (:func:`estimation.recommendation.
+    recommend`): the worst subject weighs, not only the mean.
+    """
+    from estimation.recommendation import recommend
+
     free = scores.get("free_run", {})
-    full = {n: e for n, e in free.items() if e.per_subject and e.n == len(e.per_subject)}
-    if not full:
-        return "No estimator ran in free_run on every subject: none can be recommended."
-    best = max(full, key=lambda n: full[n].r2_mean)
-    b = full[best]
-    text = (f"A deployed prosthesis has no force sensor, so it should use {best} in free_run: "
-            f"best sEMG-only mean R² {b.r2_mean:.3f} (worst subject "
-            f"{min(r for r, _ in b.per_subject.values()):.3f})")
+    n_subjects = len({s for e in free.values() for s in e.per_subject})
+    summary = {n: {"r2_mean": e.r2_mean if e.per_subject else None,
+                   "r2_min": min((r for r, _ in e.per_subject.values()), default=None),
+                   "n_ok": len(e.per_subject), "n": n_subjects} for n, e in free.items()}
     ref = scores.get("one_step", {}).get("ss_kf")
-    if ref is not None:
-        verdict = "at or above" if b.r2_mean >= ref.r2_mean else "below"
-        text += (f", {verdict} the paper's ss_kf one_step figure ({ref.r2_mean:.3f}), which "
-                 "needs the measured force")
-    return text + "."
+    rec = recommend(summary, channels=channels,
+                    one_step_reference=None if ref is None else ref.r2_mean)
+    return rec["reason"] if rec else ("No estimator ran in free_run on every subject: none "
+                                      "can be recommended.")
+
+
+def _transfer_table(path: Path | None) -> str:
+    """Virtual next to real (``griploop reproduce --channels all --json``), or empty."""
+    import json
+
+    if path is None:
+        return ""
+    tr = json.loads(Path(path).read_text()).get("transfer")
+    if not isinstance(tr, dict) or not tr.get("rows"):
+        return ""
+    rows = [[r["estimator"], fmt(r["virtual_mean"], 3), fmt(r["virtual_min"], 2),
+             fmt(r["real_mean"], 3), fmt(r["real_min"], 2),
+             "-" if r["real_mean"] is None or r["virtual_mean"] is None
+             else f"{r['virtual_mean'] - r['real_mean']:+.3f}"] for r in tr["rows"]]
+    a = tr["agreement"]
+    if a.get("spearman") is None:
+        verdict = "Too few estimators reach R² 0.5 on either side to compare."
+    else:
+        verdict = (f"Over the {a['n']} estimators reaching R² {a['floor']} on either side: "
+                   f"Spearman {a['spearman']:.2f} (goal ≥ {a['thresholds']['spearman']}), mean "
+                   f"|virtual − real| {a['mean_abs_diff']:.3f} (≤ "
+                   f"{a['thresholds']['mean_abs_diff']}), largest {a['max_abs_diff']:.3f} "
+                   f"({a['worst']}; ≤ {a['thresholds']['max_abs_diff']}).")
+    return ("<h3>Virtual subjects next to real people (free_run, all 8 channels)</h3>"
+            + note(f"{verdict} Real: {tr['source']}.")
+            + table(["estimator", "virtual mean", "virtual worst", "real mean", "real worst",
+                     "virtual − real"], rows, "Estimation verdicts, virtual and real"))
 
 
 def _per_subject_table(scores: Mapping[str, D.EstimatorScores], mode: str) -> str:
@@ -582,7 +617,8 @@ def _provenance_section(results: Path, sweep: str | None, rows: Sequence[dict],
 # ---------------------------------------------------------------- registrations
 register_section("summary", lambda c: _summary_section(c.split.episodes, c.factors), order=10)
 register_section("compare", lambda c: _compare_section(c.split.episodes, c.factors), order=20)
-register_section("paper", lambda c: _paper_section(c.sources), order=30)
+register_section("paper", lambda c: _paper_section(c.sources, c.reproduction, c.json_config),
+                 order=30)
 register_section("traces", lambda c: _traces_section(c.split.episodes, c.traces,
                                                      c.options["max_traces"], c.factors),
                  order=40)

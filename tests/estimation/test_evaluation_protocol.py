@@ -86,3 +86,21 @@ def test_failed_kalman_design_is_reported_not_hidden(monkeypatch) -> None:
     agg = aggregate([res])
     assert agg["estimators"]["ss_kf"]["one_step"]["n_ok"] == 0
     assert agg["timing"]["ss_kf"]["train_ms_median"] is None
+
+
+def test_an_estimator_that_cannot_take_the_inputs_is_reported_and_the_rest_run() -> None:
+    from estimation.errors import EstimationInputError
+
+    fs = extract_features(toy_recording(seed=2), channels=(7, 8))  # 6 inputs
+    res = evaluate_subject(fs.X, fs.y, ["ridge", "transfer_mlp"], dt_s=fs.dt_s,
+                           time_steps=False)
+    assert res["ridge"]["modes"]["free_run"]["status"] == "ok"
+    bad = res["transfer_mlp"]["modes"]["free_run"]
+    assert bad["status"] == "unsupported" and bad["r2"] is None
+    assert "24 inputs" in bad["message"] and "found 6 inputs" in bad["message"]
+    agg = aggregate([res])
+    assert agg["estimators"]["transfer_mlp"]["free_run"]["n_ok"] == 0
+    json.dumps(to_jsonable(agg))
+    # when no estimator can take the inputs, the reason is raised once
+    with pytest.raises(EstimationInputError, match="found 6 inputs"):
+        evaluate_subject(fs.X, fs.y, ["transfer_mlp"], dt_s=fs.dt_s, time_steps=False)
