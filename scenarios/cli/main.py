@@ -42,6 +42,8 @@ USER_ERRORS = (GriploopError, OSError)
 #: Each module defines ``register(subparsers)`` (adding its parser with the same help)
 #: and ``run(args) -> int``; ``tests/scenarios/test_cli.py`` checks the two helps agree.
 COMMANDS: dict[str, tuple[str, str]] = {
+    "calibrate": ("scenarios.cli.commands.calibrate",
+                  "record the paper's calibration session from a live sEMG stream (LSL)"),
     "compare-references": ("scenarios.cli.commands.compare_references",
                            "grasp one object with references from several estimators and the "
                            "oracle"),
@@ -52,6 +54,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "evaluate": ("scenarios.cli.commands.evaluate",
                  "fit and score every force estimator on one recording"),
     "export": ("scenarios.cli.commands.export", "write a results store as Parquet and CSV tables"),
+    "live": ("scenarios.cli.commands.live",
+             "drive the simulated hand in real time from a live sEMG stream (LSL)"),
     "margins": ("scenarios.cli.commands.margins",
                 "design a controller for an object and report its margins at each grip force"),
     "measure-loop": ("scenarios.cli.commands.measure_loop",
@@ -62,6 +66,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
                "write a self-contained HTML report of a results store"),
     "reproduce": ("scenarios.cli.commands.reproduce",
                   "reproduce the paper's Tables 2 and 3 on virtual subjects"),
+    "stream": ("scenarios.cli.commands.stream",
+               "play a recording as a Lab Streaming Layer (LSL) sEMG stream"),
     "subjects": ("scenarios.cli.commands.subjects",
                  "simulate the paper's squeeze session for a virtual population"),
     "sweep": ("scenarios.cli.commands.sweep",

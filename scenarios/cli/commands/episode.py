@@ -51,6 +51,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write JSON here")
     p.add_argument("--video", type=Path, default=None, metavar="FILE",
                    help="also render the episode to an animated GIF (.gif)")
+    p.add_argument("--recording", type=Path, default=None, metavar="FILE",
+                   help="drive the episode with this recording's sEMG instead of a virtual "
+                   "subject's (the offline counterpart of griploop live on the same file); "
+                   "needs --calibration")
+    p.add_argument("--calibration", type=Path, default=None, metavar="CAL",
+                   help="with --recording: the calibration recording the estimator is fitted on")
+    p.add_argument("--channels", default="6,7,8",
+                   help="with --recording: 'all' or comma-separated channels (default: 6,7,8)")
     p.set_defaults(func=run)
 
 
@@ -75,6 +83,11 @@ def run(args: argparse.Namespace) -> int:
     """Run ``griploop episode``; returns the exit status."""
     if args.video is not None and args.video.suffix.lower() != ".gif":
         raise UsageError(f"--video: expected a .gif file, found {args.video.name!r}")
+    if (args.recording is None) != (args.calibration is None):
+        raise UsageError("--recording and --calibration go together; found only "
+                         + ("--recording" if args.calibration is None else "--calibration"))
+    if args.recording is not None:
+        return _run_recorded(args)
     scenario = scenario_from_args(args)
     result = episode_from_scenario(scenario, record_frames=args.video is not None)
     row, design = result.row, result.design
@@ -102,6 +115,55 @@ def run(args: argparse.Namespace) -> int:
                             "object_height_m", "slip_speed_m_s")},
     }
     if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(out, indent=1, default=float))
+        print(f"wrote {args.json}")
+    if args.video is not None:
+        write_video(result.traces["frames"], args.video, fps=25)
+        print(f"wrote {args.video}")
+    return 0
+
+
+RECORDED_KEYS = ("outcome", "lifted", "dropped", "crushed", "peak_force_n", "hold_grip_n",
+                 "hold_reference_n", "tracking_rmse_n", "overshoot_pct", "settling_time_s",
+                 "contact_peak_ratio", "slip_events", "slip_distance_m",
+                 "reference_volatility_n_per_s")
+
+
+def _run_recorded(args: argparse.Namespace) -> int:
+    """``episode --recording FILE --calibration CAL``: the offline episode on a given recording."""
+    from estimation.reproduce import parse_channels
+    from scenarios.cli.choices import check_choice
+    from scenarios.live.recorded import episode_on_recording, fit_calibration
+    from sim.hand.objects import make_object
+    from sim.recording import load_recording
+
+    check_choice("--controller", args.controller, controller_names())
+    check_choice("--object", args.object, object_names())
+    cal = fit_calibration(load_recording(args.calibration), args.estimator, mode=args.mode,
+                          channels=parse_channels(args.channels), seed=args.seed)
+    overrides = {k: v for k, v in (("mass_kg", args.mass_kg), ("friction", args.friction))
+                 if v is not None}
+    obj = make_object(args.object, **overrides)
+    result = episode_on_recording(load_recording(args.recording), cal, obj,
+                                  controller=args.controller, episode_s=args.episode_s,
+                                  seed=args.seed, record_frames=args.video is not None)
+    m = result.metrics
+    print(f"episode on {args.recording}: {args.estimator} ({args.mode}, calibration R2 "
+          f"{cal.calibration.r2:.3f}) -> {args.controller} on {obj.name} ({obj.mass_kg:g} kg, "
+          f"mu {obj.friction:g})")
+    for key in RECORDED_KEYS:
+        value = m.get(key)
+        text = f"{value:.4g}" if isinstance(value, float) else str(value)
+        print(f"  {key:<30} {text}")
+    if args.json is not None:
+        out = {"recording": str(args.recording), "calibration": cal.summary(),
+               "controller": args.controller,
+               "object": {"name": obj.name, "mass_kg": obj.mass_kg, "friction": obj.friction},
+               "metrics": m,
+               "traces": {k: np.asarray(v).tolist() for k, v in result.traces.items()
+                          if k in ("t_s", "reference_n", "grip_force_n", "command",
+                                   "object_height_m")}}
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(out, indent=1, default=float))
         print(f"wrote {args.json}")

@@ -34,6 +34,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--fs-hz", type=float, default=200.0, help="sEMG sampling rate in Hz (default: 200)"
     )
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    parser.add_argument("--grasp", metavar="OBJECT", default=None,
+                        help="also record each subject grasping, lifting and holding this object "
+                        "(DIR/subjectNN_grasp.npz, aiming at the force an episode's user aims at "
+                        "through this session's calibration): a recording to stream to "
+                        "griploop live")
+    parser.add_argument("--grasp-s", type=float, default=9.0,
+                        help="length of the grasp recording, s (default 9)")
     parser.set_defaults(func=run)
 
 
@@ -43,6 +50,14 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--n must be at least 1, found {args.n}")
     if args.seed < 0:
         raise UsageError(f"--seed must be non-negative, found {args.seed}")
+    obj = None
+    if args.grasp is not None:
+        from scenarios.cli.choices import check_choice, object_names
+        from sim.hand.objects import make_object
+
+        obj = make_object(check_choice("--grasp", args.grasp, object_names()))
+        if not args.grasp_s >= 3.0:
+            raise UsageError(f"--grasp-s must be at least 3 s, found {args.grasp_s}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for subject in make_population(args.n, args.seed):
@@ -59,4 +74,15 @@ def run(args: argparse.Namespace) -> int:
             f"rest std {rest_std:4.2f} LSB  saturated {saturated:5.3f} %  "
             f"-> {stem}.npz, {stem}.csv"
         )
+        if obj is not None:
+            from scenarios.live.recorded import grasp_session
+
+            grasp = grasp_session(subject, obj, mvc_cal_n=float(rec.force_n.max()),
+                                  duration_s=args.grasp_s - 1.0, tail_s=1.0,
+                                  rng=np.random.default_rng((args.seed, subject.subject_id)),
+                                  generator=args.generator, fs_hz=args.fs_hz)
+            path = grasp.save_npz(out / f"subject{subject.subject_id:02d}_grasp.npz")
+            print(f"subject{subject.subject_id:02d}  grasp of {obj.name}: target "
+                  f"{grasp.metadata['target_grip_n']:.2f} N on the hand, "
+                  f"{grasp.duration_s:.1f} s -> {path}")
     return 0

@@ -1,0 +1,224 @@
+"""``griploop live``: a person's sEMG over LSL drives the simulated hand in real time."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from scenarios.cli.choices import controller_names, object_names, one_of
+from scenarios.cli.errors import UsageError
+from scenarios.cli.recording_options import add_recording_options, recording_kwargs
+
+DEFAULT_ESTIMATOR = "ridge"
+
+
+def _free_run_estimators() -> list[str]:
+    from estimation.registry import estimator_info, estimator_names
+
+    return [n for n in estimator_names() if "free_run" in estimator_info(n)["modes"]]
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``live`` subcommand."""
+    p = subparsers.add_parser(
+        "live",
+        help="drive the simulated hand in real time from a live sEMG stream (LSL)",
+        description="Resolve an sEMG stream by name, check its channel count and rate against "
+        "the calibration recording, fit the estimator on that recording, then run windowing, "
+        "features, estimate, controller and the MuJoCo hand in real time, paced by the "
+        "incoming samples, for one grasp-lift-hold. Publishes griploop.reference, "
+        "griploop.grip and griploop.events as LSL outlets. Shows the hand in the MuJoCo viewer "
+        "when a display exists, else writes a GIF of the session. Prints the timing report "
+        "(samples received and lost, latency from sample arrival to motor command, deadlines "
+        "missed, physics real-time factor) and the episode's metrics; docs/FORMAT.md "
+        "describes the JSON.",
+    )
+    p.add_argument("--lsl", required=True, metavar="NAME", help="name of the sEMG LSL stream")
+    p.add_argument("--calibration", required=True, metavar="CAL",
+                   help="calibration recording of the same person and armband (.npz or .csv, "
+                   "with force): griploop calibrate --lsl writes one")
+    p.add_argument("--estimator", default=DEFAULT_ESTIMATOR, metavar="NAME",
+                   help=f"{one_of(_free_run_estimators())} (default: {DEFAULT_ESTIMATOR}; "
+                   "run in free_run: sEMG only)")
+    p.add_argument("--channels", default="6,7,8",
+                   help="'all', or comma-separated channels as 1-based numbers or names "
+                   "(default: 6,7,8)")
+    p.add_argument("--controller", required=True, metavar="NAME", help=one_of(controller_names()))
+    p.add_argument("--object", required=True, metavar="NAME", help=one_of(object_names()))
+    p.add_argument("--mass-kg", type=float, default=None, help="override the object's mass, kg")
+    p.add_argument("--friction", type=float, default=None, help="override the friction coeff.")
+    p.add_argument("--duration-s", type=float, default=8.0,
+                   help="session length in stream time, s (default 8)")
+    p.add_argument("--hold-s", type=float, default=2.0,
+                   help="in-air hold at the end, s (default 2; the wrist lifts 0.6 s before)")
+    p.add_argument("--json", type=Path, default=None, metavar="FILE",
+                   help="also write the report as JSON here")
+    p.add_argument("--record", type=Path, default=None, metavar="FILE.npz",
+                   help="also save the sEMG received as a recording (.npz or .csv)")
+    p.add_argument("--video", type=Path, default=None, metavar="FILE.gif",
+                   help="GIF of the session (default without a display: FILE.gif beside --json, "
+                   "else griploop-live.gif)")
+    p.add_argument("--no-video", action="store_true", help="write no GIF")
+    p.add_argument("--no-viewer", action="store_true",
+                   help="do not open the MuJoCo viewer even if a display exists")
+    p.add_argument("--timeout-s", type=float, default=5.0,
+                   help="end the session when no sample arrives for this long, s (default 5)")
+    p.add_argument("--resolve-timeout-s", type=float, default=5.0,
+                   help="how long to look for the stream, s (default 5)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the estimators that draw random numbers (default 0)")
+    add_recording_options(p)
+    p.set_defaults(func=run)
+
+
+def _check(args: argparse.Namespace) -> None:
+    from scenarios.cli.choices import check_choice
+
+    check_choice("--estimator", args.estimator, _free_run_estimators())
+    check_choice("--controller", args.controller, controller_names())
+    check_choice("--object", args.object, object_names())
+    for flag, value in (("--duration-s", args.duration_s), ("--timeout-s", args.timeout_s),
+                        ("--resolve-timeout-s", args.resolve_timeout_s),
+                        ("--hold-s", args.hold_s)):
+        if not (math.isfinite(value) and value > 0):
+            raise UsageError(f"{flag}: expected a positive number of seconds, found {value}")
+    if args.video is not None and args.video.suffix.lower() != ".gif":
+        raise UsageError(f"--video: expected a .gif file, found {args.video.name!r}")
+    if args.record is not None and args.record.suffix not in (".npz", ".csv"):
+        raise UsageError(f"--record: expected a .npz or .csv file, found {args.record.name!r}")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``griploop live``; returns the exit status."""
+    from estimation.reproduce import parse_channels
+    from scenarios.live import lsl
+    from scenarios.live.display import FRAME_DT_S, Viewer, has_display, render_states
+    from scenarios.live.recorded import fit_calibration
+    from scenarios.live.session import LiveGrasp, SessionSettings, run_session
+    from sim.hand.objects import make_object
+    from sim.recording import load_recording
+
+    _check(args)
+    lsl.pylsl_module()  # one line with the fix if liblsl cannot load, before any work
+    cal_recording = load_recording(args.calibration, **recording_kwargs(args))
+    cal = fit_calibration(cal_recording, args.estimator, channels=parse_channels(args.channels),
+                          seed=args.seed)
+    overrides = {k: v for k, v in (("mass_kg", args.mass_kg), ("friction", args.friction))
+                 if v is not None}
+    obj = make_object(args.object, **overrides)
+    viewer_wanted = has_display() and not args.no_viewer
+    video = None if args.no_video else args.video
+    if video is None and not args.no_video and not viewer_wanted:
+        video = (args.json.with_suffix(".gif") if args.json is not None
+                 else Path("griploop-live.gif"))
+    settings = SessionSettings(duration_s=args.duration_s, hold_s=args.hold_s,
+                               timeout_s=args.timeout_s,
+                               frame_dt_s=FRAME_DT_S if video is not None else None)
+    outlets = lsl.SessionOutlets(1.0 / settings.control_dt_s)
+    grasp: LiveGrasp | None = None
+
+    def publish(t_s: float, reference_n: float, grip_n: float) -> None:
+        outlets.step(grasp.ts0 + t_s, reference_n, grip_n)
+
+    def event(t_s: float, marker: str) -> None:
+        outlets.event(grasp.ts0 + t_s, marker)
+
+    grasp = LiveGrasp(cal, obj, controller=args.controller, settings=settings,
+                      publish=publish, event=event)
+    info = lsl.resolve(args.lsl, args.resolve_timeout_s)
+    lsl.check_stream(info, n_channels=cal.n_channels, fs_hz=cal.fs_hz,
+                     source=cal_recording.source)
+    viewer = Viewer.open(grasp.env) if viewer_wanted else None
+    grasp.viewer = viewer
+    if viewer_wanted and viewer is None and video is None and not args.no_video:
+        video = Path("griploop-live.gif")
+        grasp.frame_every = max(1, int(round(FRAME_DT_S / settings.control_dt_s)))
+    print(f"live: {args.estimator} (free_run, calibration R2 {cal.calibration.r2:.3f}) -> "
+          f"{args.controller} on {obj.name} ({obj.mass_kg:g} kg, mu {obj.friction:g}); "
+          f"stream {lsl.describe(info)}; outlets {', '.join(outlets.names)}", flush=True)
+    try:
+        run_session(grasp, lambda: lsl.open_inlet(info))
+    except KeyboardInterrupt:
+        _finish(args, grasp, info, cal, obj, outlets, None, lsl)
+        raise
+    finally:
+        if viewer is not None:
+            viewer.close()
+    report = _finish(args, grasp, info, cal, obj, outlets, video, lsl)
+    if video is not None and grasp.frames:
+        render_states(obj, grasp.frames, video)
+        print(f"wrote {video}")
+    if grasp.ended == "diverged":
+        from scenarios.runners.dispatch import DivergedError
+
+        raise DivergedError(f"physics diverged at t = {report['session_s']:.3f} s: "
+                            f"{grasp.failure}")
+    return 0
+
+
+def _finish(args: argparse.Namespace, grasp: Any, info: Any, cal: Any, obj: Any, outlets: Any,
+            video: Path | None, lsl: Any) -> dict[str, Any]:
+    """Report, print, and write the JSON and the recording."""
+    report = grasp.report()
+    report.update({
+        "stream": {"name": info.name(), "type": info.type(), "n_channels": info.channel_count(),
+                   "fs_hz": info.nominal_srate(),
+                   "format": lsl.format_name(info.channel_format())},
+        "calibration": cal.summary(),
+        "controller": args.controller,
+        "object": {"name": obj.name, "mass_kg": obj.mass_kg, "friction": obj.friction,
+                   "break_force_n": obj.break_force_n},
+        "outlets": list(outlets.names),
+    })
+    print(format_report(report))
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(report, indent=1) + "\n")
+        print(f"wrote {args.json}")
+    if args.record is not None and grasp.received:
+        rec = grasp.recording(str(args.record), {"stream": report["stream"],
+                                                 "calibration": report["calibration"]})
+        args.record.parent.mkdir(parents=True, exist_ok=True)
+        rec.save(args.record)
+        print(f"wrote {args.record}")
+    outlets.close()
+    return report
+
+
+def _ms(value: float | None) -> str:
+    return "-" if value is None else f"{value:.2f} ms"
+
+
+def format_report(report: dict[str, Any]) -> str:
+    """The timing report and the grasp's metrics, as printed."""
+    s, m = report["samples"], report["metrics"]
+    rtf = report["realtime_factor"]["physics"]
+    gaps = ", ".join(f"at {g['t_s']:.2f} s for {g['duration_s']:.2f} s" for g in report["gaps"])
+    bad = report["bad_samples"]
+    peak = m.get("peak_force_n")
+    hold = m.get("hold_grip_n")
+    lines = [
+        f"  {'samples':<18} {s['received']} received of {s['expected']} expected, "
+        f"{s['lost']} lost",
+        f"  {'latency':<18} p50 {_ms(report['latency_ms']['p50'])}, p99 "
+        f"{_ms(report['latency_ms']['p99'])}, max {_ms(report['latency_max_ms'])} "
+        "(sample arrival to motor command)",
+        f"  {'deadlines missed':<18} {report['deadline_misses']} of {report['control_steps']} "
+        f"control steps ({1e3 * report['control_dt_s']:g} ms period)",
+        f"  {'LSL transport':<18} p50 {_ms(report['transport_ms']['p50'])}, p99 "
+        f"{_ms(report['transport_ms']['p99'])} (time stamp to arrival)",
+        f"  {'physics':<18} " + ("-" if rtf is None else f"{rtf:.1f}x real time"),
+        f"  {'gaps':<18} {gaps or 'none'}",
+        f"  {'bad samples':<18} {bad['non_numeric']} non-numeric, {bad['out_of_range']} out of "
+        "range (replaced by 0 / clipped)",
+        f"  {'outcome':<18} {m.get('outcome')}; peak "
+        + ("-" if peak is None else f"{peak:.2f} N")
+        + ", hold grip " + ("-" if hold is None else f"{hold:.2f} N")
+        + f", slip events {m.get('slip_events')}",
+        f"  {'ended':<18} {report['ended']} after {report['session_s']:.2f} s of session time",
+    ]
+    lines += [f"warning: {w}" for w in report["warnings"]]
+    return "\n".join(lines)

@@ -1,0 +1,64 @@
+"""``griploop stream``: play a recording as a Lab Streaming Layer outlet."""
+
+from __future__ import annotations
+
+import argparse
+
+from scenarios.cli.errors import UsageError
+from scenarios.cli.recording_options import add_recording_options, recording_kwargs
+from sim.recording import load_recording
+
+
+def _dropout(text: str) -> tuple[float, float]:
+    try:
+        at, duration = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected AT_S:DURATION_S such as 6.2:1.0, found {text!r}") from None
+    if at < 0 or duration <= 0:
+        raise argparse.ArgumentTypeError(
+            f"expected AT_S >= 0 and DURATION_S > 0, found {text!r}")
+    return at, duration
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``stream`` subcommand."""
+    p = subparsers.add_parser(
+        "stream",
+        help="play a recording as a Lab Streaming Layer (LSL) sEMG stream",
+        description="Publish a recording (any format griploop evaluate reads) as an LSL outlet "
+        "at its own rate, with the channel count, rate and format of the recording (int8 for "
+        "MYO counts, else float32), and its force, if it has one, as NAME.force. Playing "
+        "starts when a consumer connects (griploop live, griploop calibrate, LabRecorder). "
+        "For demos and tests, and to replay a lab's session.",
+    )
+    p.add_argument("file", metavar="FILE", help="recording (.npz or .csv)")
+    p.add_argument("--name", default="griploop.emg",
+                   help="LSL stream name (default: griploop.emg)")
+    p.add_argument("--loop", action="store_true", help="start again at the end, until stopped")
+    p.add_argument("--speed", type=float, default=1.0,
+                   help="play this many times faster than real time (default 1; time stamps "
+                   "follow)")
+    p.add_argument("--dropout", type=_dropout, action="append", default=[], metavar="AT:DUR",
+                   help="send nothing from AT s for DUR s of stream time (samples in between "
+                   "are lost, as in a wireless dropout); repeatable")
+    p.add_argument("--no-wait", action="store_true",
+                   help="start playing at once instead of waiting for a consumer")
+    add_recording_options(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``griploop stream``; returns the exit status."""
+    from scenarios.live.lsl import Dropout, play, pylsl_module
+
+    if not args.speed > 0:
+        raise UsageError(f"--speed: expected a positive factor, found {args.speed}")
+    if not args.name.strip():
+        raise UsageError("--name: expected a stream name, found an empty one")
+    pylsl_module()
+    recording = load_recording(args.file, **recording_kwargs(args))
+    play(recording, args.name, loop=args.loop, speed=args.speed,
+         dropouts=[Dropout(a, d) for a, d in args.dropout], wait_for_consumer=not args.no_wait,
+         log=lambda line: print(line, flush=True))
+    return 0

@@ -1,0 +1,638 @@
+"""The real-time loop of a live session, paced by the incoming sEMG samples.
+
+:class:`LiveGrasp` is the prosthesis side of a session with no LSL in it: it takes
+samples with their time stamps and arrival times (:meth:`LiveGrasp.feed`) and the
+wall clock (:meth:`LiveGrasp.tick`), and runs the same building blocks as an offline
+episode (:func:`scenarios.live.recorded.episode_on_recording`): the estimator's
+stream fitted on the calibration recording, the cached controller design, the
+:class:`~sim.hand.grasp_env.GraspEnv` with the episode's wrist schedule driven by
+:class:`~controllers.drive.HandLoop`, and the episode's metrics. Only the windowing
+is incremental (:class:`~scenarios.live.windowing.IncrementalFeatures`, bit-identical
+to the offline features), so a stream that delivers every sample gives the offline
+episode's grasp. :func:`run_session` feeds it from an LSL inlet.
+
+Time base. Sample ``n`` of the stream is at session time ``n / fs_hz``, where ``n``
+counts from the first sample and includes lost samples (a jump between consecutive
+time stamps of more than 1.5 sample periods counts ``round(jump * fs) - 1`` lost).
+Control step ``k`` (``t = k * control_dt_s``) runs as soon as the last sample at or
+before ``t`` has arrived, with the latest window that ended by then, as offline.
+
+Timing report. The latency of a control step is the wall time from the arrival of
+the sample that released it (the return of the inlet's pull) to the end of the
+step: window features, estimate, controller, the command applied to the simulated
+motor and the physics advanced by one control period. A step misses its deadline
+when that takes longer than one control period. The physics real-time factor is
+simulated time over the wall time spent in ``GraspEnv.step``.
+
+Safe when the stream is not:
+
+- a step whose sample is ``late_s`` (50 ms) overdue runs on the wall clock with
+  the reference held, so the hand never waits for the stream;
+- after ``gap_hold_s`` (200 ms) with no sample the hand holds its current grip: the
+  reference becomes the smaller of the last reference and the measured grip
+  (it never opens mid-lift and never ramps up); the gap is logged (``gaps``,
+  ``gap_start``/``gap_end`` events). When samples return, the windows restart on
+  the fresh samples (no window spans the gap) and control resumes with the first
+  window's estimate, 400 ms later; the estimator keeps its state;
+- no sample for ``timeout_s`` ends the session (``ended: "timeout"``).
+
+Bad samples (non-numeric or NaN, out of range) are counted and replaced by 0 or
+clipped by :class:`SampleGuard`; they never stop a session.
+"""
+
+from __future__ import annotations
+
+import gc
+import math
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from controllers.drive import HandLoop
+from estimation.threads import one_blas_thread
+from scenarios.live.recorded import RecordedCalibration, grasp_metrics
+from scenarios.live.windowing import IncrementalFeatures
+from scenarios.runners.episode import (
+    HAND_FORCE_AT_MVC_N,
+    LIFT_DURATION_S,
+    _lift_time_s,
+    cached_design,
+)
+from sim.hand.grasp_env import GraspEnv, WristSchedule
+from sim.hand.objects import ObjectSpec
+from sim.recording import MAX_EMG_ABS, Recording
+
+GAP_HOLD_S = 0.2
+"""No sample for this long: the hand holds its grip and a gap is logged, s."""
+LATE_S = 0.05
+"""A control step whose sample is this much overdue runs on the wall clock, s."""
+TIMEOUT_S = 5.0
+"""Default: no sample for this long ends the session, s."""
+STALE_S = 0.5
+"""Before the first sample is accepted, samples older than this are skipped, s."""
+INT8_RANGE = (-128, 127)
+
+
+@dataclass(frozen=True)
+class SessionSettings:
+    """How a live session runs.
+
+    Attributes
+    ----------
+    duration_s : float
+        Session length in stream time, s (the episode length).
+    hold_s : float
+        In-air hold at the end, s; the wrist lifts at ``duration_s - hold_s - 0.6``.
+    control_dt_s : float
+        Control period, s.
+    hand_force_at_mvc_n : float
+        Hand force commanded at the calibration's strongest squeeze, N.
+    gap_hold_s, late_s, timeout_s : float
+        See the module notes, s.
+    frame_dt_s : float or None
+        Store the hand's state every this many seconds of session time for a video
+        (``None``: none).
+    seed : int
+        Seeds the environment's reset (as an offline episode with the same seed).
+    """
+
+    duration_s: float = 8.0
+    hold_s: float = 2.0
+    control_dt_s: float = 0.01
+    hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N
+    gap_hold_s: float = GAP_HOLD_S
+    late_s: float = LATE_S
+    timeout_s: float = TIMEOUT_S
+    frame_dt_s: float | None = None
+    seed: int = 0
+
+
+class SampleGuard:
+    """Turns whatever a stream delivers into samples the windows can take.
+
+    Non-numeric values (strings that are not numbers, NaN, inf) become 0; values
+    outside the calibration's range (int8 counts: -128..127; other units:
+    +-``MAX_EMG_ABS``) are clipped; integer streams are rounded to counts. Each
+    sample with at least one such value is counted once per kind.
+
+    Parameters
+    ----------
+    integer : bool
+        int8 counts (output int64) or another unit (output float64).
+    """
+
+    def __init__(self, integer: bool) -> None:
+        self.integer = bool(integer)
+        self.lo, self.hi = INT8_RANGE if integer else (-MAX_EMG_ABS, MAX_EMG_ABS)
+        self.dtype = np.dtype(np.int64 if integer else np.float64)
+        self.non_numeric = 0
+        self.out_of_range = 0
+
+    def clean(self, samples: Any) -> np.ndarray:
+        """Samples as an array (n_samples, n_channels) of :attr:`dtype`, bad values fixed."""
+        arr = np.asarray(samples)
+        if arr.dtype.kind in "iu" and self.integer:
+            if arr.dtype.itemsize == 1 and arr.dtype.kind == "i":
+                return arr.astype(np.int64)
+            x = arr.astype(np.int64)
+            bad = (x < self.lo) | (x > self.hi)
+            if bad.any():
+                self.out_of_range += int(bad.any(axis=1).sum())
+                np.clip(x, self.lo, self.hi, out=x)
+            return x
+        if arr.dtype.kind not in "iuf":
+            arr = self._numbers(arr)
+        x = arr.astype(np.float64)
+        finite = np.isfinite(x)
+        if not finite.all():
+            self.non_numeric += int((~finite).any(axis=1).sum())
+            x[~finite] = 0.0
+        bad = (x < self.lo) | (x > self.hi)
+        if bad.any():
+            self.out_of_range += int(bad.any(axis=1).sum())
+            np.clip(x, self.lo, self.hi, out=x)
+        if self.integer:
+            return np.rint(x).astype(np.int64)
+        return x
+
+    @staticmethod
+    def _numbers(arr: np.ndarray) -> np.ndarray:
+        """Float values of a string or object array; what does not parse becomes NaN."""
+        out = np.empty(arr.shape, dtype=np.float64)
+        flat, values = out.reshape(-1), arr.reshape(-1)
+        for i, v in enumerate(values):
+            try:
+                flat[i] = float(v.decode() if isinstance(v, bytes) else v)
+            except (TypeError, ValueError, UnicodeDecodeError):
+                flat[i] = math.nan
+        return out
+
+
+class LiveGrasp:
+    """A grasp-lift-hold driven by samples as they arrive.
+
+    Parameters
+    ----------
+    cal : RecordedCalibration
+        The fitted estimator and the layout of the samples.
+    obj : ObjectSpec
+        The object.
+    controller : str
+        Controller family.
+    controller_spec : mapping, optional
+        Keyword arguments of :func:`controllers.design.design_for_object`.
+    settings : SessionSettings
+    publish : callable, optional
+        ``publish(t_s, reference_n, grip_n)`` after every control step (the outlets).
+    event : callable, optional
+        ``event(t_s, marker)`` for lift, slip, drop, crush, gap_start, gap_end.
+    clock : callable
+        Wall clock in seconds (``time.perf_counter``); arrival times use the same.
+    viewer : object, optional
+        Something with ``sync()`` (:class:`scenarios.live.display.Viewer`), called every
+        40 ms of session time.
+
+    Attributes
+    ----------
+    finished : bool
+        The session has ended; ``ended`` says why (``duration``, ``dropped``,
+        ``crushed``, ``timeout``, ``diverged``, ``interrupted``).
+    """
+
+    def __init__(self, cal: RecordedCalibration, obj: ObjectSpec, *, controller: str,
+                 controller_spec: Mapping[str, Any] | None = None,
+                 settings: SessionSettings = SessionSettings(),
+                 publish: Callable[[float, float, float], None] | None = None,
+                 event: Callable[[float, str], None] | None = None,
+                 clock: Callable[[], float] = time.perf_counter,
+                 viewer: Any = None) -> None:
+        s = settings
+        self.settings, self.cal, self.obj, self.controller = s, cal, obj, controller
+        self.lift_after_s = _lift_time_s(s.duration_s, s.hold_s)
+        self.design = cached_design(obj, controller, s.control_dt_s, controller_spec)
+        schedule = WristSchedule(lift_after_s=self.lift_after_s, lift_duration_s=LIFT_DURATION_S)
+        self.env = GraspEnv(obj, 0.0, control_dt_s=s.control_dt_s, episode_s=s.duration_s,
+                            schedule=schedule)
+        self.loop = HandLoop(self.env, self.design.controller)
+        self.stream = cal.calibration.pipeline.streaming(cal.calibration.mode)
+        self.windows = IncrementalFeatures(cal.fs_hz, cal.channel_index, integer=cal.integer)
+        self.guard = SampleGuard(cal.integer)
+        self.fs_hz = cal.fs_hz
+        self.to_hand = cal.to_hand(s.hand_force_at_mvc_n)
+        self.ceiling = 1.2 * s.hand_force_at_mvc_n
+        self.n_steps = int(round(s.duration_s / s.control_dt_s))
+        self._publish, self._event, self._clock = publish, event, clock
+        self.viewer = viewer
+        self.viewer_every = max(1, int(round(0.04 / s.control_dt_s)))
+        n = self.n_steps
+        self.traces = {"t_s": np.arange(n) * s.control_dt_s, "reference_n": np.zeros(n),
+                       "grip_force_n": np.zeros(n), "command": np.zeros(n),
+                       "object_height_m": np.zeros(n), "slip_speed_m_s": np.zeros(n),
+                       "both_sides": np.zeros(n, dtype=bool), "tracked_reference_n": np.zeros(n)}
+        self._latency = np.zeros(n)
+        self._n_latency = 0
+        capacity = int(np.ceil((s.duration_s + s.timeout_s + 2.0) * self.fs_hz))
+        self._transport = np.zeros(capacity)
+        self._n_transport = 0
+        self._samples = np.zeros((capacity, cal.n_channels), dtype=self.guard.dtype)
+        self.window_values: list[float] = []
+        self.gaps: list[dict[str, float]] = []
+        self.frames: list[tuple[np.ndarray, bool]] = []
+        self.frame_every = (None if s.frame_dt_s is None
+                            else max(1, int(round(s.frame_dt_s / s.control_dt_s))))
+        self.info: dict[str, Any] = {}
+        self.finished, self.ended = False, ""
+        self.failure: str | None = None
+        self.stale_skipped = 0
+        self.k = 0
+        self.received = 0
+        self.lost = 0
+        self.deadline_misses = 0
+        self.wall_s = 0.0
+        # what start() sets, so that an unstarted session reports (nothing happened)
+        self.n, self.in_gap, self.holding = -1, False, False
+        self.reference_n = self.hold_n = 0.0
+        self.ts0 = self.ts_last = self.last_arrival = math.nan
+        self.started_wall = clock()
+
+    # ------------------------------------------------------------------ lifecycle
+    def start(self) -> None:
+        """Reset the hand, the controller, the estimator and the windows."""
+        s = self.settings
+        self.info = self.loop.reset(seed=int(np.random.SeedSequence(s.seed).generate_state(1)[0]))
+        self.stream.reset()
+        self.windows.reset()
+        self.reference_n = 0.0
+        self.holding = False
+        self.hold_n = 0.0
+        self.in_gap = False
+        self.n = -1  # index of the last sample (session time n / fs)
+        self.ts0 = self.ts_last = math.nan
+        self.last_arrival = math.nan
+        self.started_wall = self._clock()
+        self._lifted = False
+        self._slips = 0
+        self._dropped = self._crushed = False
+        self._last_gc_t = 0.0
+
+    def finish(self, why: str) -> None:
+        """End the session (once): ``why`` goes to the report's ``ended``."""
+        if not self.finished:
+            now = self._clock()
+            self.finished, self.ended = True, why
+            self.wall_s = now - self.started_wall
+            if self.in_gap and math.isnan(self.gaps[-1]["duration_s"]):
+                self.gaps[-1]["duration_s"] = float(now - self.last_arrival)
+            self._emit("session_end")
+
+    # ------------------------------------------------------------------ input
+    def feed(self, samples: np.ndarray, stamps: np.ndarray, arrival: float,
+             lsl_now: float | None = None) -> None:
+        """Take a chunk of samples that arrived at ``arrival`` (wall clock, s).
+
+        Parameters
+        ----------
+        samples : array-like, shape (m, n_channels)
+            As delivered (any dtype; strings are parsed): cleaned by the guard.
+        stamps : ndarray, shape (m,)
+            Their time stamps on the stream's clock, s.
+        arrival : float
+            When they arrived, on this object's clock.
+        lsl_now : float, optional
+            The stream clock at arrival: transport latency ``lsl_now - stamp``.
+        """
+        if self.finished:
+            return
+        x = self.guard.clean(samples)
+        fs = self.fs_hz
+        for i in range(x.shape[0]):
+            ts = float(stamps[i])
+            if self.n < 0:
+                if lsl_now is not None and lsl_now - ts > STALE_S:
+                    self.stale_skipped += 1
+                    continue
+                self.n, self.ts0 = 0, ts
+                self._emit("session_start")
+            else:
+                jump = (ts - self.ts_last) * fs
+                lost = int(round(jump)) - 1 if jump > 1.5 else 0
+                self.lost += lost
+                if self.in_gap or lost >= self.settings.gap_hold_s * fs:
+                    self._close_gap(self.n, lost, arrival - self.last_arrival)
+                self.n += 1 + lost
+            self.ts_last = ts
+            self.last_arrival = arrival
+            if self.received < self._samples.shape[0]:
+                self._samples[self.received] = x[i]
+                if lsl_now is not None:
+                    self._transport[self._n_transport] = lsl_now - ts
+                    self._n_transport += 1
+            self.received += 1
+            row = self.windows.push(x[i])
+            if row is not None:
+                value = self.stream.step(row, None) * self.to_hand
+                value = 0.0 if value < 0.0 else self.ceiling if value > self.ceiling else value
+                if value == value:  # not NaN
+                    self.reference_n = value
+                    self.holding = False
+                if self.windows.n_windows and self.n / fs <= self.settings.duration_s:
+                    self.window_values.append(self.reference_n)
+            # every control step whose time precedes the next sample's
+            t_next = (self.n + 1) / fs
+            dt = self.settings.control_dt_s
+            while not self.finished and self.k * dt + 1e-9 < t_next:
+                self._step(arrival, None)
+            if self.finished:
+                return
+
+    def tick(self, now: float) -> None:
+        """Let the wall clock act: overdue steps, gap detection, timeout."""
+        if self.finished:
+            return
+        s = self.settings
+        if self.n < 0:
+            if now - self.started_wall >= s.timeout_s:
+                self.finish("timeout")
+            return
+        silent = now - self.last_arrival
+        if silent >= s.timeout_s:
+            self._open_gap(self.n)
+            self.gaps[-1]["duration_s"] = float(silent)
+            self.in_gap = False
+            self.finish("timeout")
+            return
+        if silent >= s.gap_hold_s and not self.in_gap:
+            self._open_gap(self.n)
+        while not self.finished and now >= self._due(self.k) + s.late_s:
+            self._step(None, self._due(self.k) + s.late_s)
+
+    def wait_s(self, now: float) -> float:
+        """How long the caller may block for samples before :meth:`tick` has work, s."""
+        if self.n < 0:
+            return 0.02
+        s = self.settings
+        wait = min(self._due(self.k) + s.late_s, self.last_arrival + s.timeout_s) - now
+        if not self.in_gap:
+            wait = min(wait, self.last_arrival + s.gap_hold_s - now)
+        return float(min(max(0.0, wait), 0.02))
+
+    # ------------------------------------------------------------------ internals
+    def _due(self, k: int) -> float:
+        """Wall time at which step ``k``'s sample is expected."""
+        return self.last_arrival + (k * self.settings.control_dt_s - self.n / self.fs_hz)
+
+    def _open_gap(self, n_last: int) -> None:
+        """No sample after ``n_last`` for too long: hold the grip, log the gap."""
+        if self.in_gap:
+            return
+        self.in_gap = True
+        if not self.holding:  # still holding since the previous gap: keep that force
+            grip = float(self.info.get("grip_force_n", 0.0))
+            self.hold_n = min(self.reference_n, grip)
+        self.holding = True
+        self.gaps.append({"t_s": float((n_last + 1) / self.fs_hz), "duration_s": math.nan})
+        self._emit("gap_start")
+
+    def _close_gap(self, n_last: int, lost: int, silent_s: float) -> None:
+        """Samples came back after a gap (or jumped over one): log it, restart the windows.
+
+        The gap lasted the longer of the samples lost and the silence on the wall clock
+        beyond one sample period.
+        """
+        self._open_gap(n_last)
+        self.gaps[-1]["duration_s"] = float(max(lost / self.fs_hz, silent_s - 1.0 / self.fs_hz))
+        self.in_gap = False
+        self.windows.reset()
+        self._emit("gap_end")
+
+    def _emit(self, marker: str) -> None:
+        if self._event is not None:
+            t = max(self.k - 1, 0) * self.settings.control_dt_s
+            self._event(t, marker)
+
+    def _step(self, arrival: float | None, release: float | None) -> None:
+        """Control step ``k``: released by a sample's ``arrival`` or by the wall clock."""
+        k, s, tr = self.k, self.settings, self.traces
+        ref = self.hold_n if self.holding else self.reference_n
+        self.env.set_reference(ref)
+        _, command, done = self.loop.step(ref)
+        end = self._clock()
+        info = self.loop.info
+        self.info = info
+        grip = info["grip_force_n"]
+        tr["reference_n"][k] = ref
+        tr["command"][k] = command
+        tr["grip_force_n"][k] = grip
+        tr["object_height_m"][k] = info["object_height_m"]
+        tr["slip_speed_m_s"][k] = info["slip_speed_m_s"]
+        tr["both_sides"][k] = info["thumb_contact"] and info["finger_contact"]
+        tr["tracked_reference_n"][k] = max(ref, self.design.core.last_reference_n)
+        if arrival is not None:
+            late = end - arrival
+            self._latency[self._n_latency] = late
+            self._n_latency += 1
+        else:
+            late = end - release
+        if late > s.control_dt_s:
+            self.deadline_misses += 1
+        t = k * s.control_dt_s
+        if self._publish is not None:
+            self._publish(t, ref, grip)
+        self._events(info)
+        if self.frame_every is not None and k % self.frame_every == 0:
+            self.frames.append((self.env.data.qpos.copy(), bool(info["crushed"])))
+        if self.viewer is not None and k % self.viewer_every == 0:
+            self.viewer.sync()
+        self.k = k + 1
+        failure = info.get("failure")
+        if failure is not None:
+            self.failure = failure
+            self.finish("diverged")
+        elif info["dropped"] or info["crushed"]:
+            self.finish("crushed" if info["crushed"] else "dropped")
+        elif done or self.k >= self.n_steps:
+            self.finish("duration")
+        elif t - self._last_gc_t >= 5.0:  # automatic collection is off during a session
+            self._last_gc_t = t
+            gc.collect(0)
+
+    def _events(self, info: Mapping[str, Any]) -> None:
+        if self._event is None:
+            return
+        if info["lifted"] and not self._lifted:
+            self._lifted = True
+            self._emit("lift")
+        if info["slip_events"] > self._slips:
+            self._slips = int(info["slip_events"])
+            self._emit("slip")
+        if info["dropped"] and not self._dropped:
+            self._dropped = True
+            self._emit("drop")
+        if info["crushed"] and not self._crushed:
+            self._crushed = True
+            self._emit("crush")
+
+    # ------------------------------------------------------------------ results
+    def recording(self, source: str, metadata: Mapping[str, Any] | None = None) -> Recording:
+        """The samples received (cleaned), as a recording with the calibration's layout."""
+        n = min(self.received, self._samples.shape[0])
+        emg = self._samples[:max(n, 1)]
+        cal = self.cal.recording
+        emg = emg.astype(np.int8) if self.cal.integer else emg
+        meta = {"source": "lsl", "lost_samples": self.lost, "gaps": self.gaps,
+                **(metadata or {})}
+        return Recording(emg=emg, fs_hz=self.fs_hz, channel_names=list(cal.channel_names),
+                         emg_unit=cal.emg_unit, metadata=meta, source=source)
+
+    def report(self) -> dict[str, Any]:
+        """The session's figures: the ``live --json`` contract (docs/FORMAT.md)."""
+        s = self.settings
+        k = self.k
+        traces = {key: v[:k] for key, v in self.traces.items()}
+        info = self.info
+        expected = max(self.n + 1, 0)
+        if self.ended == "timeout" and self.n >= 0 and self.gaps:
+            expected += int(self.gaps[-1]["duration_s"] * self.fs_hz)
+        lat_ms = self._latency[:self._n_latency] * 1e3
+        transport_ms = self._transport[:self._n_transport] * 1e3
+        simulated = k * s.control_dt_s
+        physics = self.loop.physics_s
+        processing = self.loop.physics_s + self.loop.controller_s
+        metrics = grasp_metrics(traces, info, lift_after_s=self.lift_after_s,
+                                hold_from_s=s.duration_s - s.hold_s,
+                                window_values_n=np.asarray(self.window_values),
+                                window_dt_s=self.windows.step / self.fs_hz)
+        out: dict[str, Any] = {
+            "samples": {"received": int(self.received), "expected": int(expected),
+                        "lost": int(max(expected - self.received, 0))},
+            "latency_ms": {"p50": _pct(lat_ms, 50), "p99": _pct(lat_ms, 99)},
+            "deadline_misses": int(self.deadline_misses),
+            "control_steps": int(k),
+            "gaps": [{"t_s": round(g["t_s"], 4), "duration_s": round(g["duration_s"], 4)}
+                     for g in self.gaps],
+            "metrics": metrics,
+            "bad_samples": {"non_numeric": self.guard.non_numeric,
+                            "out_of_range": self.guard.out_of_range},
+            "stale_skipped": self.stale_skipped,
+            "transport_ms": {"p50": _pct(transport_ms, 50), "p99": _pct(transport_ms, 99)},
+            "latency_max_ms": float(lat_ms.max()) if lat_ms.size else None,
+            "realtime_factor": {
+                "physics": simulated / physics if physics > 0 else None,
+                "controller_and_physics": simulated / processing if processing > 0 else None},
+            "control_dt_s": s.control_dt_s,
+            "session_s": simulated,
+            "wall_s": self.wall_s,
+            "ended": self.ended,
+            "traces": {key: traces[key].tolist() for key in
+                       ("t_s", "reference_n", "grip_force_n", "object_height_m")},
+        }
+        out["warnings"] = warnings_for(out)
+        return out
+
+
+def _pct(values: np.ndarray, q: float) -> float | None:
+    return float(np.percentile(values, q)) if values.size else None
+
+
+def warnings_for(report: Mapping[str, Any]) -> list[str]:
+    """What a session's report says about the machine or the stream keeping up."""
+    out = []
+    steps = report["control_steps"]
+    dt_ms = 1e3 * report["control_dt_s"]
+    if steps and report["deadline_misses"] > 0.01 * steps:
+        out.append(f"the machine cannot keep up: {report['deadline_misses']} of {steps} control "
+                   f"steps ({100 * report['deadline_misses'] / steps:.1f} %) took longer than "
+                   f"the {dt_ms:g} ms control period")
+    p99 = report["latency_ms"]["p99"]
+    if p99 is not None and p99 > 0.5 * dt_ms:
+        out.append(f"latency p99 {p99:.1f} ms is over half the {dt_ms:g} ms control period")
+    rtf = report["realtime_factor"]["physics"]
+    if rtf is not None and rtf < 2.0:
+        out.append(f"the physics runs at only {rtf:.1f}x real time: little headroom")
+    samples = report["samples"]
+    if samples["expected"] and samples["lost"] > 0.01 * samples["expected"]:
+        out.append(f"{samples['lost']} of {samples['expected']} samples "
+                   f"({100 * samples['lost'] / samples['expected']:.1f} %) were lost: "
+                   "check the stream's link")
+    bad = report["bad_samples"]
+    if bad["non_numeric"] or bad["out_of_range"]:
+        out.append(f"{bad['non_numeric']} non-numeric and {bad['out_of_range']} out-of-range "
+                   "samples were replaced by 0 or clipped")
+    return out
+
+
+def run_session(grasp: LiveGrasp, connect: Callable[[], Any], *,
+                stop: Callable[[], bool] | None = None, max_chunk: int = 64) -> Any:
+    """Feed ``grasp`` from an LSL inlet until the session ends.
+
+    The hand is reset and the garbage collected before the inlet connects, so that
+    the first samples (a player such as ``griploop stream`` starts when a consumer
+    connects) do not queue behind the preparations. Automatic garbage collection
+    is off during the session (young objects are collected every 5 s of session
+    time between two control steps), and BLAS runs one thread.
+
+    Parameters
+    ----------
+    grasp : LiveGrasp
+        Started here.
+    connect : callable
+        Returns the open inlet (:func:`scenarios.live.lsl.open_inlet`), time stamps
+        on this machine's clock.
+    stop : callable, optional
+        Polled every loop; the session ends (``interrupted``) when it returns True.
+
+    Returns
+    -------
+    pylsl.StreamInlet
+        The inlet, its stream closed.
+    """
+    from pylsl.util import LostError as lost_error
+
+    from scenarios.live.lsl import pylsl_module
+
+    lsl = pylsl_module()
+    clock = grasp._clock
+    local_clock = lsl.local_clock
+    was_enabled = gc.isenabled()
+    inlet = None
+    try:
+        with one_blas_thread():
+            grasp.start()
+            gc.collect()
+            gc.disable()
+            inlet = connect()
+            numeric = inlet.channel_format != lsl.cf_string
+            buf = (np.zeros((max_chunk, inlet.channel_count), dtype=inlet.np_dtype) if numeric
+                   else None)
+            grasp.started_wall = clock()
+            while not grasp.finished:
+                if stop is not None and stop():
+                    grasp.finish("interrupted")
+                    break
+                wait = grasp.wait_s(clock())
+                try:
+                    if numeric:
+                        samples, stamps = inlet.pull_chunk(timeout=wait, max_samples=max_chunk,
+                                                           dest_obj=buf, min_samples=1,
+                                                           as_numpy=True)
+                    else:
+                        samples, stamps = inlet.pull_chunk(timeout=wait, max_samples=max_chunk,
+                                                           min_samples=1)
+                except lost_error:
+                    samples, stamps = None, []
+                arrival = clock()
+                if len(stamps):
+                    grasp.feed(samples, np.asarray(stamps), arrival, local_clock())
+                grasp.tick(clock())
+    except KeyboardInterrupt:
+        grasp.finish("interrupted")
+        raise
+    finally:
+        if inlet is not None:
+            inlet.close_stream()
+        if was_enabled:
+            gc.enable()
+    return inlet
