@@ -69,9 +69,9 @@ def test_spectrum_after_aliasing(sessions):
 
 
 #: Largest share of samples at a rail: real recordings 9e-5 to 9e-3. The motor-unit
-#: generator's strongest subject reaches 2.1 % (its spiky sum of large late-recruited
+#: generator's strongest subject reaches 1.6 % (its spiky sum of large late-recruited
 #: units clips more than real sEMG of the same RMS): a known gap of that generator.
-RAIL_LIMIT = {"noise": 0.015, "motor_units": 0.025}
+RAIL_LIMIT = {"noise": 0.015, "motor_units": 0.02}
 
 
 def test_saturation_and_snr(sessions):
