@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 from scipy import signal
@@ -112,6 +113,18 @@ class FrontEnd:
         return np.sum(source_psd(g) * self.power_response(g), axis=0)
 
 
+@lru_cache(maxsize=64)
+def _mixing_matrix(shift: float, length: float, channel_gain: tuple[float, ...],
+                   n_muscles: int) -> np.ndarray:
+    """:meth:`Armband.mixing_matrix`, computed once per band (read-only: digitize is hot)."""
+    pos = np.arange(N_CHANNELS) + shift
+    d = ring_distance(pos[:, None], np.arange(n_muscles)[None, :])
+    gain = np.asarray(channel_gain, dtype=float)[:, None]
+    out = gain * np.exp(-d / length)
+    out.setflags(write=False)
+    return out
+
+
 def ring_distance(a: np.ndarray | float, b: np.ndarray | float, n: int = N_CHANNELS) -> np.ndarray:
     """Shortest distance around a ring of ``n`` equally spaced positions (in spacings)."""
     d = np.mod(np.asarray(a, dtype=float) - np.asarray(b, dtype=float), n)
@@ -166,10 +179,8 @@ class Armband:
 
     def mixing_matrix(self, n_muscles: int = N_CHANNELS) -> np.ndarray:
         """Crosstalk weights, shape (n_channels, n_muscles); 1 on the diagonal at zero shift."""
-        pos = np.arange(N_CHANNELS) + self.electrode_shift
-        d = ring_distance(pos[:, None], np.arange(n_muscles)[None, :])
-        gain = np.asarray(self.channel_gain, dtype=float)[:, None]
-        return gain * np.exp(-d / self.crosstalk_length)
+        return _mixing_matrix(self.electrode_shift, self.crosstalk_length,
+                              tuple(self.channel_gain), int(n_muscles)).copy()
 
     def nearest_muscles(self) -> list[int]:
         """0-based index of the muscle closest to each electrode."""
@@ -195,7 +206,8 @@ class Armband:
             Number of samples (over all channels) clipped at -128 or 127.
         """
         s = np.asarray(muscle_emg_lsb, dtype=float)
-        x = s @ self.mixing_matrix(s.shape[1]).T
+        x = s @ _mixing_matrix(self.electrode_shift, self.crosstalk_length,
+                               tuple(self.channel_gain), s.shape[1]).T
         x += self.total_noise_lsb * rng.standard_normal(x.shape)
         q = np.rint(x)
         n_sat = int(np.count_nonzero((q < INT8_MIN) | (q > INT8_MAX)))
