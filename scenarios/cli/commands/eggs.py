@@ -18,7 +18,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Virtual Eggs Test (Controzzi et al.): each virtual subject grasps, lifts "
         "and holds each of 11 blocks breaking at 0.4-11.5 N several times (planning each "
         "transfer from the last), with each feedback mode; every transfer is a success, broken "
-        "or dropped. Prints the success rate per mode with its 95 %% Wilson interval and the "
+        "or dropped. Prints the success rate per mode with its 95 % Wilson interval and the "
         "outcomes per egg. The design is scenarios/library/eggs.yaml with these options.")
     add_common_options(p, default_feedback="none,force_vibration", default_subjects=5)
     p.add_argument("--transfers", type=int, default=3, metavar="K",

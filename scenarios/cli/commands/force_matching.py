@@ -18,7 +18,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Each virtual subject closes the hand on a block on the table and holds "
         "each target (a fraction of the hand force at their MVC) for the last 5 s of an 8 s "
         "trial; prints the absolute error of the mean grip and its coefficient of variation "
-        "per target and feedback mode, means over subjects with 95 %% t intervals. The design "
+        "per target and feedback mode, means over subjects with 95 % t intervals. The design "
         "is scenarios/library/force_matching.yaml with these options.")
     add_common_options(p, default_feedback="none,force_vibration", default_subjects=10)
     p.add_argument("--targets", default="0.2,0.4,0.6", metavar="LIST",

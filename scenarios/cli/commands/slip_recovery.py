@@ -17,7 +17,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "slip-recovery", help=HELP,
         description="Each virtual subject lifts the can and holds it while a load hung on it "
         "rises until the can starts to slip, then stays; the trial is recovered if the can is "
-        "still held 2 s later. Prints the recovered rate per feedback mode with its 95 %% "
+        "still held 2 s later. Prints the recovered rate per feedback mode with its 95 % "
         "Wilson interval. The design is scenarios/library/slip_recovery.yaml with these "
         "options.")
     add_common_options(p, default_feedback="none,slip_vibration", default_subjects=10)
