@@ -510,6 +510,7 @@ def run_trial(subject: VirtualSubject, obj: ObjectSpec, cal: Calibration,
                                          lift_after_s, env_seq, timings, record_frames,
                                          user=person, load=load, schedule=schedule,
                                          until=until)
+    person.intent_until(int(round(t_ctrl.size * control_dt_s * person.fs_hz)))
     stream = live_stream(person, start_s, t_ctrl, reference, episode_s, timings)
     traces["user_intent"] = person.intent[
         np.minimum((traces["t_s"] * person.fs_hz).round().astype(int), person.n_samples - 1)]

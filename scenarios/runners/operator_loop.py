@@ -36,16 +36,11 @@ STEP_MS = 125.0
 
 def scene_from_info(t_s: float, info: Mapping[str, Any]) -> Scene:
     """What there is to perceive after a control step, from the environment's ``info``."""
-    return Scene(
-        t_s=float(t_s),
-        contact=bool(info["thumb_contact"] and info["finger_contact"]),
-        object_in_hand_m=float(info.get("object_in_palm_z_m", 0.0)),
-        object_height_m=float(info["object_height_m"]),
-        dropped=bool(info["dropped"]),
-        crushed=bool(info["crushed"]),
-        grip_force_n=float(info["grip_force_n"]),
-        slip_speed_m_s=float(info["slip_speed_m_s"]),
-    )
+    # positional and unconverted: GraspEnv's info holds plain floats and bools already,
+    # and this runs at every control step
+    return Scene(t_s, info["thumb_contact"] and info["finger_contact"],
+                 info["object_in_palm_z_m"], info["object_height_m"], info["dropped"],
+                 info["crushed"], info["grip_force_n"], info["slip_speed_m_s"])
 
 
 class LiveUser:
@@ -88,7 +83,9 @@ class LiveUser:
         self.dt = float(control_dt_s)
         self.cal = calibration
         self.win, self.hop = window_samples(self.fs_hz, WINDOW_MS, STEP_MS)
-        self._channels = np.array([c - 1 for c in PAPER_CHANNELS])
+        cols = [c - 1 for c in PAPER_CHANNELS]
+        contiguous = cols == list(range(cols[0], cols[0] + len(cols)))
+        self._channels = slice(cols[0], cols[-1] + 1) if contiguous else np.array(cols)
         n = int(n_samples)
         self.n_samples = n
         self.intent = np.zeros(n)
@@ -114,25 +111,33 @@ class LiveUser:
     def step(self, k: int, scene: Scene) -> float:
         """The hand reference for control step ``k`` (time ``k * dt``), N.
 
-        The operator acts on ``scene`` (the hand after step ``k - 1``) and
-        sets the intent of this control period; every feature window that has
-        ended by ``k * dt`` is computed and estimated.
+        The operator perceives ``scene`` (the hand after step ``k - 1``) and
+        decides; every feature window that has ended by ``k * dt`` is then
+        recorded (the intent of its samples asked of the operator, all decided
+        by now), computed and estimated.
         """
         t = k * self.dt
         t0 = time.perf_counter()
-        i1 = min(int(round((k + 1) * self.dt * self.fs_hz)), self.n_samples)
-        if i1 > self._n_intent:
-            self.intent[self._n_intent:i1] = self.operator.act(scene, i1 - self._n_intent)
-            self._n_intent = i1
+        self.operator.perceive(scene)
         self.timings["t_operator_s"] += time.perf_counter() - t0
-        # every window whose last sample is recorded and no later than t (the batch's rule)
-        while self._next_end < self._n_intent and self._next_end / self.fs_hz <= t + 1e-9:
+        # every window whose last sample is no later than t (the batch's rule)
+        while self._next_end < self.n_samples and self._next_end / self.fs_hz <= t + 1e-9:
             self._window(self._next_end)
             self._next_end += self.hop
         return self._reference
 
+    def intent_until(self, n: int) -> None:
+        """Ask the operator for the intent of every sample before ``n`` (decided by now)."""
+        n = min(n, self.n_samples)
+        if n > self._n_intent:
+            t0 = time.perf_counter()
+            self.intent[self._n_intent:n] = self.operator.intent(n - self._n_intent)
+            self._n_intent = n
+            self.timings["t_operator_s"] += time.perf_counter() - t0
+
     def _window(self, end: int) -> None:
         """Record up to sample ``end``, compute that window's features, step the estimator."""
+        self.intent_until(end + 1)
         t0 = time.perf_counter()
         done = self.session.n_done
         if end + 1 > done:
@@ -144,9 +149,9 @@ class LiveUser:
         # MAV, RMS, WL per channel, channel-major, from exact integer sums as
         # estimation.features.emg_features computes them (the same floats)
         x = self._x
-        w = self.emg[end + 1 - self.win:end + 1, self._channels].astype(np.int64)
+        w = self.emg[end + 1 - self.win:end + 1, self._channels].astype(np.int32)
         x[0::3] = np.abs(w).sum(axis=0) / self.win
-        x[1::3] = np.sqrt((w * w).sum(axis=0) / self.win)
+        x[1::3] = np.sqrt(np.einsum("ij,ij->j", w, w) / self.win)
         x[2::3] = np.abs(np.diff(w, axis=0)).sum(axis=0)
         t2 = time.perf_counter()
         if self._stream is None:

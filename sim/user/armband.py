@@ -206,9 +206,25 @@ class Armband:
             Number of samples (over all channels) clipped at -128 or 127.
         """
         s = np.asarray(muscle_emg_lsb, dtype=float)
-        x = s @ _mixing_matrix(self.electrode_shift, self.crosstalk_length,
-                               tuple(self.channel_gain), s.shape[1]).T
-        x += self.total_noise_lsb * rng.standard_normal(x.shape)
-        q = np.rint(x)
+        q = self.quantize(s @ self.mixing_matrix_view(s.shape[1]).T, rng.standard_normal(
+            (s.shape[0], N_CHANNELS)))
         n_sat = int(np.count_nonzero((q < INT8_MIN) | (q > INT8_MAX)))
         return np.clip(q, INT8_MIN, INT8_MAX).astype(np.int8), n_sat
+
+    def mixing_matrix_view(self, n_muscles: int = N_CHANNELS) -> np.ndarray:
+        """:meth:`mixing_matrix`, read-only and computed once per band (no copy)."""
+        return _mixing_matrix(self.electrode_shift, self.crosstalk_length,
+                              tuple(self.channel_gain), int(n_muscles))
+
+    def quantize(self, electrode_lsb: np.ndarray, unit_noise: np.ndarray) -> np.ndarray:
+        """Add the band's noise to mixed electrode signals and round to counts (not clipped).
+
+        Parameters
+        ----------
+        electrode_lsb : ndarray, shape (n_samples, n_channels)
+            Mixed signals in counts; modified in place.
+        unit_noise : ndarray, same shape
+            Standard normal draws (scaled here by :attr:`total_noise_lsb`).
+        """
+        electrode_lsb += self.total_noise_lsb * unit_noise
+        return np.rint(electrode_lsb, out=electrode_lsb)

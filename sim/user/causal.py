@@ -11,11 +11,13 @@ does it without changing a single sample:
    generator's carrier noise (:meth:`sim.user.emg.CausalEmgGenerator.causal`),
    the sEMG gain fluctuation ``xi``, the armband's additive noise, the FSR's
    contact fluctuation and its ADC noise;
-2. each chunk of intent then becomes drive, muscle sEMG and force with every
-   filter state carried between chunks (the electromechanical delay's history
-   and the activation dynamics' ``lfilter`` state), and is mixed, digitized
-   and read by the FSR by the subject's own armband and FSR code (fed the
-   pre-drawn noise).
+2. each chunk of intent then becomes drive and muscle sEMG, mixed and
+   quantized by the subject's own armband (:meth:`sim.user.armband.Armband.quantize`);
+   the muscle force, grip force and FSR reading follow only when something
+   reads them (:meth:`CausalSession.read_forces`), with every filter state
+   carried between chunks (the electromechanical delay's history and the
+   activation dynamics' ``lfilter`` state) and the FSR's own code fed the
+   pre-drawn noise.
 
 Fed the intent of a profile in any chunks, a session gives ``record``'s sEMG
 and forces exactly (``tests/sim/test_causal.py``), so a scripted user's
@@ -29,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from sim.errors import GriploopError
+from sim.user.armband import INT8_MAX, INT8_MIN, N_CHANNELS
 from sim.user.emg import is_causal
 from sim.user.generators import make_generator
 from sim.user.muscles import N_MUSCLES, slow_fluctuation
@@ -102,8 +105,8 @@ class CausalSession:
         self._muscles = gen.causal(n, m, subject.armband.front_end, fs_hz=fs_hz, rng=rng)
         self._gain = np.maximum(1.0 + slow_fluctuation(n, fs_hz, m.array("emg_gain_std"),
                                                        m.emg_gain_time_s, rng), 0.0)
-        self._armband_noise = _Replay(rng.standard_normal((n, subject.armband.mixing_matrix(
-            N_MUSCLES).shape[0])))
+        self._armband_noise = rng.standard_normal((n, N_CHANNELS))
+        self._mixing_t = subject.armband.mixing_matrix_view(N_MUSCLES).T
         self._contact = slow_fluctuation(n, fs_hz, np.array([subject.contact_std]),
                                          subject.contact_time_s, rng)[:, 0]
         self._fsr_noise = _Replay(rng.standard_normal(n))
@@ -166,10 +169,12 @@ class CausalSession:
             for j in range(N_MUSCLES):
                 drive[:, j] = np.interp(target[:, j], curve[:, j], grid[:, j])
         self._drive[i0:i1] = drive
-        emg, _ = self.subject.armband.digitize(
-            self._muscles.emg(drive) * self._gain[i0:i1] * self._amplitude, self._armband_noise)
+        # Armband.digitize's steps (mix, noise, round, clip) without its saturation count
+        band = self.subject.armband
+        muscle_lsb = self._muscles.emg(drive) * self._gain[i0:i1] * self._amplitude
+        q = band.quantize(muscle_lsb @ self._mixing_t, self._armband_noise[i0:i1])
         self._n = i1
-        return emg
+        return np.clip(q, INT8_MIN, INT8_MAX, out=q).astype(np.int8)
 
     def read_forces(self) -> tuple[np.ndarray, np.ndarray]:
         """Grip force and FSR reading of every sample produced so far, N.

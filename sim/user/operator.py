@@ -258,12 +258,15 @@ class TrialMemory:
 class Operator(Protocol):
     """A user model driving the intent (registered in :mod:`sim.user.operators`).
 
-    ``start`` begins a trial, ``act`` is called once per control step with the
-    scene and returns the intent of the next ``n_samples`` sEMG samples (a
-    sequence of floats, fraction of MVC),
-    ``finish`` ends the trial (what the user learnt feeds the next ``start``).
-    ``corrections`` counts the corrections of the current trial and
-    ``correction_times`` lists when they were decided (episode time, s).
+    ``start`` begins a trial; ``perceive`` is called once per control step, in
+    order, with the scene after the previous step (the user decides there);
+    ``intent`` returns the next ``n_samples`` of intent (fraction of MVC) at the
+    plan's rate, for sample times at or before the last perceived step's time
+    (the runner asks when a feature window needs them, so a decision never
+    changes samples before it); ``finish`` ends the trial (what the user
+    learnt feeds the next ``start``). ``corrections`` counts the corrections
+    of the current trial and ``correction_times`` lists when they were decided
+    (episode time, s).
     """
 
     name: str
@@ -272,7 +275,9 @@ class Operator(Protocol):
 
     def start(self, plan: Plan, *, control_dt_s: float, rng: np.random.Generator) -> None: ...
 
-    def act(self, scene: Scene, n_samples: int) -> np.ndarray: ...
+    def perceive(self, scene: Scene) -> None: ...
+
+    def intent(self, n_samples: int) -> np.ndarray: ...
 
     def finish(self) -> TrialMemory: ...
 
@@ -306,7 +311,10 @@ class ScriptedOperator:
         """Begin a trial (the scripted user ignores ``rng``)."""
         self._plan, self._n, self.corrections = plan, 0, 0
 
-    def act(self, scene: Scene, n_samples: int) -> np.ndarray:
+    def perceive(self, scene: Scene) -> None:
+        """Nothing: the scripted user does not look."""
+
+    def intent(self, n_samples: int) -> np.ndarray:
         """The plan's next ``n_samples`` of intent."""
         plan = _started(self._plan)
         i0 = self._n
@@ -331,6 +339,14 @@ def _take(x: np.ndarray, i0: int, n: int) -> np.ndarray:
     if out.size < n:
         out = np.concatenate([out, np.full(n - out.size, x[-1] if x.size else 0.0)])
     return out
+
+
+def _ramp(dt_s: Any, lo: float, hi: float, rise_s: float) -> Any:
+    """A raised-cosine move from ``lo`` to ``hi`` over ``rise_s``, ``dt_s`` after it began."""
+    x = np.clip(np.asarray(dt_s, dtype=float) / rise_s, 0.0, 1.0) if rise_s > 0 else \
+        np.ones_like(np.asarray(dt_s, dtype=float))
+    out = lo + (hi - lo) * (0.5 - 0.5 * np.cos(np.pi * x))
+    return out if np.ndim(out) else float(out)
 
 
 class DelayLine:
@@ -391,25 +407,25 @@ class ReactingOperator:
         self._plan = plan
         self._dt = float(control_dt_s)
         self._sample_dt = 1.0 / plan.fs_hz
-        shape = plan.intent / plan.hold_level if plan.hold_level > 0 else plan.intent * 0.0
-        self._shape = shape.tolist()  # plain floats: the per-step arithmetic stays in Python
+        self._shape = plan.intent / plan.hold_level if plan.hold_level > 0 else plan.intent * 0.0
         self._planned = self._anticipate(plan.hold_level)
-        self._level_from = self._level_to = self._planned
-        self._t_change = -math.inf
-        self._noise = (1.0 + slow_fluctuation(plan.intent.size, plan.fs_hz,
-                                              np.array([p.motor_noise_cv]),
-                                              p.motor_noise_time_s, noise_rng)[:, 0]).tolist()
+        self._level_to = self._planned
+        self._changes: list[tuple[float, float, float]] = []  # (t_s, from, to)
+        self._noise = 1.0 + slow_fluctuation(plan.intent.size, plan.fs_hz,
+                                             np.array([p.motor_noise_cv]),
+                                             p.motor_noise_time_s, noise_rng)[:, 0]
         n_steps = int(math.ceil(plan.intent.size / (plan.fs_hz * self._dt))) + 2
         self._vision_noise = (p.vision_noise_m * vision_rng.standard_normal(n_steps)).tolist()
         self._vision = DelayLine(round(p.vision_delay_s / self._dt))
         self._step = 0
         self.feedback.start(control_dt_s=self._dt, force_range_n=plan.force_range_n,
                             rng=feedback_rng)
+        self._feels = getattr(self.feedback, "name", "") != "none"  # vision only: no call
         self._goal_level = self.feedback.level_of(plan.goal_n) if self.feedback.codes_force \
             else None
         self._anchor: float | None = None  # where the object sat in the hand, as seen
         self._next_ok_s = -math.inf
-        self._released = False
+        self._released_s = math.inf
         self._n = 0
         self.corrections = 0
         self.correction_times: list[float] = []
@@ -431,65 +447,67 @@ class ReactingOperator:
 
     def level(self, t_s: float) -> float:
         """The intended hold level at ``t_s`` (fraction of MVC), ramps included."""
-        rise = self.params.correction_rise_s
-        if rise <= 0 or t_s >= self._t_change + rise:
-            return self._level_to
-        if t_s <= self._t_change:
-            return self._level_from
-        s = 0.5 - 0.5 * math.cos(math.pi * (t_s - self._t_change) / rise)
-        return self._level_from + (self._level_to - self._level_from) * s
+        out = self._planned
+        for t_c, lo, hi in self._changes:
+            if t_s >= t_c:
+                out = _ramp(t_s - t_c, lo, hi, self.params.correction_rise_s)
+        return out
 
     def _change(self, t_s: float, factor: float) -> None:
         self.correction_times.append(t_s)
-        self._level_from = self.level(t_s)
+        now = self.level(t_s)
         self._level_to = float(np.clip(self._level_to * factor, 0.0, 1.0))
-        self._t_change = t_s
+        self._changes.append((t_s, now, self._level_to))
         self._next_ok_s = t_s + self.params.refractory_s
         self.corrections += 1
 
     # ------------------------------------------------------------------ step
-    def act(self, scene: Scene, n_samples: int) -> list[float]:
-        """Perceive ``scene`` through the channels, decide, return the next intent samples."""
-        _started(self._plan)
+    def perceive(self, scene: Scene) -> None:
+        """Perceive ``scene`` through the channels and decide (module notes)."""
+        if self._plan is None:
+            _started(None)
         p = self.params
         t = scene.t_s
         seen = self._vision.push(scene)
-        felt = self.feedback.perceive(scene)
+        felt = self.feedback.perceive(scene) if self._feels else None
         slide = 0.0
         if seen is not None:  # vision: the delayed scene, with noise on the seen slide
             noise = self._vision_noise
             slide = seen.object_in_hand_m + noise[self._step % len(noise)]
             if seen.contact and self._anchor is None:
                 self._anchor = slide
-            if seen.dropped or seen.crushed:
+            if (seen.dropped or seen.crushed) and self._released_s == math.inf:
                 self._trial.drop_seen |= bool(seen.dropped)
                 self._trial.break_seen |= bool(seen.crushed)
-                self._released = True
+                self._released_s = t  # the user lets go
         self._step += 1
-        if not self._released and t >= self._next_ok_s:
+        if self._released_s == math.inf and t >= self._next_ok_s:
             slip_seen = (seen is not None and self._anchor is not None
                          and self._anchor - slide >= p.visible_slip_m)
-            if slip_seen or felt.slip:
+            if slip_seen or (felt is not None and felt.slip):
                 self._trial.slip_seen = True
                 self._change(t, 1.0 + p.correction_gain)
                 self._anchor = slide if seen is not None and seen.contact else None
-            elif felt.level is not None and self._goal_level is not None \
+            elif felt is not None and felt.level is not None and self._goal_level is not None \
                     and felt.level != self._goal_level:
                 up = felt.level < self._goal_level
                 self._change(t, (1.0 + p.force_step) if up else (1.0 - p.force_step))
+
+    def intent(self, n_samples: int) -> np.ndarray:
+        """The next ``n_samples`` of intent: the plan's shape x the level x motor noise, 0..1."""
+        plan = _started(self._plan)
         i0 = self._n
         self._n += n_samples
-        if self._released:
-            return [0.0] * n_samples
-        shape, noise = self._shape, self._noise
-        last = len(shape) - 1
-        ramp_end = self._t_change + p.correction_rise_s
-        out = []
-        for j in range(n_samples):
-            i = i0 + j if i0 + j < last else last
-            tj = t + j * self._sample_dt
-            u = shape[i] * (self._level_to if tj >= ramp_end else self.level(tj)) * noise[i]
-            out.append(0.0 if u < 0.0 else 1.0 if u > 1.0 else u)
+        idx = np.minimum(np.arange(i0, i0 + n_samples), self._shape.size - 1)
+        t = np.arange(i0, i0 + n_samples) / plan.fs_hz
+        level = np.full(n_samples, self._planned)
+        rise = self.params.correction_rise_s
+        for t_c, lo, hi in self._changes:  # later changes override earlier ones
+            after = t >= t_c
+            if after.any():
+                level[after] = _ramp(t[after] - t_c, lo, hi, rise)
+        out = np.clip(self._shape[idx] * level * self._noise[idx], 0.0, 1.0)
+        out[t >= self._released_s] = 0.0
         return out
 
     def finish(self) -> TrialMemory:

@@ -45,8 +45,13 @@ def _scene(t: float, *, slide_m: float = 0.0, grip: float = 5.0, slip: float = 0
 
 
 def _run(op, scenes, plan=None, seed=0):
+    """Perceive each scene (one per control step) and take that step's two samples."""
     op.start(plan or _plan(), control_dt_s=DT, rng=np.random.default_rng(seed))
-    return np.concatenate([np.asarray(op.act(s, 2), dtype=float) for s in scenes])
+    out = []
+    for s in scenes:
+        op.perceive(s)
+        out.append(np.asarray(op.intent(2), dtype=float))
+    return np.concatenate(out)
 
 
 def test_parameters_have_sources_ranges_and_refuse_the_impossible() -> None:
