@@ -468,9 +468,9 @@ def run_trial(subject: VirtualSubject, obj: ObjectSpec, cal: Calibration,
               until: Callable[[float, Mapping[str, Any]], bool] | None = None) -> Trial:
     """One grasp of ``obj`` by a calibrated user, scripted or in the loop.
 
-    A :class:`~sim.user.operator.ScriptedOperator` runs the batch path (the
-    whole reference computed before the physics, any sEMG generator); any
-    other operator runs in the loop (:class:`LiveUser`, causal generators
+    A :class:`~sim.user.operator.ScriptedOperator` (the class itself) runs the
+    batch path (the whole reference computed before the physics, any sEMG
+    generator); any other operator runs in the loop (:class:`LiveUser`, causal generators
     only) and is finished here (what it learnt plans its next trial).
 
     Parameters
@@ -490,7 +490,7 @@ def run_trial(subject: VirtualSubject, obj: ObjectSpec, cal: Calibration,
         A user in the loop with an sEMG generator that cannot run causally.
     """
     episode_seq, env_seq, operator_seq = seeds
-    if isinstance(operator, ScriptedOperator) and hold_level is None:
+    if type(operator) is ScriptedOperator and hold_level is None:  # not a subclass: it may act
         stream = _reference_stream(subject, cal, goal_n, np.random.default_rng(episode_seq),
                                    generator=generator, episode_s=episode_s,
                                    control_dt_s=control_dt_s,

@@ -104,3 +104,75 @@ def test_feedback_for_a_scripted_user_is_refused() -> None:
 
 def test_operators_are_made_by_name() -> None:
     assert isinstance(make_operator("scripted"), ScriptedOperator)
+
+
+# ------------------------------------------------------------------ extending
+MADE: list = []
+
+
+class HalfHearted:
+    """Toy user kind: the script at half strength; takes a feedback mode and ignores it."""
+
+    name = "half_hearted"
+
+    def __init__(self, params=None, feedback=None) -> None:
+        self.feedback_name = getattr(feedback, "name", feedback)
+        self.corrections, self.correction_times = 0, []
+        self.script = ScriptedOperator()
+        MADE.append(self)
+
+    def start(self, plan, *, control_dt_s, rng) -> None:
+        self.plan = plan
+        self.script.start(plan, control_dt_s=control_dt_s, rng=rng)
+
+    def perceive(self, scene) -> None:
+        pass
+
+    def intent(self, n_samples: int) -> np.ndarray:
+        return 0.5 * self.script.intent(n_samples)
+
+    def finish(self):
+        return self.script.finish()
+
+
+class Beep:
+    """Toy feedback mode: feels nothing, like vision only."""
+
+    name = "beep"
+    codes_force = False
+
+    def __init__(self, params=None) -> None:
+        self.params = params
+
+
+@pytest.fixture
+def toys():
+    from sim.user.operators import (
+        register_feedback,
+        register_operator,
+        unregister_feedback,
+        unregister_operator,
+    )
+
+    register_operator("half_hearted", HalfHearted)
+    register_feedback("beep", Beep)
+    yield
+    unregister_operator("half_hearted")
+    unregister_feedback("beep")
+
+
+def test_a_registered_user_kind_and_feedback_mode_reach_schema_cli_and_episode(toys) -> None:
+    from scenarios.cli.main import build_parser
+    from scenarios.schema import parse_scenario
+
+    scenario = parse_scenario({"kind": "episode", "user": {"kind": "half_hearted",
+                                                           "feedback": "beep"}}, source="t")
+    assert (scenario.user.kind, scenario.user.feedback) == ("half_hearted", "beep")
+    episode = build_parser("episode")._subparsers._group_actions[0].choices["episode"]
+    assert "half_hearted" in episode.format_help() and "beep" in episode.format_help()
+    result = E.run_episode(VirtualSubject.sample(0, 2), make_object("ball"), estimator="oracle",
+                           user="half_hearted", feedback="beep", episode_s=4.0, hold_s=1.0)
+    assert result.row["user"] == "half_hearted" and result.row["feedback"] == "beep"
+    toy = MADE[-1]
+    assert toy.feedback_name == "beep"
+    assert np.max(result.traces["user_intent"]) == pytest.approx(0.5 * toy.plan.hold_level)
