@@ -544,6 +544,7 @@ FACTOR_NAMES = {
     "object.break_force_n": "break force (N)", "controller.kind": "controller",
     "estimator.name": "estimator", "estimator.mode": "mode",
     "controller.slip_reflex.enabled": "reflex", "subject.subject_id": "subject",
+    "user.kind": "user", "user.feedback": "feedback",
 }
 #: Config path -> the result field holding the value that actually ran (e.g. the object's
 #: mass when the config left it to the object library).
@@ -551,7 +552,7 @@ _RESULT_FIELDS = {
     "object.name": "object_name", "object.mass_kg": "object_mass_kg",
     "object.friction": "object_friction", "object.break_force_n": "object_break_force_n",
     "controller.kind": "controller", "estimator.name": "estimator", "estimator.mode": "mode",
-    "subject.subject_id": "subject_id",
+    "subject.subject_id": "subject_id", "user.kind": "user", "user.feedback": "feedback",
 }
 #: Config paths that are never grouping dimensions.
 NOT_FACTORS = frozenset({"seed"})

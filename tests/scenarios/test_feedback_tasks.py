@@ -223,3 +223,14 @@ def test_force_vibration_lowers_the_absolute_error(force_results) -> None:
                    "README, 'Feedback benchmarks: where the model disagrees'")
 def test_force_matching_cv_at_the_middle_target_is_3_to_8_percent(force_results) -> None:
     assert 0.03 <= force_results["none"]["targets"][0]["cv"] <= 0.08
+
+
+def test_user_kind_and_feedback_are_report_factors() -> None:
+    from scenarios.report import data as D
+
+    episodes = [{"config": {"user": {"kind": "reacting", "feedback": mode}, "seed": i},
+                 "result": {"user": "reacting", "feedback": mode}}
+                for i, mode in enumerate(("none", "slip_vibration"))]
+    assert D.swept_factors(episodes) == ["user.feedback"]
+    assert D.factor_name("user.feedback") == "feedback" and D.factor_name("user.kind") == "user"
+    assert D.factor_value(episodes[1], "user.feedback") == "slip_vibration"
