@@ -9,8 +9,12 @@ faceted outcome grids, loop designs;
 :mod:`~scenarios.report.build` puts the sections together; the sections themselves are
 registered in :mod:`~scenarios.report.sections` (one builder per section, in page order).
 
-May import: :mod:`scenarios.store`, :mod:`scenarios.schema`, :mod:`controllers` (loop
-figures), matplotlib and Jinja2.
+:mod:`~scenarios.report.feedback` shows the feedback benchmarks (eggs, slip recovery,
+force matching) side by side.
+
+May import: :mod:`scenarios.store`, :mod:`scenarios.schema`, :mod:`scenarios.stats`,
+:mod:`scenarios.feedback_summary`, :mod:`controllers` (loop figures), matplotlib and
+Jinja2.
 """
 
 from scenarios.report.build import ReportResult, build_report

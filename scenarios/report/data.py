@@ -22,6 +22,7 @@ import numpy as np
 
 from controllers.analysis import LoopMargins, loop_margins
 from scenarios.schema import estimator_choices
+from scenarios.stats import wilson_interval
 from sim.errors import GriploopError
 
 MODES = ("one_step", "free_run")
@@ -543,6 +544,7 @@ FACTOR_NAMES = {
     "object.break_force_n": "break force (N)", "controller.kind": "controller",
     "estimator.name": "estimator", "estimator.mode": "mode",
     "controller.slip_reflex.enabled": "reflex", "subject.subject_id": "subject",
+    "user.kind": "user", "user.feedback": "feedback",
 }
 #: Config path -> the result field holding the value that actually ran (e.g. the object's
 #: mass when the config left it to the object library).
@@ -550,7 +552,7 @@ _RESULT_FIELDS = {
     "object.name": "object_name", "object.mass_kg": "object_mass_kg",
     "object.friction": "object_friction", "object.break_force_n": "object_break_force_n",
     "controller.kind": "controller", "estimator.name": "estimator", "estimator.mode": "mode",
-    "subject.subject_id": "subject_id",
+    "subject.subject_id": "subject_id", "user.kind": "user", "user.feedback": "feedback",
 }
 #: Config paths that are never grouping dimensions.
 NOT_FACTORS = frozenset({"seed"})
@@ -648,20 +650,6 @@ def levels(episodes: Sequence[Mapping[str, Any]], path: str) -> list[Any]:
     if all(v is None or isinstance(v, (bool, int, float)) for v in values):
         return sorted(values, key=_level_key)
     return values
-
-
-def wilson_interval(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
-    """Wilson score interval of a proportion ``k / n`` (95 % for the default ``z``).
-
-    ``(nan, nan)`` when ``n == 0``.
-    """
-    if n == 0:
-        return (float("nan"), float("nan"))
-    p = k / n
-    denom = 1.0 + z * z / n
-    centre = (p + z * z / (2 * n)) / denom
-    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return (float(max(0.0, centre - half)), float(min(1.0, centre + half)))
 
 
 OUTCOMES = ("held", "not_lifted", "dropped", "crushed")

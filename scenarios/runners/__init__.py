@@ -3,9 +3,11 @@
 :mod:`scenarios.runners.dispatch` maps each scenario kind to its runner (a
 registry); :mod:`scenarios.runners.subject` builds the scenario's virtual user and
 records their calibration session; :mod:`scenarios.runners.episode` runs a grasp
-from sEMG to the hand;
+from sEMG to the hand, with :mod:`scenarios.runners.operator_loop` interleaving a user
+who reacts; :mod:`scenarios.runners.feedback_tasks` runs the feedback benchmarks
+(eggs, slip recovery, force matching);
 :mod:`scenarios.runners.compare` drives one grasp with several estimators;
 :mod:`scenarios.runners.video` renders an episode.
 
-May import: sim, estimation, controllers, :mod:`scenarios.schema`.
+May import: sim, estimation, controllers, :mod:`scenarios.schema`, :mod:`scenarios.stats`.
 """

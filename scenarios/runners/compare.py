@@ -23,7 +23,8 @@ from sim.user.subjects import VirtualSubject
 
 DEFAULT_REFERENCES = ("ss_kf", "mlp", "features_mav", ORACLE)
 COLUMNS = ("reference_volatility_n_per_s", "estimation_rmse_n", "tracking_rmse_n",
-           "slip_events", "slip_distance_m", "dropped", "crushed", "peak_force_n")
+           "slip_events", "slip_distance_m", "dropped", "crushed", "peak_force_n",
+           "user_corrections")
 
 
 def compare_references(
@@ -37,6 +38,8 @@ def compare_references(
     population_seed: int = 0,
     seed: int = 0,
     episode_s: float = 6.0,
+    user: str = "reacting",
+    feedback: str = "none",
 ) -> dict[str, Any]:
     """Run one grasp per subject and estimator; summarize per estimator.
 
@@ -57,6 +60,8 @@ def compare_references(
         Virtual subjects of ``population_seed``.
     seed : int
         Episode seed; the same for every estimator, so the subject's sEMG is identical.
+    user, feedback : str
+        The user kind and feedback mode (:func:`scenarios.runners.episode.run_episode`).
 
     Returns
     -------
@@ -77,7 +82,7 @@ def compare_references(
             try:
                 result = run_episode(subject, obj, estimator=name, mode=mode,
                                      controller=controller, controller_spec=spec, seed=seed,
-                                     episode_s=episode_s)
+                                     episode_s=episode_s, user=user, feedback=feedback)
             except (DivergedError, UnsupportedScenarioError) as exc:
                 rows.append({**base, "status": "failed", "error": str(exc)})
                 continue
@@ -101,6 +106,7 @@ def compare_references(
     return {"object": {"name": obj.name, "mass_kg": obj.mass_kg, "friction": obj.friction,
                        "break_force_n": obj.break_force_n},
             "controller": controller, "subjects": list(subject_ids), "seed": seed,
+            "user": user, "feedback": feedback,
             "rows": rows, "summary": summary}
 
 
@@ -109,7 +115,7 @@ def format_comparison(result: dict[str, Any]) -> str:
     head = (f"{'reference':<14}{'mode':<10}{'volatility N/s':>15}{'est. RMSE N':>12}"
             f"{'track RMSE N':>13}{'slip ev.':>9}{'slip mm':>8}{'not lifted %':>13}"
             f"{'drop %':>7}{'crush %':>8}"
-            f"{'peak N':>8}{'ok/fail':>9}")
+            f"{'peak N':>8}{'corr.':>6}{'ok/fail':>9}")
     lines = [head]
 
     def f(v: float | None, scale: float = 1.0, fmt: str = ".2f") -> str:
@@ -122,6 +128,7 @@ def format_comparison(result: dict[str, Any]) -> str:
             f"{f(s['slip_events'], fmt='.1f'):>9}{f(s['slip_distance_m'], 1e3, '.1f'):>8}"
             f"{f(s['not_lifted'], 100, '.0f'):>13}"
             f"{f(s['dropped'], 100, '.0f'):>7}{f(s['crushed'], 100, '.0f'):>8}"
-            f"{f(s['peak_force_n'], fmt='.1f'):>8}{s['n_ok']:>5}/{s['n_failed']}"
+            f"{f(s['peak_force_n'], fmt='.1f'):>8}{f(s['user_corrections'], fmt='.1f'):>6}"
+            f"{s['n_ok']:>5}/{s['n_failed']}"
         )
     return "\n".join(lines)

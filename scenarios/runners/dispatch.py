@@ -17,8 +17,10 @@ stack. A kind may be known without a runner (a build without its backend):
 :func:`register_runner` and :func:`unregister_runner` change only the runner.
 
 Registered here: ``reproduction`` (:func:`run_reproduction_scenario`), and by reference
-``episode`` and ``calibration`` (:mod:`scenarios.runners.episode`), so that importing
-this module does not import MuJoCo.
+``episode`` and ``calibration`` (:mod:`scenarios.runners.episode`) and the feedback
+benchmarks ``eggs``, ``slip_recovery`` and ``force_matching``
+(:mod:`scenarios.runners.feedback_tasks`), so that importing this module does not
+import MuJoCo.
 """
 
 from __future__ import annotations
@@ -329,3 +331,9 @@ register_kind("calibration", "scenarios.runners.episode:run_calibration_scenario
               protocols=("paper_calibration",))
 register_kind("episode", "scenarios.runners.episode:run_episode_scenario",
               protocols=("grasp_lift_hold", "fragile_handling"))
+register_kind("eggs", "scenarios.runners.feedback_tasks:run_eggs_scenario",
+              protocols=("virtual_eggs",))
+register_kind("slip_recovery", "scenarios.runners.feedback_tasks:run_slip_recovery_scenario",
+              protocols=("slip_recovery",))
+register_kind("force_matching", "scenarios.runners.feedback_tasks:run_force_matching_scenario",
+              protocols=("force_matching",))

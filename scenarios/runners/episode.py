@@ -39,7 +39,7 @@ Conventions (documented choices):
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -57,11 +57,15 @@ from estimation.registry import make_estimator
 from estimation.reproduce import estimator_params
 from estimation.threads import one_blas_thread
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
+from scenarios.runners.operator_loop import LiveUser, scene_from_info
 from scenarios.runners.subject import calibration_session, subject_for
 from scenarios.schema import ORACLE, Scenario
 from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.hand.objects import ObjectSpec, make_object
-from sim.user.intent import grasp_lift_hold
+from sim.user.causal import NotCausalError
+from sim.user.intent import IntentProfile, grasp_lift_hold
+from sim.user.operator import Operator, OperatorParams, Plan, ScriptedOperator
+from sim.user.operators import make_operator
 from sim.user.subjects import VirtualSubject
 
 HAND_FORCE_AT_MVC_N = 30.0
@@ -339,6 +343,9 @@ def run_episode(
     control_dt_s: float = 0.01,
     hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N,
     record_frames: bool = False,
+    user: str = "reacting",
+    feedback: str = "none",
+    operator_params: OperatorParams | None = None,
 ) -> EpisodeResult:
     """Calibrate, then run one closed-loop grasp-lift-hold episode.
 
@@ -366,6 +373,15 @@ def run_episode(
         Control period, s (a whole multiple of the 2 ms physics step).
     record_frames : bool
         Also return rendered RGB frames every 40 ms under ``traces["frames"]``.
+    user : str
+        User kind (:mod:`sim.user.operators`): ``reacting`` (default: sees the
+        hand and corrects, :mod:`sim.user.operator`) or ``scripted`` (follows
+        the intent profile whatever happens).
+    feedback : str
+        Feedback mode of a reacting user: ``none`` (vision only),
+        ``force_vibration`` or ``slip_vibration``.
+    operator_params : OperatorParams, optional
+        The reacting user's parameters (default :class:`OperatorParams`).
 
     Returns
     -------
@@ -374,15 +390,21 @@ def run_episode(
     Raises
     ------
     UnsupportedScenarioError
-        Episode timing that leaves no time to grasp before the lift, or an
-        estimator mode that does not exist.
+        Episode timing that leaves no time to grasp before the lift, an
+        estimator mode that does not exist, or a reacting user with an sEMG
+        generator that cannot run causally (``motor_units``).
     DivergedError
         Unstable identified model in free run, or physics divergence.
+    sim.user.operators.UnknownOperatorError, sim.user.operators.UnknownFeedbackError
+        Unknown user kind or feedback mode.
+    sim.user.operator.OperatorError
+        A feedback mode for the scripted user.
     """
+    operator = make_operator(user, feedback=feedback, params=operator_params)
     lift_after_s = _lift_time_s(episode_s, hold_s)
     root = np.random.SeedSequence(seed)
-    cal_seq, episode_seq, env_seq = root.spawn(3)
-    timings = dict.fromkeys(("t_semg_s", "t_features_s", "t_estimator_s",
+    cal_seq, episode_seq, env_seq, operator_seq = root.spawn(4)
+    timings = dict.fromkeys(("t_semg_s", "t_features_s", "t_estimator_s", "t_operator_s",
                              "t_controller_s", "t_physics_s"), 0.0)
     with one_blas_thread():
         cal = calibrate(subject, estimator, mode, rng=np.random.default_rng(cal_seq),
@@ -391,23 +413,109 @@ def run_episode(
                         calibration_s=calibration_s)
         design = cached_design(obj, controller, control_dt_s, controller_spec)
         target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
-        stream = _reference_stream(subject, cal, target_n, np.random.default_rng(episode_seq),
-                                   generator=generator, episode_s=episode_s,
-                                   control_dt_s=control_dt_s,
-                                   hand_force_at_mvc_n=hand_force_at_mvc_n, timings=timings)
-        traces, failure, info = _closed_loop(obj, design, stream.reference_n, stream.t_s,
-                                             control_dt_s, episode_s, lift_after_s, env_seq,
-                                             timings, record_frames)
+        trial = run_trial(subject, obj, cal, design, operator, goal_n=target_n,
+                          seeds=(episode_seq, env_seq, operator_seq), generator=generator,
+                          episode_s=episode_s, lift_after_s=lift_after_s,
+                          control_dt_s=control_dt_s, hand_force_at_mvc_n=hand_force_at_mvc_n,
+                          timings=timings, record_frames=record_frames)
+    traces, failure, info, stream = trial.traces, trial.failure, trial.info, trial.stream
     if failure is not None:
         raise DivergedError(f"physics diverged at t = {info['time_s']:.3f} s: {failure}")
     row = {"subject_id": subject.subject_id, "seed": int(seed),
            "object_name": obj.name, "object_mass_kg": obj.mass_kg,
            "object_friction": obj.friction, "object_break_force_n": obj.break_force_n,
            "controller": controller, "estimator": estimator, "mode": mode,
-           "scheduled": bool(design.scheduled)}
+           "scheduled": bool(design.scheduled), "user": user, "feedback": feedback,
+           "user_corrections": int(operator.corrections),
+           "first_correction_s": (float(operator.correction_times[0])
+                                  if operator.correction_times else None)}
     return _episode_result(row, cal, design, stream, traces, info, timings,
                            target_n=target_n, lift_after_s=lift_after_s,
                            hold_from_s=episode_s - hold_s, control_dt_s=control_dt_s)
+
+
+@dataclass
+class Trial:
+    """One closed-loop trial: the traces, how it ended, and the reference it ran on.
+
+    Attributes
+    ----------
+    traces : dict of ndarray
+        :func:`_closed_loop`'s traces (plus ``user_intent`` for a user in the loop).
+    failure : str or None
+        MuJoCo's warning if the physics diverged.
+    info : dict
+        The environment's last ``info``.
+    stream : _ReferenceStream
+        The reference and the user's true force at the control rate (for the metrics).
+    """
+
+    traces: dict[str, np.ndarray]
+    failure: str | None
+    info: dict[str, Any]
+    stream: _ReferenceStream
+
+
+def run_trial(subject: VirtualSubject, obj: ObjectSpec, cal: Calibration,
+              design: ControllerDesign, operator: Operator, *, goal_n: float,
+              seeds: tuple[np.random.SeedSequence, np.random.SeedSequence,
+                           np.random.SeedSequence],
+              generator: str, episode_s: float, lift_after_s: float, control_dt_s: float,
+              hand_force_at_mvc_n: float, timings: dict[str, float],
+              record_frames: bool = False, hold_level: float | None = None,
+              load: Callable[[float, Mapping[str, Any]], float] | None = None,
+              schedule: WristSchedule | None = None,
+              until: Callable[[float, Mapping[str, Any]], bool] | None = None) -> Trial:
+    """One grasp of ``obj`` by a calibrated user, scripted or in the loop.
+
+    A :class:`~sim.user.operator.ScriptedOperator` (the class itself) runs the
+    batch path (the whole reference computed before the physics, any sEMG
+    generator); any other operator runs in the loop (:class:`LiveUser`, causal generators
+    only) and is finished here (what it learnt plans its next trial).
+
+    Parameters
+    ----------
+    goal_n : float
+        Hand grip force the user aims at, N.
+    seeds : (SeedSequence, SeedSequence, SeedSequence)
+        The sEMG session (profile and noise), the environment and the operator.
+    hold_level : float, optional
+        The scripted hold level (default: ``goal_n`` through the calibration).
+    load, schedule, until
+        See :func:`_closed_loop`.
+
+    Raises
+    ------
+    UnsupportedScenarioError
+        A user in the loop with an sEMG generator that cannot run causally.
+    """
+    episode_seq, env_seq, operator_seq = seeds
+    if type(operator) is ScriptedOperator and hold_level is None:  # not a subclass: it may act
+        stream = _reference_stream(subject, cal, goal_n, np.random.default_rng(episode_seq),
+                                   generator=generator, episode_s=episode_s,
+                                   control_dt_s=control_dt_s,
+                                   hand_force_at_mvc_n=hand_force_at_mvc_n, timings=timings)
+        traces, failure, info = _closed_loop(obj, design, stream.reference_n, stream.t_s,
+                                             control_dt_s, episode_s, lift_after_s, env_seq,
+                                             timings, record_frames, load=load,
+                                             schedule=schedule, until=until)
+        return Trial(traces, failure, info, stream)
+    person, start_s = live_user(subject, cal, operator, goal_n, np.random.default_rng(episode_seq),
+                                np.random.default_rng(operator_seq), generator=generator,
+                                episode_s=episode_s, control_dt_s=control_dt_s,
+                                hand_force_at_mvc_n=hand_force_at_mvc_n, hold_level=hold_level)
+    t_ctrl = np.arange(int(round(episode_s / control_dt_s))) * control_dt_s
+    reference = np.zeros(t_ctrl.size)
+    traces, failure, info = _closed_loop(obj, design, reference, t_ctrl, control_dt_s, episode_s,
+                                         lift_after_s, env_seq, timings, record_frames,
+                                         user=person, load=load, schedule=schedule,
+                                         until=until)
+    person.intent_until(int(round(t_ctrl.size * control_dt_s * person.fs_hz)))
+    stream = live_stream(person, start_s, t_ctrl, reference, episode_s, timings)
+    traces["user_intent"] = person.intent[
+        np.minimum((traces["t_s"] * person.fs_hz).round().astype(int), person.n_samples - 1)]
+    operator.finish()
+    return Trial(traces, failure, info, stream)
 
 
 def _lift_time_s(episode_s: float, hold_s: float) -> float:
@@ -454,22 +562,34 @@ class _ReferenceStream:
     oracle_n: np.ndarray
 
 
+def hold_level_for(target_n: float, cal: Calibration, subject: VirtualSubject,
+                   hand_force_at_mvc_n: float) -> float:
+    """The intent (fraction of MVC) asking for ``target_n`` through the calibration's mapping."""
+    return float(np.clip(target_n / hand_force_at_mvc_n * cal.mvc_cal_n / subject.mvc_n, 0.0, 1.0))
+
+
+def episode_profile(rng: np.random.Generator, hold_level: float, episode_s: float
+                    ) -> tuple[IntentProfile, float]:
+    """The scripted grasp-lift-hold intent of an episode at 200 Hz, and its ramp onset, s."""
+    profile = grasp_lift_hold(rng, fs_hz=200.0, hold_level=hold_level, rest_s=REST_S,
+                              ramp_s=RAMP_S, hold_s=episode_s, jitter=0.1)
+    return profile, next(t for kind, t in profile.cues if kind == "start")
+
+
 def _reference_stream(subject: VirtualSubject, cal: Calibration, target_n: float,
                       rng: np.random.Generator, *, generator: str, episode_s: float,
                       control_dt_s: float, hand_force_at_mvc_n: float,
                       timings: dict[str, float]) -> _ReferenceStream:
     """Record the user's sEMG while they grasp, estimate, and hold it at the control rate.
 
-    The user aims at ``target_n`` on the hand, which they reach through the
-    calibration's mapping (module notes); sEMG, feature and estimator times
-    are added to ``timings``.
+    The scripted user: the whole episode's sEMG and reference are computed
+    before the physics runs. The user aims at ``target_n`` on the hand, which
+    they reach through the calibration's mapping (module notes); sEMG,
+    feature and estimator times are added to ``timings``.
     """
     # The user's intent and their sEMG during the episode.
-    hold_level = float(np.clip(target_n / hand_force_at_mvc_n * cal.mvc_cal_n
-                               / subject.mvc_n, 0.0, 1.0))
-    profile = grasp_lift_hold(rng, fs_hz=200.0, hold_level=hold_level, rest_s=REST_S,
-                              ramp_s=RAMP_S, hold_s=episode_s, jitter=0.1)
-    start_s = next(t for kind, t in profile.cues if kind == "start")
+    hold_level = hold_level_for(target_n, cal, subject, hand_force_at_mvc_n)
+    profile, start_s = episode_profile(rng, hold_level, episode_s)
     t0 = time.perf_counter()
     recording = subject.record(profile, generator=generator, rng=rng)
     timings["t_semg_s"] = time.perf_counter() - t0
@@ -497,6 +617,48 @@ def _reference_stream(subject: VirtualSubject, cal: Calibration, target_n: float
     oracle = reference_from_windows(np.clip(oracle_windows, 0, ceiling), features.t_s, t_ctrl)
     return _ReferenceStream(start_s, estimate_windows[features.t_s <= episode_s],
                             features.dt_s, t_ctrl, reference, oracle)
+
+
+def live_user(subject: VirtualSubject, cal: Calibration, operator: Operator, goal_n: float,
+              rng: np.random.Generator, operator_rng: np.random.Generator, *, generator: str,
+              episode_s: float, control_dt_s: float, hand_force_at_mvc_n: float,
+              hold_level: float | None = None) -> tuple[LiveUser, float]:
+    """A user in the loop for one episode, and their ramp onset, s.
+
+    Draws the same profile and the same sEMG noise from ``rng`` as
+    :func:`_reference_stream` does (a scripted operator so gives its very
+    references); the operator plans from the profile and aims at ``goal_n``.
+
+    Parameters
+    ----------
+    hold_level : float, optional
+        The scripted hold level; default: ``goal_n`` through the calibration.
+    """
+    if hold_level is None:
+        hold_level = hold_level_for(goal_n, cal, subject, hand_force_at_mvc_n)
+    profile, start_s = episode_profile(rng, hold_level, episode_s)
+    plan = Plan(intent=profile.intent, fs_hz=profile.fs_hz, hold_level=hold_level,
+                goal_n=float(goal_n), force_range_n=float(hand_force_at_mvc_n))
+    try:
+        user = LiveUser(subject, cal, operator, plan, session_rng=rng,
+                        operator_rng=operator_rng, n_samples=profile.n_samples,
+                        control_dt_s=control_dt_s, hand_force_at_mvc_n=hand_force_at_mvc_n,
+                        generator=generator)
+    except NotCausalError as exc:
+        raise UnsupportedScenarioError(f"user {operator.name}: {exc}") from None
+    return user, start_s
+
+
+def live_stream(user: LiveUser, start_s: float, t_ctrl: np.ndarray, reference_n: np.ndarray,
+                episode_s: float, timings: dict[str, float]) -> _ReferenceStream:
+    """The :class:`_ReferenceStream` a live user produced (for the metrics), timings added."""
+    window_t = np.asarray(user.window_t_s)
+    estimates = np.asarray(user.window_estimate_n)
+    oracle = reference_from_windows(user.window_oracle_n(), window_t, t_ctrl)
+    for key, value in user.timings.items():
+        timings[key] = timings.get(key, 0.0) + value
+    return _ReferenceStream(start_s, estimates[window_t <= episode_s], user.hop / user.fs_hz,
+                            t_ctrl, reference_n, oracle)
 
 
 def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDesign,
@@ -536,7 +698,7 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
     worst = worst_case([design.analyse(f) for f in visited_n]) if visited_n else {}
     simulated = traces["t_s"][-1] + control_dt_s
     loop_time = sum(timings[k] for k in ("t_estimator_s", "t_controller_s", "t_physics_s",
-                                         "t_semg_s", "t_features_s"))
+                                         "t_semg_s", "t_features_s", "t_operator_s"))
     row = {
         **row,
         **metrics,
@@ -654,30 +816,68 @@ def _finite(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
 
-def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarray,
+def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarray | None,
                  t_ctrl: np.ndarray, control_dt_s: float, episode_s: float,
                  lift_after_s: float, env_seq: np.random.SeedSequence,
-                 timings: dict[str, float], record_frames: bool
+                 timings: dict[str, float], record_frames: bool, *,
+                 user: LiveUser | None = None,
+                 load: Callable[[float, Mapping[str, Any]], float] | None = None,
+                 schedule: WristSchedule | None = None,
+                 until: Callable[[float, Mapping[str, Any]], bool] | None = None,
                  ) -> tuple[dict[str, np.ndarray], str | None, dict[str, Any]]:
-    """Drive GraspEnv with the designed controller; returns traces, failure, last info."""
-    schedule = WristSchedule(lift_after_s=lift_after_s, lift_duration_s=LIFT_DURATION_S)
+    """Drive GraspEnv with the designed controller; returns traces, failure, last info.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n_steps,) or None
+        The reference of a scripted user, computed before the physics; ``None``
+        with ``user``.
+    t_ctrl : ndarray, shape (n_steps,)
+        Control-step times, s.
+    user : LiveUser, optional
+        A user in the loop: the reference of step k is ``user.step(k, scene)``
+        with the scene after step k - 1. If the episode ends early (a drop, a
+        crush), the user goes on to ``n_steps`` seeing the last scene, so the
+        reference covers the episode as a scripted user's does.
+    load : callable, optional
+        ``load(t_s, info) -> N``: a load hung on the object before the step at
+        ``t_s`` (:meth:`sim.hand.grasp_env.GraspEnv.set_object_load`).
+    schedule : WristSchedule, optional
+        The wrist's schedule (default: lift after ``lift_after_s``).
+    until : callable, optional
+        ``until(t_s, info) -> bool``: end the episode after the step at ``t_s``
+        when true (a task that has its answer).
+    """
+    schedule = schedule or WristSchedule(lift_after_s=lift_after_s,
+                                         lift_duration_s=LIFT_DURATION_S)
     env = GraspEnv(obj, 0.0, control_dt_s=control_dt_s, episode_s=episode_s,
                    schedule=schedule, render_mode="rgb_array" if record_frames else None)
-    n = reference.size
+    n = t_ctrl.size
+    reference = np.zeros(n) if reference is None else reference
     grip = np.zeros(n)
     command = np.zeros(n)
     height = np.zeros(n)
     slip = np.zeros(n)
     both = np.zeros(n, dtype=bool)
     tracked = np.zeros(n)
+    loads = np.zeros(n)
     frames: list[np.ndarray] = []
     frame_every = max(1, int(round(0.04 / control_dt_s)))
     loop = HandLoop(env, design.controller)
+    load_n = 0.0
     try:
         info = loop.reset(seed=int(env_seq.generate_state(1)[0]))
         failure = None
         k = 0
         for k in range(n):
+            if user is not None:
+                reference[k] = user.step(k, scene_from_info(float(t_ctrl[k]), info))
+            if load is not None:
+                new_load = float(load(float(t_ctrl[k]), info))
+                if new_load != load_n:
+                    env.set_object_load(new_load)
+                    load_n = new_load
+                loads[k] = load_n
             ref = float(reference[k])
             env.set_reference(ref)
             _, command[k], done = loop.step(ref)
@@ -689,9 +889,12 @@ def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarra
             if record_frames and k % frame_every == 0:
                 frames.append(env.render())
             failure = info.get("failure")
-            if done:
+            if done or (until is not None and until(float(t_ctrl[k]), info)):
                 break
         k_end = k + 1
+        if user is not None:  # the user goes on, seeing the last scene (module notes)
+            for j in range(k_end, n):
+                reference[j] = user.step(j, scene_from_info(float(t_ctrl[j]), info))
     finally:
         env.close()
     timings["t_controller_s"] += loop.controller_s
@@ -700,6 +903,8 @@ def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarra
               "grip_force_n": grip[:k_end], "command": command[:k_end],
               "object_height_m": height[:k_end], "slip_speed_m_s": slip[:k_end],
               "both_sides": both[:k_end], "tracked_reference_n": tracked[:k_end]}
+    if load is not None:
+        traces["object_load_n"] = loads[:k_end]
     if record_frames:
         traces["frames"] = np.stack(frames)
     return traces, failure, info
@@ -734,7 +939,9 @@ def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False) ->
         order=PAPER_ORDER if e.order is None else e.order,
         identification_fraction=p.identification_fraction, calibration_s=p.calibration_s,
         episode_s=p.episode_s, hold_s=p.hold_s,
-        control_dt_s=1.0 / scenario.controller.control_hz, record_frames=record_frames)
+        control_dt_s=1.0 / scenario.controller.control_hz, record_frames=record_frames,
+        user=scenario.user.kind, feedback=scenario.user.feedback,
+        operator_params=scenario.user.operator_params())
 
 
 def run_episode_scenario(scenario: Scenario) -> dict[str, Any]:

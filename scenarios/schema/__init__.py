@@ -61,6 +61,7 @@ from scenarios.schema.models import (
     LogUniform,
     Normal,
     ObjectConfig,
+    OperatorParamsConfig,
     ProtocolConfig,
     RandomDesign,
     Scenario,
@@ -69,13 +70,16 @@ from scenarios.schema.models import (
     SubjectConfig,
     SweepConfig,
     Uniform,
+    UserConfig,
     controller_names,
     estimator_choices,
+    feedback_modes,
     field_paths,
     generator_names,
     kind_protocols,
     object_names,
     scenario_kinds,
+    user_kinds,
 )
 from scenarios.schema.yaml_loading import (
     MAX_YAML_DEPTH,
@@ -88,17 +92,19 @@ from scenarios.schema.yaml_loading import (
 __all__ = [
     "DEFAULT_MAX_SCENARIOS", "DEFAULT_TIME_LIMIT_S", "MAX_YAML_DEPTH", "MAX_YAML_NODES",
     "ORACLE", "SIZE_LENGTHS", "Choice", "ControllerConfig", "Distribution", "EstimatorConfig",
-    "ExpandedScenario", "Integers", "LogUniform", "Normal", "ObjectConfig", "ProtocolConfig",
-    "RandomDesign", "Scenario", "ScenarioError", "SlipReflexConfig", "SubjectConfig",
-    "SweepConfig", "Uniform", "check_size", "controller_names", "derive_seed", "design_points",
-    "design_size", "estimator_choices", "expand_sweep", "field_paths", "generator_names",
-    "iter_design", "iter_expanded", "kind_protocols", "load_sweep", "object_names",
-    "parse_scenario", "parse_sweep", "scenario_kinds",
+    "ExpandedScenario", "Integers", "LogUniform", "Normal", "ObjectConfig",
+    "OperatorParamsConfig", "ProtocolConfig", "RandomDesign", "Scenario", "ScenarioError",
+    "SlipReflexConfig", "SubjectConfig", "SweepConfig", "Uniform", "UserConfig", "check_size",
+    "controller_names", "derive_seed", "design_points", "design_size", "estimator_choices",
+    "expand_sweep", "feedback_modes", "field_paths", "generator_names", "iter_design",
+    "iter_expanded", "kind_protocols", "load_sweep", "object_names", "parse_scenario",
+    "parse_sweep", "scenario_kinds", "user_kinds",
 ]
 
 
 def __getattr__(attr: str) -> Any:
-    """``ESTIMATORS``, ``OBJECTS``, ``GENERATORS``, ``CONTROLLERS``, ``SCENARIO_KINDS``:
+    """``ESTIMATORS``, ``OBJECTS``, ``GENERATORS``, ``CONTROLLERS``, ``SCENARIO_KINDS``,
+    ``USER_KINDS``, ``FEEDBACK_MODES``:
     the names registered at the time of reading."""
     from scenarios.schema import models
 

@@ -71,9 +71,24 @@ def controller_names() -> tuple[str, ...]:
     return names()
 
 
+def user_kinds() -> tuple[str, ...]:
+    """User kinds (operator models) registered in :mod:`sim.user.operators`."""
+    from sim.user.operators import operator_names
+
+    return operator_names()
+
+
+def feedback_modes() -> tuple[str, ...]:
+    """Feedback modes registered in :mod:`sim.user.operators`."""
+    from sim.user.operators import feedback_names
+
+    return feedback_names()
+
+
 _NAMES = {"ESTIMATORS": estimator_choices, "OBJECTS": object_names,
           "GENERATORS": generator_names, "CONTROLLERS": controller_names,
-          "SCENARIO_KINDS": scenario_kinds}
+          "SCENARIO_KINDS": scenario_kinds, "USER_KINDS": user_kinds,
+          "FEEDBACK_MODES": feedback_modes}
 
 
 def __getattr__(attr: str) -> Any:
@@ -140,9 +155,13 @@ class ProtocolConfig(_Model):
 
     Attributes
     ----------
-    name : {"paper_calibration", "grasp_lift_hold", "fragile_handling"}
+    name : {"paper_calibration", "grasp_lift_hold", "fragile_handling", "virtual_eggs", \
+"slip_recovery", "force_matching"}
         The paper's three-squeeze FSR session, a Johansson-Westling
-        grasp-lift-hold, or handling a breakable object.
+        grasp-lift-hold, handling a breakable object, or one of the feedback
+        benchmarks (:mod:`scenarios.runners.feedback_tasks`): transferring a
+        fragile block (Virtual Eggs Test), recovering an object whose load
+        rises until it slips, holding a target force.
     calibration_s : float or None
         Duration of the calibration session used to fit the estimator, s;
         ``None`` keeps the paper protocol's own length (about 25-36 s).
@@ -153,13 +172,26 @@ class ProtocolConfig(_Model):
     identification_fraction : float
         Fraction of the calibration session used for identification; the rest
         validates (the paper uses 0.5).
+    trials : int
+        Consecutive trials of one user in one scenario (``virtual_eggs``:
+        transfers of the block; ``slip_recovery``: slipping loads); the user
+        plans each from the last (anticipatory scaling).
+    target_fraction : float
+        ``force_matching``: the hand force to hold, as a fraction of the hand
+        force at the user's MVC.
+    load_rate_n_s : float
+        ``slip_recovery``: rate at which the load on the held object rises, N/s.
     """
 
-    name: Literal["paper_calibration", "grasp_lift_hold", "fragile_handling"] = "grasp_lift_hold"
+    name: Literal["paper_calibration", "grasp_lift_hold", "fragile_handling", "virtual_eggs",
+                  "slip_recovery", "force_matching"] = "grasp_lift_hold"
     calibration_s: float | None = Field(None, ge=5.0, le=600.0)
     episode_s: float = Field(6.0, ge=0.5, le=120.0)
     hold_s: float = Field(2.0, ge=0.0, le=60.0)
     identification_fraction: float = Field(0.5, gt=0.05, lt=0.95)
+    trials: int = Field(3, ge=1, le=100)
+    target_fraction: float = Field(0.4, gt=0.0, le=1.0)
+    load_rate_n_s: float = Field(1.0, gt=0.0, le=50.0)
 
     @model_validator(mode="after")
     def _hold_fits(self) -> ProtocolConfig:
@@ -343,8 +375,78 @@ class ControllerConfig(_Model):
         return self
 
 
+def _operator_params_model() -> type[BaseModel]:
+    """A pydantic model of :class:`sim.user.operator.OperatorParams` with its ranges."""
+    from pydantic import create_model
+
+    from sim.user.operator import OperatorParams
+
+    fields: dict[str, Any] = {}
+    for name, spec in OperatorParams.ranges().items():
+        lo, hi = spec["range"]
+        bound = {"gt": lo} if spec["open_low"] else {"ge": lo}
+        kind = int if spec["integer"] else float
+        fields[name] = (kind, Field(spec["default"], le=hi, **bound))
+    return create_model("OperatorParamsConfig", __base__=_Model,
+                        __doc__="The reacting user's parameters (sim.user.operator.OperatorParams)",
+                        **fields)
+
+
+OperatorParamsConfig = _operator_params_model()
+
+
+class UserConfig(_Model):
+    """The person in the loop: who drives the intent, and what they feel.
+
+    Attributes
+    ----------
+    kind : str
+        User kind registered in :mod:`sim.user.operators`: ``reacting`` (sees
+        the hand and corrects; the default of closed-loop scenarios) or
+        ``scripted`` (follows the intent profile whatever happens). The
+        calibration session is always scripted: it follows cues.
+    feedback : str
+        Feedback mode registered in :mod:`sim.user.operators`: ``none``
+        (vision only), ``force_vibration`` or ``slip_vibration``; only for a
+        user kind that takes feedback.
+    params : OperatorParamsConfig
+        The reacting user's parameters, each within its physical range
+        (:class:`sim.user.operator.OperatorParams` lists them with sources).
+    """
+
+    kind: str = "reacting"
+    feedback: str = "none"
+    params: OperatorParamsConfig = Field(default_factory=OperatorParamsConfig)  # type: ignore[valid-type]
+
+    @field_validator("kind")
+    @classmethod
+    def _registered_kind(cls, value: str) -> str:
+        return _registered(value, user_kinds())
+
+    @field_validator("feedback")
+    @classmethod
+    def _registered_feedback(cls, value: str) -> str:
+        return _registered(value, feedback_modes())
+
+    @model_validator(mode="after")
+    def _feedback_fits_kind(self) -> UserConfig:
+        from sim.user.operators import takes_feedback
+
+        if self.feedback != "none" and not takes_feedback(self.kind):
+            kinds = ", ".join(k for k in user_kinds() if takes_feedback(k))
+            raise ValueError(f"feedback {self.feedback} needs a user kind that takes feedback "
+                             f"({kinds}); user {self.kind} takes feedback none only")
+        return self
+
+    def operator_params(self) -> Any:
+        """The :class:`sim.user.operator.OperatorParams` of :attr:`params`."""
+        from sim.user.operator import OperatorParams
+
+        return OperatorParams(**self.params.model_dump())
+
+
 class Scenario(_Model):
-    """One experiment: subject, protocol, object, estimator, controller, seed.
+    """One experiment: subject, protocol, object, estimator, controller, user, seed.
 
     Attributes
     ----------
@@ -365,6 +467,7 @@ class Scenario(_Model):
     object: ObjectConfig = Field(default_factory=ObjectConfig)
     estimator: EstimatorConfig = Field(default_factory=EstimatorConfig)
     controller: ControllerConfig = Field(default_factory=ControllerConfig)
+    user: UserConfig = Field(default_factory=UserConfig)
     seed: int | None = Field(None, ge=0, le=_MAX_SEED)
 
     @field_validator("kind")

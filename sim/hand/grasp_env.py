@@ -14,7 +14,8 @@ Observation (float32, ``GraspEnv.OBS_NAMES``)::
     4 motor_current_a        armature current, A (sim.hand.model.MotorSpec)
 
 Physical readings of the last physics substep are in ``info`` and in
-``env.last_info``; reward terms in ``info["reward_terms"]``.
+``env.last_info``; reward terms in ``info["reward_terms"]``. A load can be hung
+on the object during an episode (:meth:`GraspEnv.set_object_load`).
 """
 
 from __future__ import annotations
@@ -253,6 +254,8 @@ class GraspEnv(gym.Env):
         self._i_motor = int(self.ids.motor)
         self._i_wrist_z = int(self.ids.wrist_act[2])
         self._k_in_palm = int(self.ids.sens_object_in_palm)
+        self._obj_body = int(self.ids.object_body)
+        self._load_n = 0.0
         ids = self.ids
         self._k_obs = (int(ids.sens_finger_pos), int(ids.sens_finger_vel),
                        int(ids.sens_motor_force), int(ids.sens_object_pos) + 2)
@@ -265,6 +268,24 @@ class GraspEnv(gym.Env):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+    def set_object_load(self, force_n: float) -> None:
+        """Pull the object down with ``force_n`` (N) from the next step on (a load in the hand).
+
+        A vertical external force on the object's centre, as a weight added to
+        it or a pull on it; cleared by :meth:`reset`. Reported as
+        ``info["object_load_n"]``.
+
+        Raises
+        ------
+        HandSpecError
+            A negative or non-finite force.
+        """
+        f = float(force_n)
+        if not (math.isfinite(f) and f >= 0):
+            raise HandSpecError(f"object load: expected a force >= 0 N, found {force_n!r}")
+        self._load_n = f
+        self.data.xfrc_applied[self._obj_body, 2] = -f
 
     def set_reference(self, force_n: float) -> None:
         """Push the next reference value (N), e.g. an estimator's output.
@@ -298,7 +319,8 @@ class GraspEnv(gym.Env):
             self.reference = as_reference(options["reference"], self.control_dt_s)
         self.reference.reset()
         m, d, ids = self.model, self.data, self.ids
-        mujoco.mj_resetData(m, d)
+        mujoco.mj_resetData(m, d)  # clears xfrc_applied: no load
+        self._load_n = 0.0
         m.geom_rgba[ids.object_geom] = self._obj_rgba
         if self.position_jitter_m > 0:
             jitter = self.np_random.uniform(-self.position_jitter_m, self.position_jitter_m, 2)
@@ -449,6 +471,8 @@ class GraspEnv(gym.Env):
             "dropped": tr.dropped,
             "crushed": tr.crushed,
             "object_height_m": s.item(k_height),
+            "object_in_palm_z_m": s.item(self._k_in_palm + 2),
+            "object_load_n": self._load_n,
             "object_displacement_m": tr.displacement_m,
             "finger_position_rad": finger_pos,
             "finger_velocity_rad_s": finger_vel,

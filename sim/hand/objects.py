@@ -237,8 +237,18 @@ def _block() -> ObjectSpec:
                       rgba=(0.6, 0.62, 0.66, 1.0))
 
 
+def _vet_block() -> ObjectSpec:
+    """A Virtual Eggs Test block: a light 50 mm cube that breaks at its threshold (default 4 N).
+
+    The test's 11 eggs break at 0.4-11.5 N (Controzzi et al.); their mass is not
+    published as far as we know: 30 g and friction 0.8 are our choice.
+    """
+    return ObjectSpec("vet_block", "box", (0.025, 0.025, 0.025), 0.03, friction=0.8,
+                      break_force_n=4.0, rgba=(0.95, 0.85, 0.3, 1.0))
+
+
 for _name, _factory in (("ball", _ball), ("can", _can), ("cup", _cup), ("egg", _egg),
-                        ("block", _block)):
+                        ("block", _block), ("vet_block", _vet_block)):
     register_object(_name, _factory)
 
 

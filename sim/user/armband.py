@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 from scipy import signal
@@ -117,6 +118,18 @@ class FrontEnd:
         return np.sum(source_psd(g) * self.power_response(g), axis=0)
 
 
+@lru_cache(maxsize=64)
+def _mixing_matrix(shift: float, length: float, channel_gain: tuple[float, ...],
+                   n_muscles: int) -> np.ndarray:
+    """:meth:`Armband.mixing_matrix`, computed once per band (read-only: digitize is hot)."""
+    pos = np.arange(N_CHANNELS) + shift
+    d = ring_distance(pos[:, None], np.arange(n_muscles)[None, :])
+    gain = np.asarray(channel_gain, dtype=float)[:, None]
+    out = gain * np.exp(-d / length)
+    out.setflags(write=False)
+    return out
+
+
 def ring_distance(a: np.ndarray | float, b: np.ndarray | float, n: int = N_CHANNELS) -> np.ndarray:
     """Shortest distance around a ring of ``n`` equally spaced positions (in spacings)."""
     d = np.mod(np.asarray(a, dtype=float) - np.asarray(b, dtype=float), n)
@@ -189,10 +202,8 @@ class Armband:
 
     def mixing_matrix(self, n_muscles: int = N_CHANNELS) -> np.ndarray:
         """Crosstalk weights, shape (n_channels, n_muscles); 1 on the diagonal at zero shift."""
-        pos = np.arange(N_CHANNELS) + self.electrode_shift
-        d = ring_distance(pos[:, None], np.arange(n_muscles)[None, :])
-        gain = np.asarray(self.channel_gain, dtype=float)[:, None]
-        return gain * np.exp(-d / self.crosstalk_length)
+        return _mixing_matrix(self.electrode_shift, self.crosstalk_length,
+                              tuple(self.channel_gain), int(n_muscles)).copy()
 
     def nearest_muscles(self) -> list[int]:
         """0-based index of the muscle closest to each electrode."""
@@ -249,11 +260,39 @@ class Armband:
             Number of samples (over all channels) clipped at -128 or 127.
         """
         s = np.asarray(muscle_emg_lsb, dtype=float)
-        x = s @ self.mixing_matrix(s.shape[1]).T
-        x += self.noise_std_lsb(x.shape[0], fs_hz, rng) * rng.standard_normal(x.shape)
-        bursts = self.artifacts_lsb(x.shape[0], fs_hz, rng)
-        if bursts is not None:
-            x += bursts
-        q = np.rint(x)
+        x = s @ self.mixing_matrix_view(s.shape[1]).T
+        q = self.quantize(x, self.noise_lsb(x.shape[0], fs_hz, rng))
         n_sat = int(np.count_nonzero((q < INT8_MIN) | (q > INT8_MAX)))
         return np.clip(q, INT8_MIN, INT8_MAX).astype(np.int8), n_sat
+
+    def mixing_matrix_view(self, n_muscles: int = N_CHANNELS) -> np.ndarray:
+        """:meth:`mixing_matrix`, read-only and computed once per band (no copy)."""
+        return _mixing_matrix(self.electrode_shift, self.crosstalk_length,
+                              tuple(self.channel_gain), int(n_muscles))
+
+    def noise_lsb(self, n_samples: int, fs_hz: float, rng: np.random.Generator) -> np.ndarray:
+        """Everything the electrodes add to the muscles' signals, counts, (n_samples, n_channels).
+
+        The (drifting) noise floor times standard normal draws, plus the contact bursts;
+        drawn in this order from ``rng``. It does not depend on the muscles, so a causal
+        session (:mod:`sim.user.causal`) draws it up front with the same numbers.
+        """
+        noise = self.noise_std_lsb(n_samples, fs_hz, rng) * rng.standard_normal(
+            (n_samples, N_CHANNELS))
+        bursts = self.artifacts_lsb(n_samples, fs_hz, rng)
+        if bursts is not None:
+            noise += bursts
+        return noise
+
+    def quantize(self, electrode_lsb: np.ndarray, noise_lsb: np.ndarray) -> np.ndarray:
+        """Add the electrodes' noise to mixed signals and round to counts (not clipped).
+
+        Parameters
+        ----------
+        electrode_lsb : ndarray, shape (n_samples, n_channels)
+            Mixed signals in counts; modified in place.
+        noise_lsb : ndarray, same shape
+            What :meth:`noise_lsb` drew for these samples, counts.
+        """
+        electrode_lsb += noise_lsb
+        return np.rint(electrode_lsb, out=electrode_lsb)

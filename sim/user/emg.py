@@ -64,3 +64,50 @@ class EmgGenerator(Protocol):
     def params(self) -> dict[str, Any]:
         """JSON-ready generator settings for recording metadata."""
         ...
+
+
+class CausalMuscles(Protocol):
+    """A generator's state while it turns drive into sEMG and force chunk by chunk.
+
+    The two are separate streams, each fed every sample of drive once, in
+    order, in chunks of any size: a user in the loop needs the sEMG at every
+    feature window and the force only when something reads it.
+    """
+
+    def emg(self, drive: np.ndarray) -> np.ndarray:
+        """Muscle sEMG of the next chunk of drive, both shape (n_chunk, n_muscles)."""
+        ...
+
+    def force(self, drive: np.ndarray) -> np.ndarray:
+        """Muscle force of the next chunk of drive, both shape (n_chunk, n_muscles)."""
+        ...
+
+
+@runtime_checkable
+class CausalEmgGenerator(EmgGenerator, Protocol):
+    """An :class:`EmgGenerator` that can also run causally (an optional capability).
+
+    ``causal(n_samples, ...)`` draws everything that does not depend on the
+    drive for a recording of ``n_samples`` from ``rng`` up front, in the order
+    :meth:`EmgGenerator.generate` draws it, and returns a :class:`CausalMuscles`
+    whose chunks, fed the same drive, equal ``generate``'s output. A reacting
+    user (:mod:`sim.user.operator`), whose drive depends on what the hand did,
+    needs it; generators without it run only with a scripted user.
+    """
+
+    def causal(
+        self,
+        n_samples: int,
+        muscles: MuscleParams,
+        front_end: FrontEnd,
+        *,
+        fs_hz: float,
+        rng: np.random.Generator,
+    ) -> CausalMuscles:
+        """State for ``n_samples`` of causal generation (noise drawn up front)."""
+        ...
+
+
+def is_causal(generator: object) -> bool:
+    """Whether ``generator`` offers :meth:`CausalEmgGenerator.causal`."""
+    return callable(getattr(generator, "causal", None))

@@ -27,7 +27,7 @@ import scipy.fft
 from sim.user.armband import FrontEnd
 from sim.user.emg import MuscleSignals
 from sim.user.muap import muap_psd
-from sim.user.muscles import MuscleParams, muscle_force
+from sim.user.muscles import CausalActivation, CausalDelay, MuscleParams, muscle_force
 
 # Lowest median-frequency factor fatigue may reach (spectrum compression limit).
 _MIN_FREQUENCY_FACTOR = 0.5
@@ -141,11 +141,81 @@ def laplace_mixture(shape: tuple[int, ...], mix: float, rng: np.random.Generator
     return np.sqrt((1.0 - mix) + mix * rng.exponential(1.0, shape))
 
 
+def _carrier(n: int, muscles: MuscleParams, front_end: FrontEnd, fs_hz: float,
+             rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray | None]:
+    """Unit carrier noise of ``n`` samples (fatigue crossfade and the Laplace mixture
+    included) and the fatigue amplitude factor (``None`` without fatigue): everything the
+    drive does not change."""
+    width_s = muscles.array("muap_width_ms") * 1e-3
+    if muscles.fatigue_per_min > 0:
+        freq, amp = fatigue_profile(n, fs_hz, muscles.fatigue_per_min)
+        both = shaped_noise(n, fs_hz, np.concatenate([width_s, width_s / freq[-1]]),
+                            front_end, rng)
+        span = max(1.0 - freq[-1], 1e-12)
+        beta = ((1.0 - freq) / span)[:, None]
+        m = width_s.size
+        noise = np.sqrt(1.0 - beta) * both[:, :m] + np.sqrt(beta) * both[:, m:]
+    else:
+        noise, amp = shaped_noise(n, fs_hz, width_s, front_end, rng), None
+    if muscles.carrier_laplace > 0:
+        noise *= laplace_mixture(noise.shape, muscles.carrier_laplace, rng)
+    return noise, amp
+
+
+class CausalNoiseMuscles:
+    """:class:`NoiseEmgGenerator` running chunk by chunk (see :meth:`NoiseEmgGenerator.causal`).
+
+    Parameters
+    ----------
+    noise : ndarray, shape (n_samples, n_muscles)
+        The unit carrier noise of the whole recording.
+    amplitude_factor : ndarray, shape (n_samples,) or None
+        Fatigue's amplitude rise, or ``None``.
+    muscles : MuscleParams
+    fs_hz : float
+        Sampling rate in hertz.
+    """
+
+    def __init__(self, noise: np.ndarray, amplitude_factor: np.ndarray | None,
+                 muscles: MuscleParams, fs_hz: float) -> None:
+        self._noise = noise
+        self._amp = amplitude_factor
+        self._exponent = muscles.array("amplitude_exponent")[None, :]
+        self._delay = CausalDelay(muscles.array("emd_s"), fs_hz)
+        self._activation = CausalActivation(muscles.array("activation_cutoff_hz"), fs_hz)
+        self._n_emg = 0
+
+    def emg(self, drive: np.ndarray) -> np.ndarray:
+        """sEMG of the next chunk of drive, shape (n_chunk, n_muscles).
+
+        Raises
+        ------
+        ValueError
+            More samples than the recording was drawn for.
+        """
+        e = np.maximum(np.asarray(drive, dtype=float), 0.0)  # np.clip's values, less overhead
+        i0, i1 = self._n_emg, self._n_emg + e.shape[0]
+        if i1 > self._noise.shape[0]:
+            raise ValueError(f"causal sEMG drawn for {self._noise.shape[0]} samples, "
+                             f"asked for sample {i1}")
+        sigma = e ** self._exponent
+        if self._amp is not None:
+            sigma = sigma * self._amp[i0:i1, None]
+        self._n_emg = i1
+        return self._noise[i0:i1] * sigma
+
+    def force(self, drive: np.ndarray) -> np.ndarray:
+        """Muscle force of the next chunk of drive (delay, activation), (n_chunk, n_muscles)."""
+        e = np.maximum(np.asarray(drive, dtype=float), 0.0)
+        return self._activation.step(self._delay.step(e))
+
+
 @dataclass(frozen=True)
 class NoiseEmgGenerator:
     """Amplitude-modulated noise sEMG with activation-dynamics force.
 
-    Satisfies :class:`sim.user.emg.EmgGenerator`; it has no settings of its own
+    Satisfies :class:`sim.user.emg.CausalEmgGenerator` (so a reacting user can
+    drive it chunk by chunk); it has no settings of its own
     (everything comes from the subject's :class:`~sim.user.muscles.MuscleParams`).
     """
 
@@ -180,25 +250,32 @@ class NoiseEmgGenerator:
         """
         e = np.clip(np.asarray(drive, dtype=float), 0.0, None)
         n = e.shape[0]
-        width_s = muscles.array("muap_width_ms") * 1e-3
         sigma = e ** muscles.array("amplitude_exponent")[None, :]
-        if muscles.fatigue_per_min > 0:
-            freq, amp = fatigue_profile(n, fs_hz, muscles.fatigue_per_min)
-            both = shaped_noise(n, fs_hz, np.concatenate([width_s, width_s / freq[-1]]),
-                                front_end, rng)
-            span = max(1.0 - freq[-1], 1e-12)
-            beta = ((1.0 - freq) / span)[:, None]
-            m = width_s.size
-            noise = np.sqrt(1.0 - beta) * both[:, :m] + np.sqrt(beta) * both[:, m:]
+        noise, amp = _carrier(n, muscles, front_end, fs_hz, rng)
+        if amp is not None:
             sigma = sigma * amp[:, None]
-        else:
-            noise = shaped_noise(n, fs_hz, width_s, front_end, rng)
-        if muscles.carrier_laplace > 0:
-            noise *= laplace_mixture(noise.shape, muscles.carrier_laplace, rng)
         force = muscle_force(e, fs_hz, muscles.array("activation_cutoff_hz"),
                              muscles.array("emd_s"))
         noise *= sigma
         return MuscleSignals(emg=noise, force=force, info={})
+
+    def causal(
+        self,
+        n_samples: int,
+        muscles: MuscleParams,
+        front_end: FrontEnd,
+        *,
+        fs_hz: float,
+        rng: np.random.Generator,
+    ) -> CausalNoiseMuscles:
+        """The same generator run chunk by chunk (:class:`sim.user.emg.CausalEmgGenerator`).
+
+        The shaped carrier noise of all ``n_samples`` is drawn here, as
+        :meth:`generate` draws it for a drive of ``n_samples``; chunks fed the
+        same drive give :meth:`generate`'s output bit for bit.
+        """
+        noise, amp = _carrier(int(n_samples), muscles, front_end, fs_hz, rng)
+        return CausalNoiseMuscles(noise, amp, muscles, fs_hz)
 
     def steady_force(self, drive: np.ndarray, muscles: MuscleParams) -> np.ndarray:
         """Steady force equals the drive (unit DC gain), shape (n_muscles,)."""

@@ -288,3 +288,96 @@ def slow_fluctuation(
     w[0] /= np.sqrt(1.0 - a * a)  # stationary start
     z = signal.lfilter([np.sqrt(1.0 - a * a)], [1.0, -a], w, axis=0)
     return z * std[None, :]
+
+
+class CausalDelay:
+    """:func:`fractional_delay` applied chunk by chunk, bit for bit.
+
+    Holds the last samples of the input between calls, so that feeding a
+    signal in consecutive chunks gives exactly the samples
+    :func:`fractional_delay` gives on the whole signal (the value before the
+    first sample is the first sample, as there).
+
+    Parameters
+    ----------
+    delay_s : ndarray, shape (n_columns,)
+        Non-negative delays in seconds.
+    fs_hz : float
+        Sampling rate in hertz.
+    """
+
+    def __init__(self, delay_s: np.ndarray, fs_hz: float) -> None:
+        d = np.asarray(delay_s, dtype=float) * fs_hz
+        w = np.floor(d).astype(int)
+        f = d - w
+        self._keep = int(w.max()) + 1
+        self._w = w[None, :]
+        self._f = f[None, :]
+        self._one_minus_f = (1.0 - f)[None, :]
+        self._base = self._keep - self._w  # row of input n + i - w in [history, chunk]
+        self._cols = np.arange(d.size)[None, :]
+        self._history: np.ndarray | None = None  # the last `_keep` inputs
+        self._x0: np.ndarray | None = None
+        self._n = 0  # samples consumed so far
+
+    def step(self, x: np.ndarray) -> np.ndarray:
+        """Delay the next chunk, shape (n_chunk, n_columns); returns the same shape."""
+        x = np.asarray(x, dtype=float)
+        k = x.shape[0]
+        if self._history is None:
+            self._x0 = x[0].copy()
+            self._history = np.repeat(self._x0[None, :], self._keep, axis=0)
+        ext = np.concatenate([self._history, x], axis=0)  # row keep + i is input n + i
+        rows = self._base + np.arange(k)[:, None]
+        # (1 - f) x[i - w] + f x[i - w - 1], in the batch's order of operations; the
+        # history starts filled with x[0], the batch's x[i < 0]; f = 0 adds an exact 0.
+        out = self._one_minus_f * ext[rows, self._cols]
+        out += self._f * ext[rows - 1, self._cols]
+        g = self._n + np.arange(k)[:, None]
+        out = np.where(g < self._w, self._x0[None, :], out)
+        self._history = ext[-self._keep:]
+        self._n += k
+        return out
+
+
+class CausalActivation:
+    """:func:`activation_dynamics` applied chunk by chunk, bit for bit.
+
+    The filter state is carried between chunks (``scipy.signal.lfilter`` with
+    ``zi``); it starts at rest at the first chunk's first value, as the batch
+    filter does.
+
+    Parameters
+    ----------
+    cutoff_hz : ndarray, shape (n_columns,)
+        Corner frequency per column in hertz.
+    fs_hz : float
+        Sampling rate in hertz.
+    """
+
+    def __init__(self, cutoff_hz: np.ndarray, fs_hz: float) -> None:
+        self._cut = np.asarray(cutoff_hz, dtype=float)
+        self._fs = float(fs_hz)
+        self._levels = np.unique(self._cut)
+        self._state: list[np.ndarray] | None = None
+
+    def step(self, x: np.ndarray) -> np.ndarray:
+        """Filter the next chunk, shape (n_chunk, n_columns); returns the same shape."""
+        x = np.asarray(x, dtype=float)
+        single = self._levels.size == 1
+        out = None if single else np.empty_like(x)
+        first = self._state is None
+        if first:
+            self._state = []
+        for i, fc in enumerate(self._levels):
+            cols = slice(None) if single else np.flatnonzero(self._cut == fc)
+            r = float(np.exp(-2.0 * np.pi * fc / self._fs))
+            b, a = [(1.0 - r) ** 2], [1.0, -2.0 * r, r * r]
+            if first:
+                x0 = x[0, cols]
+                self._state.append(np.stack([x0 * (2.0 * r - r * r), -r * r * x0], axis=0))
+            y, self._state[i] = signal.lfilter(b, a, x[:, cols], axis=0, zi=self._state[i])
+            if single:
+                return y
+            out[:, cols] = y
+        return out

@@ -78,8 +78,10 @@ def test_intended_grip_is_safety_times_coulomb_threshold() -> None:
 @pytest.fixture(scope="module")
 def oracle_episode():
     subject = VirtualSubject.sample(0, 1)
-    return [run_episode(subject, CAN, estimator="oracle", controller="pid", seed=3)
-            for _ in range(2)]
+    # the scripted user: the hold reference is exactly the intended grip (a reacting user
+    # would add what its corrections asked for)
+    return [run_episode(subject, CAN, estimator="oracle", controller="pid", seed=3,
+                        user="scripted") for _ in range(2)]
 
 
 def test_oracle_pid_lifts_and_holds_the_can(oracle_episode) -> None:

@@ -7,7 +7,13 @@ import json
 from pathlib import Path
 
 from controllers.design_plant import object_for
-from scenarios.cli.choices import controller_names, estimator_choices, object_names
+from scenarios.cli.choices import (
+    add_user_options,
+    check_user_options,
+    controller_names,
+    estimator_choices,
+    object_names,
+)
 from scenarios.cli.errors import UnknownChoiceError, UsageError
 from scenarios.runners.compare import DEFAULT_REFERENCES, compare_references, format_comparison
 
@@ -35,6 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help=f"{', '.join(controller_names())} (default pid)")
     p.add_argument("--subjects", type=int, default=3, help="number of subjects (default 3)")
     p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
+    add_user_options(p)
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="write results here")
     p.set_defaults(func=run)
 
@@ -51,12 +58,15 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--mode: expected free_run or one_step, found {args.mode!r}")
     if args.subjects < 1:
         raise UsageError(f"--subjects: expected at least 1, found {args.subjects}")
+    check_user_options(args.user, [args.feedback])
     obj = object_for(args.object, mass_kg=args.mass_kg, friction=args.friction)
     result = compare_references(obj, estimators=names, mode=args.mode,
                                 controller=args.controller,
-                                subject_ids=range(1, args.subjects + 1), seed=args.seed)
+                                subject_ids=range(1, args.subjects + 1), seed=args.seed,
+                                user=args.user, feedback=args.feedback)
     print(f"{obj.name} ({obj.mass_kg:g} kg, mu {obj.friction:g}), {args.controller}, "
-          f"{args.subjects} subjects, seed {args.seed}")
+          f"{args.subjects} subjects, seed {args.seed}, {args.user} user, feedback "
+          f"{args.feedback}")
     print(format_comparison(result))
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)

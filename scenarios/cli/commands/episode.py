@@ -10,14 +10,22 @@ from typing import Any
 import numpy as np
 
 from controllers.design import worst_case
-from scenarios.cli.choices import controller_names, estimator_choices, object_names, one_of
+from scenarios.cli.choices import (
+    add_user_options,
+    check_user_options,
+    controller_names,
+    estimator_choices,
+    object_names,
+    one_of,
+)
 from scenarios.cli.commands.margins import format_table
 from scenarios.cli.errors import UsageError
 from scenarios.runners.episode import episode_from_scenario
 from scenarios.runners.video import write_video
 from scenarios.schema import parse_scenario
 
-METRIC_KEYS = ("outcome", "tracking_rmse_n", "estimation_rmse_n", "hold_reference_n",
+METRIC_KEYS = ("outcome", "user_corrections", "tracking_rmse_n", "estimation_rmse_n",
+               "hold_reference_n",
                "held_force_n", "overshoot_pct", "settling_time_s", "contact_peak_ratio",
                "slip_events", "slip_distance_m", "lifted", "dropped", "crushed", "peak_force_n",
                "reference_volatility_n_per_s", "cal_r2")
@@ -48,6 +56,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="seed of the virtual population (default 0)")
     p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
     p.add_argument("--episode-s", type=float, default=6.0, help="episode length, s (default 6)")
+    add_user_options(p)
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write JSON here")
     p.add_argument("--video", type=Path, default=None, metavar="FILE",
                    help="also render the episode to an animated GIF (.gif)")
@@ -76,6 +85,7 @@ def scenario_from_args(args: argparse.Namespace) -> Any:
         "object": obj,
         "estimator": {"name": args.estimator, "mode": args.mode},
         "controller": {"kind": args.controller},
+        "user": {"kind": args.user, "feedback": args.feedback},
     }, source="options")
 
 
@@ -83,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
     """Run ``griploop episode``; returns the exit status."""
     if args.video is not None and args.video.suffix.lower() != ".gif":
         raise UsageError(f"--video: expected a .gif file, found {args.video.name!r}")
+    check_user_options(args.user, [args.feedback])
     if (args.recording is None) != (args.calibration is None):
         raise UsageError("--recording and --calibration go together; found only "
                          + ("--recording" if args.calibration is None else "--calibration"))
@@ -95,7 +106,8 @@ def run(args: argparse.Namespace) -> int:
     analyses = [design.analyse(f) for f in visited]
     print(format_table(args.controller, analyses, worst_case(analyses) if analyses else None))
     print(f"episode: {args.estimator} ({args.mode}) -> {args.controller} on {row['object_name']} "
-          f"({row['object_mass_kg']:g} kg, mu {row['object_friction']:g})")
+          f"({row['object_mass_kg']:g} kg, mu {row['object_friction']:g}), {args.user} user, "
+          f"feedback {args.feedback}")
     for key in METRIC_KEYS:
         value = row[key]
         text = f"{value:.4g}" if isinstance(value, float) else str(value)
@@ -112,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
         "row": row,
         "traces": {k: np.asarray(v).tolist() for k, v in result.traces.items()
                    if k in ("t_s", "intent_n", "reference_n", "grip_force_n", "command",
-                            "object_height_m", "slip_speed_m_s")},
+                            "object_height_m", "slip_speed_m_s", "user_intent")},
     }
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,171 @@
+"""What ``griploop eggs``, ``slip-recovery`` and ``force-matching`` share.
+
+Each command takes its sweep from the library file of its kind
+(``scenarios/library/eggs.yaml``, ``slip_recovery.yaml``, ``force_matching.yaml``),
+applies the options (controller, estimator, user, feedback modes, subjects,
+seed and the task's own), runs it with :func:`scenarios.execution.sweep.run_sweep`
+on local workers into a results store (a temporary one unless ``--db`` is
+given, which makes the run resumable and reportable), and prints and writes
+the comparison of the feedback modes (:mod:`scenarios.runners.feedback_tasks`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+import tempfile
+from collections.abc import Callable, Mapping
+from importlib.resources import files
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from scenarios.cli.choices import (
+    add_user_options,
+    check_choice,
+    check_user_options,
+    controller_names,
+    estimator_choices,
+    one_of,
+)
+from scenarios.cli.errors import UsageError
+
+
+def add_common_options(p: argparse.ArgumentParser, *, default_feedback: str,
+                       default_subjects: int) -> None:
+    """The options every feedback benchmark takes."""
+    p.add_argument("--controller", required=True, metavar="NAME", help=one_of(controller_names()))
+    p.add_argument("--estimator", required=True, metavar="NAME", help=one_of(estimator_choices()))
+    p.add_argument("--mode", default="free_run", metavar="MODE",
+                   help="estimator mode: free_run (sEMG only, default) or one_step")
+    add_user_options(p, feedback_list=True, default_feedback=default_feedback)
+    p.add_argument("--subjects", type=int, default=default_subjects, metavar="N",
+                   help=f"virtual subjects 1..N (default {default_subjects})")
+    p.add_argument("--population-seed", type=int, default=0,
+                   help="seed of the virtual population (default 0)")
+    p.add_argument("--seed", type=int, default=None, metavar="S",
+                   help="sweep seed: every scenario's seed derives from it (default: the "
+                   "library file's)")
+    p.add_argument("--workers", type=int, default=1, metavar="N",
+                   help="worker processes forked from this one (default 1)")
+    p.add_argument("--db", type=Path, default=None, metavar="PATH",
+                   help="results store (resumable; default: a temporary one, discarded)")
+    p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write JSON here")
+    p.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
+
+
+def comma_list(option: str, text: str, convert: Callable[[str], Any] = str) -> list[Any]:
+    """A comma-separated option as a list (``UsageError`` if empty or unparsable)."""
+    items = [t.strip() for t in text.split(",") if t.strip()]
+    if not items:
+        raise UsageError(f"{option}: expected a comma-separated list, found {text!r}")
+    try:
+        return [convert(t) for t in items]
+    except ValueError:
+        raise UsageError(f"{option}: expected comma-separated numbers, found {text!r}") from None
+
+
+def library_sweep(kind: str) -> dict[str, Any]:
+    """The library sweep file of a task kind, as a mapping."""
+    text = (files("scenarios") / "library" / f"{kind}.yaml").read_text()
+    return yaml.safe_load(text)
+
+
+def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | None = None,
+             grid: Mapping[str, list[Any]] | None = None,
+             table: Callable[[dict[str, Any]], str]) -> int:
+    """Run a feedback benchmark as the options say; print ``table(result)``, write the JSON.
+
+    Parameters
+    ----------
+    kind : str
+        Scenario kind (``eggs``, ``slip_recovery``, ``force_matching``).
+    base : mapping, optional
+        Dotted scenario paths set on the library file's base.
+    grid : mapping, optional
+        Dotted scenario paths swept, added to the subjects and feedback modes.
+    """
+    from scenarios.execution.sweep import run_sweep
+    from scenarios.feedback_summary import aggregate
+    from scenarios.schema import iter_expanded, parse_sweep
+    from scenarios.store import ResultStore
+
+    feedback = comma_list("--feedback", args.feedback)
+    check_user_options(args.user, feedback)
+    check_choice("--controller", args.controller, controller_names())
+    check_choice("--estimator", args.estimator, estimator_choices())
+    if args.mode not in ("free_run", "one_step"):
+        raise UsageError(f"--mode: expected free_run or one_step, found {args.mode!r}")
+    if args.subjects < 1:
+        raise UsageError(f"--subjects: expected at least 1, found {args.subjects}")
+    if args.workers < 1:
+        raise UsageError(f"--workers: expected at least 1, found {args.workers}")
+    data = library_sweep(kind)
+    settings = {"controller.kind": args.controller, "estimator.name": args.estimator,
+                "estimator.mode": args.mode, "user.kind": args.user,
+                "subject.population_seed": args.population_seed, **(base or {})}
+    for path, value in settings.items():
+        _set(data["base"], path, value)
+    data["grid"] = {"subject.subject_id": list(range(1, args.subjects + 1)),
+                    **(grid or {}), "user.feedback": feedback}
+    if args.seed is not None:
+        data["seed"] = args.seed
+    digest = hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:10]
+    data["name"] = f"{kind}-{digest}"
+    spec = parse_sweep(data, source=f"griploop {args.command} options")
+    with tempfile.TemporaryDirectory() as tmp:
+        db = args.db if args.db is not None else Path(tmp) / "results.sqlite"
+        with ResultStore(db) as store:
+            summary = run_sweep(list(_planned(spec, iter_expanded)), store, workers=args.workers,
+                                sweep_name=spec.name, time_limit_s=spec.time_limit_s,
+                                progress=not args.no_progress)
+            rows = store.rows(sweep=spec.name)
+    ok = [r["result"] for r in rows if r["status"] == "ok"]
+    failed = [r for r in rows if r["status"] == "failed"]
+    result = {**aggregate(kind, ok),
+              "settings": {"kind": kind, **settings, "feedback": feedback,
+                           "subjects": args.subjects, "seed": spec.seed,
+                           **{k: v for k, v in (grid or {}).items()}},
+              "scenarios": {"ok": len(ok), "failed": len(failed)}}
+    print(f"{kind}: {len(ok)} scenarios ok, {len(failed)} failed in {summary.elapsed_s:.1f} s "
+          f"({args.controller}, {args.estimator} {args.mode}, {args.user} user, "
+          f"{args.subjects} subjects)")
+    print(table(result))
+    for r in failed[:3]:
+        print(f"failed: {(r.get('error') or '').splitlines()[0] if r.get('error') else r['hash']}",
+              file=sys.stderr)
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(result, indent=1))
+        print(f"wrote {args.json}")
+    if args.db is not None:
+        print(f"results in {args.db} (sweep {spec.name}; griploop report {args.db} --out DIR)")
+    return 0
+
+
+def _planned(spec: Any, iter_expanded: Callable[..., Any]) -> Any:
+    from scenarios.execution.sweep import iter_plan
+
+    return iter_plan(iter_expanded(spec, spec.name))
+
+
+def _set(node: dict[str, Any], path: str, value: Any) -> None:
+    parts = path.split(".")
+    for part in parts[:-1]:
+        node = node.setdefault(part, {})
+    node[parts[-1]] = value
+
+
+def fmt(value: float | None, spec: str = ".2f", scale: float = 1.0) -> str:
+    """A number for a table (``-`` for None)."""
+    return "-" if value is None else format(value * scale, spec)
+
+
+def ci_text(ci: list[float | None] | None, spec: str = ".2f", scale: float = 1.0) -> str:
+    """``[lo, hi]`` for a table."""
+    if not ci or ci[0] is None:
+        return "-"
+    return f"[{fmt(ci[0], spec, scale)}, {fmt(ci[1], spec, scale)}]"

@@ -1,0 +1,104 @@
+"""Summaries of the feedback benchmarks: feedback modes side by side with 95 % intervals.
+
+The JSON of ``griploop eggs``, ``slip-recovery`` and ``force-matching`` (documented in
+docs/FORMAT.md) and the report's feedback section both come from :func:`aggregate`
+of the result rows of :mod:`scenarios.runners.feedback_tasks`. Plain data, no
+simulation: the report may import it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+from scenarios.stats import mean_interval, wilson_interval
+
+
+def _ci(pair: tuple[float, float]) -> list[float | None]:
+    return [None if math.isnan(v) else float(v) for v in pair]
+
+
+def aggregate_eggs(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The ``eggs`` JSON contract (docs/FORMAT.md) from ``eggs`` result rows.
+
+    ``{"by_feedback": {MODE: {"success_rate", "ci95", "transfers", "eggs": [{"break_force_n",
+    "transfers", "success", "broken", "dropped", "ci95"}]}}}``, eggs by break force.
+    """
+    out: dict[str, Any] = {}
+    for mode in _modes(rows):
+        mine = [r for r in rows if r["feedback"] == mode]
+        eggs = []
+        for f in sorted({float(r["break_force_n"]) for r in mine}):
+            egg = [r for r in mine if float(r["break_force_n"]) == f]
+            counts = {k: int(sum(r[k] for r in egg))
+                      for k in ("transfers", "success", "broken", "dropped")}
+            eggs.append({"break_force_n": f, **counts,
+                         "ci95": _ci(wilson_interval(counts["success"], counts["transfers"]))})
+        total = sum(e["transfers"] for e in eggs)
+        success = sum(e["success"] for e in eggs)
+        out[mode] = {"success_rate": success / total if total else None,
+                     "ci95": _ci(wilson_interval(success, total)), "transfers": total,
+                     "eggs": eggs}
+    return {"by_feedback": out}
+
+
+def aggregate_slip_recovery(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The ``slip-recovery`` JSON contract (docs/FORMAT.md) from ``slip_recovery`` rows.
+
+    ``{"by_feedback": {MODE: {"n", "recovered", "recovered_rate", "ci95"}}, "excluded":
+    {MODE: {"not_lifted", "no_slip"}}}``.
+    """
+    out: dict[str, Any] = {}
+    excluded: dict[str, Any] = {}
+    for mode in _modes(rows):
+        mine = [r for r in rows if r["feedback"] == mode]
+        n = int(sum(r["n"] for r in mine))
+        k = int(sum(r["recovered"] for r in mine))
+        out[mode] = {"n": n, "recovered": k, "recovered_rate": k / n if n else None,
+                     "ci95": _ci(wilson_interval(k, n))}
+        excluded[mode] = {key: int(sum(r[key] for r in mine)) for key in ("not_lifted", "no_slip")}
+    return {"by_feedback": out, "excluded": excluded}
+
+
+def aggregate_force_matching(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The ``force-matching`` JSON contract (docs/FORMAT.md) from ``force_matching`` rows.
+
+    ``{"by_feedback": {MODE: {"targets": [{"target_fraction", "abs_error_n", "cv",
+    "abs_error_ci95", "cv_ci95", "user_cv", "n"}]}}}``: means over subjects with
+    Student-t intervals; ``cv`` is the hand's grip force, ``user_cv`` the user's own.
+    """
+    out: dict[str, Any] = {}
+    for mode in _modes(rows):
+        mine = [r for r in rows if r["feedback"] == mode]
+        targets = []
+        for frac in sorted({float(r["target_fraction"]) for r in mine}):
+            rs = [r for r in mine if float(r["target_fraction"]) == frac]
+            err = mean_interval([r["abs_error_n"] for r in rs])
+            cv = mean_interval([r["cv"] for r in rs])
+            user_cv = mean_interval([r.get("user_cv") for r in rs])
+            targets.append({"target_fraction": frac, "abs_error_n": _num(err[0]),
+                            "cv": _num(cv[0]), "abs_error_ci95": _ci(err[1:]),
+                            "cv_ci95": _ci(cv[1:]), "user_cv": _num(user_cv[0]),
+                            "n": len(rs)})
+        out[mode] = {"targets": targets}
+    return {"by_feedback": out}
+
+
+def _num(v: float) -> float | None:
+    return None if math.isnan(v) else float(v)
+
+
+def _modes(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    return list(dict.fromkeys(r["feedback"] for r in rows))
+
+
+AGGREGATES: dict[str, Callable[[Sequence[Mapping[str, Any]]], dict[str, Any]]] = {
+    "eggs": aggregate_eggs, "slip_recovery": aggregate_slip_recovery,
+    "force_matching": aggregate_force_matching}
+"""Scenario kind -> the aggregation of its rows into the command's JSON."""
+
+
+def aggregate(kind: str, rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The JSON of a task command from its result rows (flat dicts of one kind)."""
+    return AGGREGATES[kind](rows)

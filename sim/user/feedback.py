@@ -1,0 +1,139 @@
+"""Artificial sensory feedback: what a prosthesis tells its user, and how it is felt.
+
+A feedback mode is a device that codes one of the hand's sensors into a
+stimulus on the residual limb, plus the user's perception of that stimulus
+(delay ``feedback_delay_s`` and noise, from :class:`~sim.user.operator.OperatorParams`).
+Registered modes (:mod:`sim.user.operators`):
+
+``none``
+    Vision only.
+``force_vibration``
+    Grip force coded as the nearest of ``vibration_levels`` vibration
+    intensities, which stand for 0, 1/n, 2/n, ... of the hand force at the
+    user's MVC (n levels; the top one also for anything above); no vibration
+    without contact. A target given as a fraction k/n of the maximum (the
+    force-matching targets 20/40/60 % with 5 levels) is the centre of its
+    level, as experiments give targets in feedback levels. The user perceives
+    the level with a delay and, near a level boundary, confuses neighbours
+    (``vibration_noise_levels``).
+``slip_vibration``
+    A discrete burst of ``slip_burst_s`` each time the hand's slip sensor
+    crosses ``slip_speed_m_s`` (DESC-style event feedback: Johansson and Edin's
+    discrete event-driven control); the user perceives the burst's onset with
+    a delay.
+
+A mode is a class with ``name``, ``codes_force``, ``start(control_dt_s=,
+force_range_n=, rng=)``, ``perceive(scene) -> Felt`` and ``level_of(force_n)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.user.operator import DelayLine, OperatorParams, Scene
+
+CONTACT_N = 0.5
+"""Grip force below which a force-feedback device is silent, N."""
+
+
+@dataclass(frozen=True)
+class Felt:
+    """What the user feels at one step.
+
+    Attributes
+    ----------
+    slip : bool
+        The onset of a slip burst is felt now.
+    level : int or None
+        The vibration level felt (``None``: no vibration, or no force coding).
+    """
+
+    slip: bool = False
+    level: int | None = None
+
+
+_NOTHING = Felt()
+
+
+class NoFeedback:
+    """Vision only: nothing is felt."""
+
+    name = "none"
+    codes_force = False
+
+    def __init__(self, params: OperatorParams | None = None) -> None:
+        self.params = params or OperatorParams()
+
+    def start(self, *, control_dt_s: float, force_range_n: float,
+              rng: np.random.Generator) -> None:
+        """Begin a trial (nothing to set up)."""
+
+    def perceive(self, scene: Scene) -> Felt:
+        """Nothing."""
+        return _NOTHING
+
+    def level_of(self, force_n: float) -> int | None:
+        """No force code."""
+        return None
+
+
+class ForceVibration(NoFeedback):
+    """Grip force as vibration intensity with a few discriminable levels (module notes)."""
+
+    name = "force_vibration"
+    codes_force = True
+
+    def start(self, *, control_dt_s: float, force_range_n: float,
+              rng: np.random.Generator) -> None:
+        """Begin a trial: the coded range and the perception delay."""
+        self._range = float(force_range_n)
+        self._rng = rng
+        self._line = DelayLine(round(self.params.feedback_delay_s / control_dt_s))
+
+    def level_of(self, force_n: float) -> int:
+        """The device's level for a grip force: the nearest of its intensities, 0..levels-1."""
+        return self._nearest(self.params.vibration_levels * force_n / self._range)
+
+    def _nearest(self, x: float) -> int:
+        n = self.params.vibration_levels
+        return int(min(max(math.floor(x + 0.5), 0), n - 1))
+
+    def perceive(self, scene: Scene) -> Felt:
+        """The level felt now: the delayed force's level, with confusion near boundaries."""
+        force = self._line.push(scene.grip_force_n)
+        if force is None or force < CONTACT_N:
+            return _NOTHING
+        x = self.params.vibration_levels * force / self._range
+        return Felt(level=self._nearest(x + self.params.vibration_noise_levels
+                                        * self._rng.standard_normal()))
+
+
+class SlipVibration(NoFeedback):
+    """A discrete vibration burst at each slip event (module notes)."""
+
+    name = "slip_vibration"
+
+    def start(self, *, control_dt_s: float, force_range_n: float,
+              rng: np.random.Generator) -> None:
+        """Begin a trial: burst timing and the perception delay."""
+        self._dt = float(control_dt_s)
+        self._line = DelayLine(round(self.params.feedback_delay_s / control_dt_s))
+        self._burst_until = -math.inf
+        self._slipping = False
+        self._was_on = False
+
+    def perceive(self, scene: Scene) -> Felt:
+        """Whether a burst's onset is felt now."""
+        p = self.params
+        fast = scene.slip_speed_m_s > p.slip_sensor_m_s
+        if fast and not self._slipping and scene.t_s >= self._burst_until:
+            self._burst_until = scene.t_s + p.slip_burst_s
+        self._slipping = fast if fast else scene.slip_speed_m_s >= 0.5 * p.slip_sensor_m_s \
+            and self._slipping
+        on = self._line.push(scene.t_s < self._burst_until)
+        onset = bool(on) and not self._was_on
+        self._was_on = bool(on)
+        return Felt(slip=True) if onset else _NOTHING

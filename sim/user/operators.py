@@ -1,0 +1,152 @@
+"""Operator models (user kinds) and feedback modes by name.
+
+========================  ===================================================
+user kind                 operator model
+========================  ===================================================
+scripted                  follows the script, whatever the hand does
+                          (:class:`sim.user.operator.ScriptedOperator`)
+reacting                  sees, feels and corrects
+                          (:class:`sim.user.operator.ReactingOperator`)
+========================  ===================================================
+
+========================  ===================================================
+feedback mode             device and perception (:mod:`sim.user.feedback`)
+========================  ===================================================
+none                      vision only
+force_vibration           grip force as a few vibration intensities
+slip_vibration            a discrete burst at each slip event
+========================  ===================================================
+
+A new operator model is a class ``Model(params, feedback)`` satisfying
+:class:`sim.user.operator.Operator`, a new feedback mode a class
+``Mode(params)`` like :class:`sim.user.feedback.NoFeedback`; each is one call::
+
+    register_operator("cautious", "mypackage.cautious:CautiousOperator")
+    register_feedback("audio", "mypackage.audio:AudioFeedback")
+
+Registrations by ``"module:attribute"`` are imported on first use, so the
+scenario schema and the CLI list the names without importing the models.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from sim.errors import GriploopError
+from sim.registry import Registry
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from sim.user.operator import Operator, OperatorParams
+
+
+class UnknownOperatorError(GriploopError, LookupError):
+    """A user kind that is not registered; the message lists the registered ones."""
+
+
+class UnknownFeedbackError(GriploopError, LookupError):
+    """A feedback mode that is not registered; the message lists the registered ones."""
+
+
+_OPERATORS = Registry("user kind", UnknownOperatorError)
+_FEEDBACK = Registry("feedback mode", UnknownFeedbackError)
+
+
+def register_operator(name: str, factory: Callable[..., Operator] | str, *,
+                      takes_feedback: bool = True, replace: bool = False) -> None:
+    """Register an operator model (a user kind).
+
+    Parameters
+    ----------
+    name : str
+        Name used by scenarios (``user.kind``) and the CLI (``--user``).
+    factory : callable or str
+        ``factory(params, feedback) -> Operator``, or its
+        ``"package.module:attribute"`` reference.
+    takes_feedback : bool
+        Whether the model uses a feedback mode other than ``none``.
+    replace : bool
+        Allow replacing an existing registration.
+    """
+    _OPERATORS.register(name, factory, replace=replace, takes_feedback=bool(takes_feedback))
+
+
+def register_feedback(name: str, factory: Callable[..., Any] | str, *,
+                      replace: bool = False) -> None:
+    """Register a feedback mode: ``factory(params) -> mode`` or its reference."""
+    _FEEDBACK.register(name, factory, replace=replace)
+
+
+def unregister_operator(name: str) -> None:
+    """Remove a user kind (no effect if absent)."""
+    _OPERATORS.unregister(name)
+
+
+def unregister_feedback(name: str) -> None:
+    """Remove a feedback mode (no effect if absent)."""
+    _FEEDBACK.unregister(name)
+
+
+def operator_names() -> tuple[str, ...]:
+    """Registered user kinds, in registration order."""
+    return _OPERATORS.names()
+
+
+def feedback_names() -> tuple[str, ...]:
+    """Registered feedback modes, in registration order."""
+    return _FEEDBACK.names()
+
+
+def takes_feedback(name: str) -> bool:
+    """Whether the user kind ``name`` uses feedback (raises for an unknown kind)."""
+    return bool(_OPERATORS.info(name)["takes_feedback"])
+
+
+def check_user(kind: str, feedback: str) -> None:
+    """Refuse an unknown kind or mode, or feedback given to a kind that takes none.
+
+    Raises
+    ------
+    UnknownOperatorError, UnknownFeedbackError
+        Unknown name; the message lists the registered ones.
+    sim.user.operator.OperatorError
+        A feedback mode other than ``none`` for a user kind that takes none.
+    """
+    from sim.user.operator import OperatorError
+
+    takes = takes_feedback(kind)
+    if feedback not in _FEEDBACK:
+        _FEEDBACK.entry(feedback)  # raises, listing the modes
+    if not takes and feedback != "none":
+        kinds = ", ".join(k for k in operator_names() if takes_feedback(k))
+        raise OperatorError(
+            f"feedback {feedback} needs a user kind that takes feedback ({kinds}); user "
+            f"{kind} takes feedback none only")
+
+
+def make_feedback(feedback: Any, params: OperatorParams | None = None) -> Any:
+    """A feedback mode from its registered name (or ``feedback`` itself if not a name)."""
+    if not isinstance(feedback, str):
+        return feedback
+    return _FEEDBACK.get(feedback)(params)
+
+
+def make_operator(kind: str, *, feedback: str = "none",
+                  params: OperatorParams | None = None) -> Operator:
+    """An operator model of a registered kind with its feedback and parameters.
+
+    Raises
+    ------
+    UnknownOperatorError, UnknownFeedbackError, sim.user.operator.OperatorError
+        See :func:`check_user`.
+    """
+    check_user(kind, feedback)
+    return _OPERATORS.get(kind)(params, feedback)
+
+
+register_operator("reacting", "sim.user.operator:ReactingOperator")
+register_operator("scripted", "sim.user.operator:ScriptedOperator", takes_feedback=False)
+register_feedback("none", "sim.user.feedback:NoFeedback")
+register_feedback("force_vibration", "sim.user.feedback:ForceVibration")
+register_feedback("slip_vibration", "sim.user.feedback:SlipVibration")
