@@ -261,7 +261,7 @@ class Armband:
         """
         s = np.asarray(muscle_emg_lsb, dtype=float)
         x = s @ self.mixing_matrix_view(s.shape[1]).T
-        q = self.quantize(x, self.noise_lsb(x.shape[0], fs_hz, rng))
+        q = self.quantize(x, self.electrode_noise_lsb(x.shape[0], fs_hz, rng))
         n_sat = int(np.count_nonzero((q < INT8_MIN) | (q > INT8_MAX)))
         return np.clip(q, INT8_MIN, INT8_MAX).astype(np.int8), n_sat
 
@@ -270,7 +270,8 @@ class Armband:
         return _mixing_matrix(self.electrode_shift, self.crosstalk_length,
                               tuple(self.channel_gain), int(n_muscles))
 
-    def noise_lsb(self, n_samples: int, fs_hz: float, rng: np.random.Generator) -> np.ndarray:
+    def electrode_noise_lsb(self, n_samples: int, fs_hz: float,
+                            rng: np.random.Generator) -> np.ndarray:
         """Everything the electrodes add to the muscles' signals, counts, (n_samples, n_channels).
 
         The (drifting) noise floor times standard normal draws, plus the contact bursts;
@@ -292,7 +293,7 @@ class Armband:
         electrode_lsb : ndarray, shape (n_samples, n_channels)
             Mixed signals in counts; modified in place.
         noise_lsb : ndarray, same shape
-            What :meth:`noise_lsb` drew for these samples, counts.
+            What :meth:`electrode_noise_lsb` drew for these samples, counts.
         """
         electrode_lsb += noise_lsb
         return np.rint(electrode_lsb, out=electrode_lsb)

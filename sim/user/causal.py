@@ -11,7 +11,7 @@ does it without changing a single sample:
    co-contraction drift, the generator's carrier noise and its Laplace mixture
    (:meth:`sim.user.emg.CausalEmgGenerator.causal`), the sEMG gain fluctuation
    ``xi``, the electrodes' noise (drifting floor and contact bursts,
-   :meth:`sim.user.armband.Armband.noise_lsb`), the FSR's contact fluctuation and
+   :meth:`sim.user.armband.Armband.electrode_noise_lsb`), the FSR's contact fluctuation and
    its ADC noise (the rig's stream lag applies to calibration recordings only);
 2. each chunk of intent then becomes drive and muscle sEMG, mixed and
    quantized by the subject's own armband (:meth:`sim.user.armband.Armband.quantize`);
@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from sim.errors import GriploopError
-from sim.user.armband import INT8_MAX, INT8_MIN, N_CHANNELS
+from sim.user.armband import INT8_MAX, INT8_MIN
 from sim.user.emg import is_causal
 from sim.user.generators import make_generator
 from sim.user.muscles import N_MUSCLES, slow_fluctuation
@@ -114,7 +114,7 @@ class CausalSession:
         self._muscles = gen.causal(n, m, subject.armband.front_end, fs_hz=fs_hz, rng=rng)
         self._gain = np.maximum(1.0 + slow_fluctuation(n, fs_hz, m.array("emg_gain_std"),
                                                        m.emg_gain_time_s, rng), 0.0)
-        self._armband_noise = subject.armband.noise_lsb(n, fs_hz, rng)
+        self._armband_noise = subject.armband.electrode_noise_lsb(n, fs_hz, rng)
         self._mixing_t = subject.armband.mixing_matrix_view(N_MUSCLES).T
         self._contact = slow_fluctuation(n, fs_hz, np.array([subject.contact_std]),
                                          subject.contact_time_s, rng)[:, 0]

@@ -185,8 +185,6 @@ def test_slip_recovery_counts_ten_subjects(slip_results) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="the model does not reproduce Aboseria et al. 2018: "
-                   "README, 'Feedback benchmarks: where the model disagrees'")
 def test_slip_vibration_recovers_at_least_90_percent_and_15_points_more(slip_results) -> None:
     vib, vision = slip_results["slip_vibration"], slip_results["none"]
     assert vib["recovered_rate"] >= 0.9

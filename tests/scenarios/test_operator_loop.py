@@ -80,10 +80,13 @@ def test_the_issue_episode_reacting_user_sees_the_slip_scripted_loses_the_can() 
 
 
 def test_a_reacting_user_saves_a_block_the_scripted_user_drops() -> None:
-    subject, block = VirtualSubject.sample(0, 2), make_object("block")
-    scripted = E.run_episode(subject, block, estimator="latent_kf", controller="pid", seed=1,
+    # One example (subject 3 of population 0, seed 0): of the scripted failures with
+    # latent_kf and PI on the block and the can, subjects 1-6, seeds 0-2, this is the one a
+    # reacting user saves; the others are not lifted, which vision alone does not save.
+    subject, block = VirtualSubject.sample(0, 3), make_object("block")
+    scripted = E.run_episode(subject, block, estimator="latent_kf", controller="pid", seed=0,
                              user="scripted")
-    reacting = E.run_episode(subject, block, estimator="latent_kf", controller="pid", seed=1)
+    reacting = E.run_episode(subject, block, estimator="latent_kf", controller="pid", seed=0)
     assert scripted.row["outcome"] == "dropped"
     assert reacting.row["outcome"] == "held" and reacting.row["user_corrections"] >= 1
 
