@@ -30,15 +30,11 @@ from typing import Any
 
 import numpy as np
 
-from estimation.evaluation import split_index
 from estimation.features import PAPER_CHANNELS, align_to_windows, extract_features
-from estimation.metrics import r2_score
 from estimation.paper import PAPER_ORDER
-from estimation.registry import make_estimator
-from estimation.reproduce import estimator_params
 from estimation.threads import one_blas_thread
 from scenarios.live.errors import SessionError
-from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
+from scenarios.runners.dispatch import DivergedError
 from scenarios.runners.episode import (
     CONTACT_N,
     HAND_FORCE_AT_MVC_N,
@@ -50,6 +46,7 @@ from scenarios.runners.episode import (
     cached_design,
     contact_peak_ratio,
     episode_metrics,
+    fit_on_features,
     intended_grip_n,
     outcome_of,
     reference_from_windows,
@@ -162,23 +159,10 @@ def fit_calibration(recording: Recording, estimator: str = "ridge", *, mode: str
     index = (list(range(recording.n_channels)) if channel_list is None
              else [recording.channel_index(ch) for ch in channel_list])
     features = extract_features(recording, channels=channel_list)
-    split = split_index(features.n_windows, identification_fraction)
-    params = estimator_params([estimator], np.random.default_rng(seed), order,
-                              dt_s=features.dt_s)[estimator]
     with one_blas_thread():
-        start = time.perf_counter()
-        pipeline = make_estimator(estimator, **params).fit(features.X[:split], features.y[:split])
-        fit_s = time.perf_counter() - start
-    if mode not in pipeline.modes:
-        raise UnsupportedScenarioError(
-            f"estimator {estimator} has modes {pipeline.modes} (found mode {mode})"
-        )
-    reason = pipeline.divergence(mode)
-    if reason is not None:
-        raise DivergedError(f"estimator {estimator}: {reason}")
-    y_val = features.y[split:]
-    y_hat = pipeline.predict(features.X[split:], y_val if mode == "one_step" else None, mode=mode)
-    cal = Calibration(estimator, mode, pipeline, mvc_cal_n, r2_score(y_val, y_hat), fit_s)
+        cal = fit_on_features(features, estimator, mode, rng=np.random.default_rng(seed),
+                              order=order, identification_fraction=identification_fraction,
+                              mvc_cal_n=mvc_cal_n)
     return RecordedCalibration(cal, recording, channel_list, index)
 
 

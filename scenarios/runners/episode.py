@@ -136,8 +136,28 @@ def calibrate(
     mvc_cal_n = float(np.max(recording.force_n))
     if estimator == ORACLE:
         return Calibration(ORACLE, mode, None, mvc_cal_n, None, 0.0)
+    return fit_on_features(features, estimator, mode, rng=estimator_rng, order=order,
+                           identification_fraction=identification_fraction,
+                           mvc_cal_n=mvc_cal_n)
+
+
+def fit_on_features(features: FeatureSet, estimator: str, mode: str, *,
+                    rng: np.random.Generator, order: int, identification_fraction: float,
+                    mvc_cal_n: float) -> Calibration:
+    """Fit ``estimator`` on the identification part of a calibration's features and score it.
+
+    The one fit-then-score of a calibration, for a simulated session (:func:`calibrate`) and
+    a recording (:mod:`scenarios.live.recorded`).
+
+    Raises
+    ------
+    UnsupportedScenarioError
+        ``mode`` is not one of the estimator's modes.
+    DivergedError
+        The identified model is unstable and ``mode`` would run it open loop.
+    """
     split = split_index(features.n_windows, identification_fraction)
-    params = estimator_params([estimator], estimator_rng, order, dt_s=features.dt_s)[estimator]
+    params = estimator_params([estimator], rng, order, dt_s=features.dt_s)[estimator]
     start = time.perf_counter()
     pipeline = make_estimator(estimator, **params).fit(features.X[:split], features.y[:split])
     fit_s = time.perf_counter() - start

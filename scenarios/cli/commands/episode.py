@@ -127,13 +127,8 @@ def run(args: argparse.Namespace) -> int:
                             "object_height_m", "slip_speed_m_s", "user_intent")},
     }
     if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(out, indent=1, default=float))
-        print(f"wrote {args.json}")
-    if args.video is not None:
-        write_video(result.traces["frames"], args.video, fps=25)
-        print(f"wrote {args.video}")
-    return 0
+        _write_json(args.json, out)
+    return _write_video(args, result)
 
 
 RECORDED_KEYS = ("outcome", "lifted", "dropped", "crushed", "peak_force_n", "hold_grip_n",
@@ -176,9 +171,17 @@ def _run_recorded(args: argparse.Namespace) -> int:
                "traces": {k: np.asarray(v).tolist() for k, v in result.traces.items()
                           if k in ("t_s", "reference_n", "grip_force_n", "command",
                                    "object_height_m")}}
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(out, indent=1, default=float))
-        print(f"wrote {args.json}")
+        _write_json(args.json, out)
+    return _write_video(args, result)
+
+
+def _write_json(path: Path, out: dict[str, Any]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(out, indent=1, default=float))
+    print(f"wrote {path}")
+
+
+def _write_video(args: argparse.Namespace, result: Any) -> int:
     if args.video is not None:
         write_video(result.traces["frames"], args.video, fps=25)
         print(f"wrote {args.video}")
