@@ -185,9 +185,19 @@ class SessionOutlets:
         Stream name prefix (``griploop``: ``griploop.reference`` ...).
     """
 
-    def __init__(self, control_hz: float, *, prefix: str = OUTLET_PREFIX) -> None:
+    def __init__(self, control_hz: float, *, prefix: str = OUTLET_PREFIX,
+                 feedback: str | None = None) -> None:
         lsl = pylsl_module()
         self.names = (f"{prefix}.reference", f"{prefix}.grip", f"{prefix}.events")
+        self._feedback = None
+        if feedback is not None:
+            # the stimulator's intensity (0..1) for a lab's tactor driver
+            name = f"{prefix}.feedback"
+            info = lsl.StreamInfo(name, "Stimulus", 1, float(control_hz), lsl.cf_float32,
+                                  _source_id(name))
+            _set_channels(info, [feedback], "intensity", "Vibration")
+            self._feedback = lsl.StreamOutlet(info, chunk_size=1)
+            self.names = (*self.names, name)
         outlets = []
         for name, label in zip(self.names[:2], ("reference", "grip"), strict=True):
             info = lsl.StreamInfo(name, FORCE_TYPE, 1, float(control_hz), lsl.cf_float32,
@@ -200,13 +210,18 @@ class SessionOutlets:
         self._reference, self._grip, self._events = outlets
         self._one = [0.0]
 
-    def step(self, timestamp: float, reference_n: float, grip_n: float) -> None:
-        """Publish one control step's reference and grip force (N) at ``timestamp``."""
+    def step(self, timestamp: float, reference_n: float, grip_n: float,
+             feedback: float = 0.0) -> None:
+        """Publish one control step's reference and grip force (N), and the feedback
+        intensity (0..1) if there is a feedback outlet, at ``timestamp``."""
         one = self._one
         one[0] = reference_n
         self._reference.push_sample(one, timestamp)
         one[0] = grip_n
         self._grip.push_sample(one, timestamp)
+        if self._feedback is not None:
+            one[0] = feedback
+            self._feedback.push_sample(one, timestamp)
 
     def event(self, timestamp: float, marker: str) -> None:
         """Publish one event marker."""
@@ -214,7 +229,7 @@ class SessionOutlets:
 
     def close(self) -> None:
         """Withdraw the outlets."""
-        self._reference = self._grip = self._events = None
+        self._reference = self._grip = self._events = self._feedback = None
 
 
 @dataclass(frozen=True)

@@ -64,6 +64,7 @@ from scenarios.runners.episode import (
 from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.hand.objects import ObjectSpec
 from sim.recording import MAX_EMG_ABS, Recording
+from sim.user.feedback import FeedbackDevice
 
 GAP_HOLD_S = 0.2
 """No sample for this long: the hand holds its grip and a gap is logged, s."""
@@ -186,7 +187,8 @@ class LiveGrasp:
         Keyword arguments of :func:`controllers.design.design_for_object`.
     settings : SessionSettings
     publish : callable, optional
-        ``publish(t_s, reference_n, grip_n)`` after every control step (the outlets).
+        ``publish(t_s, reference_n, grip_n, feedback)`` after every control step (the
+        outlets; ``feedback`` is the stimulator's intensity 0..1).
     event : callable, optional
         ``event(t_s, marker)`` for lift, slip, drop, crush, gap_start, gap_end.
     clock : callable
@@ -205,10 +207,10 @@ class LiveGrasp:
     def __init__(self, cal: RecordedCalibration, obj: ObjectSpec, *, controller: str,
                  controller_spec: Mapping[str, Any] | None = None,
                  settings: SessionSettings = SessionSettings(),
-                 publish: Callable[[float, float, float], None] | None = None,
+                 publish: Callable[[float, float, float, float], None] | None = None,
                  event: Callable[[float, str], None] | None = None,
                  clock: Callable[[], float] = time.perf_counter,
-                 viewer: Any = None) -> None:
+                 viewer: Any = None, feedback: str = "none") -> None:
         s = settings
         self.settings, self.cal, self.obj, self.controller = s, cal, obj, controller
         self.lift_after_s = _lift_time_s(s.duration_s, s.hold_s)
@@ -225,13 +227,15 @@ class LiveGrasp:
         self.ceiling = 1.2 * s.hand_force_at_mvc_n
         self.n_steps = int(round(s.duration_s / s.control_dt_s))
         self._publish, self._event, self._clock = publish, event, clock
+        self.feedback = FeedbackDevice(feedback, force_range_n=s.hand_force_at_mvc_n)
         self.viewer = viewer
         self.viewer_every = max(1, int(round(0.04 / s.control_dt_s)))
         n = self.n_steps
         self.traces = {"t_s": np.arange(n) * s.control_dt_s, "reference_n": np.zeros(n),
                        "grip_force_n": np.zeros(n), "command": np.zeros(n),
                        "object_height_m": np.zeros(n), "slip_speed_m_s": np.zeros(n),
-                       "both_sides": np.zeros(n, dtype=bool), "tracked_reference_n": np.zeros(n)}
+                       "both_sides": np.zeros(n, dtype=bool), "tracked_reference_n": np.zeros(n),
+                       "feedback": np.zeros(n)}
         self._latency = np.zeros(n)
         self._n_latency = 0
         capacity = int(np.ceil((s.duration_s + s.timeout_s + 2.0) * self.fs_hz))
@@ -439,8 +443,10 @@ class LiveGrasp:
         if late > s.control_dt_s:
             self.deadline_misses += 1
         t = k * s.control_dt_s
+        stimulus = self.feedback.output(t, grip, info["slip_speed_m_s"])
+        tr["feedback"][k] = stimulus
         if self._publish is not None:
-            self._publish(t, ref, grip)
+            self._publish(t, ref, grip, stimulus)
         self._events(info)
         if self.frame_every is not None and k % self.frame_every == 0:
             self.frames.append((self.env.data.qpos.copy(), bool(info["crushed"])))
@@ -527,7 +533,9 @@ class LiveGrasp:
             "wall_s": self.wall_s,
             "ended": self.ended,
             "traces": {key: traces[key].tolist() for key in
-                       ("t_s", "reference_n", "grip_force_n", "object_height_m")},
+                       ("t_s", "reference_n", "grip_force_n", "object_height_m",
+                        "slip_speed_m_s", "feedback")},
+            "feedback": self.feedback.mode,
         }
         out["warnings"] = warnings_for(out)
         return out

@@ -137,3 +137,61 @@ class SlipVibration(NoFeedback):
         onset = bool(on) and not self._was_on
         self._was_on = bool(on)
         return Felt(slip=True) if onset else _NOTHING
+
+
+class FeedbackDevice:
+    """What a feedback mode's stimulator outputs at each control step (no perception).
+
+    The device side of :class:`ForceVibration` and :class:`SlipVibration`, for a lab's
+    tactor driver (``griploop live --feedback``, the ``griploop.feedback`` stream):
+    ``output`` is an intensity 0..1.
+
+    - ``force_vibration``: the level of the grip force, ``level / (levels - 1)``, with
+      :meth:`ForceVibration.level_of`'s code; 0 without contact (below 0.5 N).
+    - ``slip_vibration``: 1 while a burst of ``slip_burst_s`` runs (a burst starts when the
+      slip sensor crosses ``slip_sensor_m_s``, re-armed when it falls under half of it),
+      else 0.
+    - ``none``: always 0.
+
+    Parameters
+    ----------
+    mode : str
+        ``none``, ``force_vibration`` or ``slip_vibration``.
+    force_range_n : float
+        Grip force the top vibration level stands for (the hand force at the user's MVC), N.
+    params : OperatorParams, optional
+        Levels, burst length and slip threshold.
+
+    Raises
+    ------
+    ValueError
+        An unknown mode (naming the valid ones).
+    """
+
+    MODES = ("none", "force_vibration", "slip_vibration")
+
+    def __init__(self, mode: str, *, force_range_n: float,
+                 params: OperatorParams | None = None) -> None:
+        if mode not in self.MODES:
+            raise ValueError(f"feedback: expected one of {', '.join(self.MODES)}, found {mode!r}")
+        self.mode = mode
+        self.params = params or OperatorParams()
+        self._coder = ForceVibration(self.params)
+        self._coder._range = float(force_range_n)
+        self._burst_until = -math.inf
+        self._slipping = False
+
+    def output(self, t_s: float, grip_force_n: float, slip_speed_m_s: float) -> float:
+        """The stimulator's intensity (0..1) at time ``t_s`` (s) for the hand's sensors."""
+        p = self.params
+        if self.mode == "force_vibration":
+            if grip_force_n < CONTACT_N:
+                return 0.0
+            return self._coder.level_of(grip_force_n) / max(p.vibration_levels - 1, 1)
+        if self.mode == "slip_vibration":
+            fast = slip_speed_m_s > p.slip_sensor_m_s
+            if fast and not self._slipping and t_s >= self._burst_until:
+                self._burst_until = t_s + p.slip_burst_s
+            self._slipping = fast or (self._slipping and slip_speed_m_s >= 0.5 * p.slip_sensor_m_s)
+            return 1.0 if t_s < self._burst_until else 0.0
+        return 0.0

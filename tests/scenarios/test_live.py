@@ -238,7 +238,8 @@ def test_live_over_loopback_matches_the_offline_episode(files, offline, tmp_path
     assert episode["outcome"] == offline.metrics["outcome"]
     with Streamer(files["grasp"], "griploop.test.accept"):
         report = _live("griploop.test.accept", files, tmp_path / "live.json",
-                       "--record", str(tmp_path / "received.npz"))
+                       "--record", str(tmp_path / "received.npz"),
+                       "--feedback", "force_vibration")
     print(capsys.readouterr().out)
     for key, kind in CONTRACT.items():
         assert isinstance(report[key], kind), key
@@ -255,6 +256,16 @@ def test_live_over_loopback_matches_the_offline_episode(files, offline, tmp_path
     assert m["peak_force_n"] == pytest.approx(episode["peak_force_n"], rel=0.10)
     assert report["gaps"] == [] and report["bad_samples"] == {"non_numeric": 0,
                                                               "out_of_range": 0}
+    # the stimulator's intensity went out as griploop.feedback: the grip force's level
+    assert "griploop.feedback" in report["outlets"] and report["feedback"] == "force_vibration"
+    from sim.user.feedback import FeedbackDevice
+
+    device = FeedbackDevice("force_vibration", force_range_n=30.0)
+    tr = report["traces"]
+    expected = [device.output(t, g, v) for t, g, v in
+                zip(tr["t_s"], tr["grip_force_n"], tr["slip_speed_m_s"], strict=True)]
+    np.testing.assert_allclose(tr["feedback"], expected)
+    assert max(tr["feedback"]) > 0
     received = load_recording(tmp_path / "received.npz")
     sent = load_recording(files["grasp"])
     assert np.array_equal(received.emg, sent.emg[:received.n_samples])

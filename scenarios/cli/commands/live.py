@@ -11,6 +11,7 @@ from typing import Any
 from scenarios.cli.choices import controller_names, object_names, one_of
 from scenarios.cli.errors import UsageError
 from scenarios.cli.recording_options import add_recording_options, recording_kwargs
+from sim.user.feedback import FeedbackDevice
 
 DEFAULT_ESTIMATOR = "ridge"
 
@@ -48,6 +49,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "(default: 6,7,8)")
     p.add_argument("--controller", required=True, metavar="NAME", help=one_of(controller_names()))
     p.add_argument("--object", required=True, metavar="NAME", help=one_of(object_names()))
+    p.add_argument("--feedback", default="none", choices=FeedbackDevice.MODES, metavar="MODE",
+                   help="also publish griploop.feedback, the stimulator's intensity 0..1 for a "
+                   "tactor driver: force_vibration (grip-force level) or slip_vibration (a "
+                   "burst at each slip); " + one_of(FeedbackDevice.MODES) + " (default none)")
     p.add_argument("--mass-kg", type=float, default=None, help="override the object's mass, kg")
     p.add_argument("--friction", type=float, default=None, help="override the friction coeff.")
     p.add_argument("--duration-s", type=float, default=8.0,
@@ -117,17 +122,18 @@ def run(args: argparse.Namespace) -> int:
     settings = SessionSettings(duration_s=args.duration_s, hold_s=args.hold_s,
                                timeout_s=args.timeout_s,
                                frame_dt_s=FRAME_DT_S if video is not None else None)
-    outlets = lsl.SessionOutlets(1.0 / settings.control_dt_s)
+    outlets = lsl.SessionOutlets(1.0 / settings.control_dt_s,
+                                 feedback=None if args.feedback == "none" else args.feedback)
     grasp: LiveGrasp | None = None
 
-    def publish(t_s: float, reference_n: float, grip_n: float) -> None:
-        outlets.step(grasp.ts0 + t_s, reference_n, grip_n)
+    def publish(t_s: float, reference_n: float, grip_n: float, feedback: float) -> None:
+        outlets.step(grasp.ts0 + t_s, reference_n, grip_n, feedback)
 
     def event(t_s: float, marker: str) -> None:
         outlets.event(grasp.ts0 + t_s, marker)
 
     grasp = LiveGrasp(cal, obj, controller=args.controller, settings=settings,
-                      publish=publish, event=event)
+                      publish=publish, event=event, feedback=args.feedback)
     info = lsl.resolve(args.lsl, args.resolve_timeout_s)
     lsl.check_stream(info, n_channels=cal.n_channels, fs_hz=cal.fs_hz,
                      source=cal_recording.source)
