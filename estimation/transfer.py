@@ -51,7 +51,7 @@ from estimation.errors import EstimationInputError, check_features, check_mode, 
 from estimation.normalize import MinMaxScaling
 from estimation.streaming import scaled
 from sim.cache import cache_subdir, write_atomic
-from sim.registry import RegistrationError, Registry
+from sim.registry import Registry
 
 #: Version of the cache format (weights NPZ + JSON); another version is rebuilt.
 FORMAT = 1
@@ -571,12 +571,3 @@ class _TransferStream:
                 h = out
             total += float(h[0])
         return total / len(self._layers)
-
-
-def check_corpus(name: str) -> None:
-    """Raise :class:`UnknownCorpusError` unless ``name`` is a registered corpus."""
-    _CORPORA.entry(name)
-
-
-__all__ = ["Network", "Pretrained", "RegistrationError", "TransferMLP", "check_corpus",
-           "clear_memory", "finetune", "lagged", "pretrained", "register_corpus"]
