@@ -32,10 +32,10 @@ generator (:mod:`scenarios.runners.pretraining`).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import io
 import json
-import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from importlib import metadata, resources
@@ -46,8 +46,10 @@ import numpy as np
 from scipy.special import expit
 
 from estimation.base import ForceEstimator
+from estimation.baselines.mlp import fit_quietly
 from estimation.deployable import check_period
 from estimation.errors import EstimationInputError, check_features, check_mode, check_target
+from estimation.metrics import r2_score
 from estimation.normalize import MinMaxScaling
 from estimation.streaming import scaled
 from sim.cache import cache_subdir, write_atomic
@@ -145,14 +147,6 @@ def _regressor(hidden: Sequence[int], seed: int, **options: Any) -> Any:
     return MLPRegressor(**settings)
 
 
-def _fit_quietly(net: Any, X: np.ndarray, y: np.ndarray) -> Any:
-    from sklearn.exceptions import ConvergenceWarning
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ConvergenceWarning)
-        return net.fit(X, y)
-
-
 def _as_network(net: Any) -> Network:
     return Network(tuple(np.array(W) for W in net.coefs_),
                    tuple(np.array(b) for b in net.intercepts_))
@@ -189,14 +183,14 @@ def finetune(network: Network, X: np.ndarray, y: np.ndarray, *, epochs: int,
         return network
     net = _regressor(hidden, seed, learning_rate_init=learning_rate, batch_size=32,
                      max_iter=EPOCH_STAGE)
-    _fit_quietly(net.set_params(max_iter=1, batch_size=2), X[:2], y[:2])  # allocate only
+    fit_quietly(net.set_params(max_iter=1, batch_size=2), X[:2], y[:2])  # allocate only
     net.coefs_ = [W.copy() for W in network.coefs]
     net.intercepts_ = [b.copy() for b in network.intercepts]
     net.set_params(warm_start=True, max_iter=EPOCH_STAGE, n_iter_no_change=EPOCH_STAGE + 1,
                    batch_size=min(32, X.shape[0]))
     done = 0
     while done < epochs:
-        _fit_quietly(net, X, y)
+        fit_quietly(net, X, y)
         done += EPOCH_STAGE
         if stages is not None:
             stages(_as_network(net), done)
@@ -225,11 +219,6 @@ class Pretrained:
     info: dict
 
 
-def _r2(y: np.ndarray, y_hat: np.ndarray) -> float:
-    ss = float(np.sum((y - y.mean()) ** 2))
-    return float(1.0 - np.sum((y - y_hat) ** 2) / ss) if ss > 0 else float("nan")
-
-
 def _choose_finetuning(networks: Sequence[Network], validation: Corpus, lags: int,
                        hidden: Sequence[int]) -> tuple[int, float, dict]:
     """Fine-tuning epochs and step size that serve the validation subjects best.
@@ -252,7 +241,7 @@ def _choose_finetuning(networks: Sequence[Network], validation: Corpus, lags: in
                 preds.setdefault((lr, epochs), []).append(np.mean(p, axis=0))
     scores = {}
     for (lr, epochs), p in preds.items():
-        r2 = [_r2(y[n_id:], yh) for (_, y, n_id), yh in zip(validation, p, strict=True)]
+        r2 = [r2_score(y[n_id:], yh) for (_, y, n_id), yh in zip(validation, p, strict=True)]
         scores[(lr, epochs)] = (float(np.mean(r2)), float(np.min(r2)))
     best = max(scores, key=lambda c: (0.5 * (scores[c][0] + scores[c][1]), -c[1]))
     table = [{"learning_rate": lr, "epochs": e, "r2_mean": m, "r2_min": w}
@@ -264,6 +253,7 @@ _SOURCE_PACKAGES = ("sim.user", "estimation")
 _SOURCE_MODULES = (("sim", "recording.py"), ("scenarios.runners", "pretraining.py"))
 
 
+@functools.cache
 def source_digest() -> str:
     """SHA-256 of everything that makes a corpus or a pretrained network, and the version.
 
@@ -271,8 +261,6 @@ def source_digest() -> str:
     scaling, this module), the recording type and the corpus builder: an edit to any of
     them makes the cached networks stale.
     """
-    if _DIGEST:
-        return _DIGEST[0]
     h = hashlib.sha256()
     for package in _SOURCE_PACKAGES:
         for entry in sorted(resources.files(package).iterdir(), key=lambda e: e.name):
@@ -284,11 +272,9 @@ def source_digest() -> str:
         h.update(metadata.version("griploop").encode())
     except metadata.PackageNotFoundError:  # a source tree
         h.update(b"source")
-    _DIGEST.append(h.hexdigest())
-    return _DIGEST[0]
+    return h.hexdigest()
 
 
-_DIGEST: list[str] = []
 _MEMO: dict[str, Pretrained] = {}
 
 
@@ -328,7 +314,8 @@ def build_pretrained(settings: dict) -> Pretrained:
             net = _regressor(hidden, settings["pretrain_seed"] + k,
                              max_iter=settings["pretrain_epochs"], batch_size=PRETRAIN_BATCH,
                              learning_rate_init=PRETRAIN_RATE)
-            networks.append(_as_network(_fit_quietly(net, X, y)))
+            fit_quietly(net, X, y)
+            networks.append(_as_network(net))
         epochs, lr, scores = _choose_finetuning(networks, validation, lags, hidden)
     info = dict(settings, key=_key(settings), n_windows=int(X.shape[0]),
                 build_s=time.perf_counter() - t0, finetune=scores)

@@ -25,6 +25,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from sim.recording import RecordingError
+
 STATISTICS = ("squeezes", "peak_cv", "duty", "r2_lin_in", "r2_lin_out", "drift", "lag_ms",
               "nonlin")
 WINDOW_S = 0.4
@@ -94,18 +96,18 @@ def recording_difficulty(emg: np.ndarray, force_n: np.ndarray, fs_hz: float) -> 
 
     Raises
     ------
-    ValueError
+    sim.recording.RecordingError
         Fewer than 8 channels, mismatched lengths, or fewer than 4 windows.
     """
     emg = np.asarray(emg, dtype=float)
     force_n = np.asarray(force_n, dtype=float)
     if emg.ndim != 2 or emg.shape[1] < 8 or force_n.shape != (emg.shape[0],):
-        raise ValueError(f"expected emg (n, >= 8) and force (n,), found {emg.shape} and "
+        raise RecordingError(f"expected emg (n, >= 8) and force (n,), found {emg.shape} and "
                          f"{force_n.shape}")
     mav, y = _windows(emg, force_n, fs_hz)
     n = y.size
     if n < 4:
-        raise ValueError(f"expected at least 4 windows of {WINDOW_S} s, found {n}")
+        raise RecordingError(f"expected at least 4 windows of {WINDOW_S} s, found {n}")
     half = n // 2
     squeezes, peak_cv = _peaks(y / max(float(y.max()), 1e-9))
     X = np.hstack([mav, np.ones((n, 1))])

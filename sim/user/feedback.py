@@ -58,6 +58,17 @@ class Felt:
 _NOTHING = Felt()
 
 
+def nearest_level(x: float, levels: int) -> int:
+    """The nearest of ``levels`` vibration levels to ``x`` (in level units), 0..levels-1."""
+    return int(min(max(math.floor(x + 0.5), 0), levels - 1))
+
+
+def force_level(force_n: float, force_range_n: float, levels: int) -> int:
+    """The vibration level coding a grip force: level ``k`` stands for ``k / levels`` of the
+    range (module notes)."""
+    return nearest_level(levels * force_n / force_range_n, levels)
+
+
 class NoFeedback:
     """Vision only: nothing is felt."""
 
@@ -95,11 +106,10 @@ class ForceVibration(NoFeedback):
 
     def level_of(self, force_n: float) -> int:
         """The device's level for a grip force: the nearest of its intensities, 0..levels-1."""
-        return self._nearest(self.params.vibration_levels * force_n / self._range)
+        return force_level(force_n, self._range, self.params.vibration_levels)
 
     def _nearest(self, x: float) -> int:
-        n = self.params.vibration_levels
-        return int(min(max(math.floor(x + 0.5), 0), n - 1))
+        return nearest_level(x, self.params.vibration_levels)
 
     def perceive(self, scene: Scene) -> Felt:
         """The level felt now: the delayed force's level, with confusion near boundaries."""
@@ -176,8 +186,7 @@ class FeedbackDevice:
             raise ValueError(f"feedback: expected one of {', '.join(self.MODES)}, found {mode!r}")
         self.mode = mode
         self.params = params or OperatorParams()
-        self._coder = ForceVibration(self.params)
-        self._coder._range = float(force_range_n)
+        self._range = float(force_range_n)
         self._burst_until = -math.inf
         self._slipping = False
 
@@ -187,7 +196,8 @@ class FeedbackDevice:
         if self.mode == "force_vibration":
             if grip_force_n < CONTACT_N:
                 return 0.0
-            return self._coder.level_of(grip_force_n) / max(p.vibration_levels - 1, 1)
+            level = force_level(grip_force_n, self._range, p.vibration_levels)
+            return level / max(p.vibration_levels - 1, 1)
         if self.mode == "slip_vibration":
             fast = slip_speed_m_s > p.slip_sensor_m_s
             if fast and not self._slipping and t_s >= self._burst_until:

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from sim.errors import GriploopError
 from sim.recording import Recording
 from sim.user.armband import Armband
 from sim.user.emg import EmgGenerator
@@ -79,6 +80,10 @@ _RIG_LAG_S = (0.0, 0.15)  # sEMG stream behind the FSR stream in the recording r
 _MUAP_EXPONENT_FIT = (0.16, 0.77)
 
 
+class SubjectParamsError(GriploopError, ValueError):
+    """A virtual subject's own parameters (rig lag, FSR contact) are out of range."""
+
+
 @dataclass(frozen=True)
 class VirtualSubject:
     """One virtual subject: parameters and the methods that record from them.
@@ -123,7 +128,7 @@ class VirtualSubject:
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.rig_lag_s <= 2.0 or self.contact_std < 0 or self.contact_time_s <= 0:
-            raise ValueError(
+            raise SubjectParamsError(
                 f"VirtualSubject: expected rig_lag_s in 0..2 s, contact_std >= 0 and "
                 f"contact_time_s > 0, found {self.rig_lag_s}, {self.contact_std}, "
                 f"{self.contact_time_s}")
