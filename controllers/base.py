@@ -120,6 +120,10 @@ def as_observation(obs: Observation | Mapping[str, Any]) -> Observation:
 class Controller(Protocol):
     """What every force controller provides (PID, lead-lag, MPC, scheduled banks, wrappers).
 
+    Only these are required; :class:`ControllerBase` gives working defaults for
+    the rest (``track``, ``handover``, ``computation_delay_samples``) and
+    :func:`complete_controller` adds them to a design that lacks them.
+
     Attributes
     ----------
     dt_s : float
@@ -136,6 +140,133 @@ class Controller(Protocol):
 
     def loop(self, plant: control.LTI) -> control.LTI:
         """Open loop ``C P z**-d`` with sample-and-hold and computation delay."""
+
+
+#: What a controller must define itself; everything else has a working default.
+REQUIRED_METHODS = ("reset", "act", "loop")
+
+
+class ControllerBase:
+    """Working defaults for what scheduling, hand-over and loop analysis ask of a design.
+
+    A controller needs only ``reset``, ``act`` and ``loop`` (:class:`Controller`).
+    The gain schedule (:class:`controllers.schedule.ScheduledController`) and
+    the approach (:class:`controllers.approach.ContactGate`) also call
+    ``track`` (follow a command someone else applied) and ``handover`` (take
+    over at a command). Their defaults restart the controller with that command
+    applied, ``reset(u)``: a controller whose internal state cannot be
+    conditioned on the applied command then starts from it, which is bumpless
+    for any design whose ``reset(u0)`` seeds its output (an integrator) and
+    harmless for a static one. Designs with states that can follow the loop
+    (PID, lead-lag, MPC) override both.
+
+    Attributes
+    ----------
+    computation_delay_samples : int
+        Periods between the observation and the command reaching the hand:
+        1, as :class:`controllers.drive.HandLoop` applies it.
+    """
+
+    computation_delay_samples: int = 1
+
+    def reset(self, u0: float = 0.0) -> None:  # pragma: no cover - the subclass defines it
+        raise NotImplementedError
+
+    def track(self, observation: Observation | Mapping[str, Any], applied_u: float) -> None:
+        """Follow the command ``applied_u`` another controller applied: restart from it."""
+        self.reset(float(applied_u))
+
+    def handover(self, observation: Observation | Mapping[str, Any], u: float) -> None:
+        """Take over the loop at command ``u``: restart from it."""
+        self.reset(float(u))
+
+
+class CompletedController(ControllerBase):
+    """A controller with only ``reset``, ``act`` and ``loop``, completed by :class:`ControllerBase`.
+
+    Attributes it lacks come from :class:`ControllerBase`; everything else
+    (``stats``, gains, ``report_``) is read from the wrapped controller.
+
+    Parameters
+    ----------
+    inner : object
+        The designed controller.
+    dt_s : float
+        Control period, s, used when ``inner`` has no ``dt_s``.
+    """
+
+    def __init__(self, inner: Any, dt_s: float) -> None:
+        self.inner = inner
+        self.dt_s = float(getattr(inner, "dt_s", dt_s))
+        self.computation_delay_samples = int(getattr(inner, "computation_delay_samples", 1))
+
+    def reset(self, u0: float = 0.0) -> None:
+        """``inner.reset(u0)``."""
+        self.inner.reset(u0)
+
+    def act(self, observation: Observation | Mapping[str, Any]) -> float:
+        """``inner.act(observation)``."""
+        return float(self.inner.act(observation))
+
+    def loop(self, plant: control.LTI) -> control.LTI:
+        """``inner.loop(plant)``."""
+        return self.inner.loop(plant)
+
+    def track(self, observation: Observation | Mapping[str, Any], applied_u: float) -> None:
+        """``inner.track`` if it has one, else the default (restart from ``applied_u``)."""
+        own = getattr(self.inner, "track", None)
+        if callable(own):
+            own(observation, applied_u)
+        else:
+            super().track(observation, applied_u)
+
+    def handover(self, observation: Observation | Mapping[str, Any], u: float) -> None:
+        """``inner.handover`` if it has one, else the default (restart from ``u``)."""
+        own = getattr(self.inner, "handover", None)
+        if callable(own):
+            own(observation, u)
+        else:
+            super().handover(observation, u)
+
+    def __getattr__(self, name: str) -> Any:
+        if name == "inner":  # not set yet (copying, unpickling)
+            raise AttributeError(name)
+        return getattr(self.inner, name)
+
+
+def complete_controller(controller: Any, dt_s: float, *, kind: str = "controller") -> Any:
+    """``controller`` with everything a schedule and an episode call on it.
+
+    Parameters
+    ----------
+    controller : object
+        What a registered design function returned.
+    dt_s : float
+        Control period of the design plant, s (for a controller without ``dt_s``).
+    kind : str
+        Registered name, for the message.
+
+    Returns
+    -------
+    object
+        ``controller`` itself when it already has ``track``, ``handover``,
+        ``dt_s`` and ``computation_delay_samples``; else a :class:`CompletedController`.
+
+    Raises
+    ------
+    controllers.errors.SpecificationError
+        ``controller`` lacks one of :data:`REQUIRED_METHODS`.
+    """
+    from controllers.errors import SpecificationError
+
+    missing = [m for m in REQUIRED_METHODS if not callable(getattr(controller, m, None))]
+    if missing:
+        raise SpecificationError(
+            f"{kind}: its design returned a {type(controller).__name__} without "
+            f"{', '.join(missing)} (a controller defines {', '.join(REQUIRED_METHODS)})")
+    complete = all(callable(getattr(controller, m, None)) for m in ("track", "handover")) and all(
+        hasattr(controller, a) for a in ("dt_s", "computation_delay_samples"))
+    return controller if complete else CompletedController(controller, dt_s)
 
 
 def controller_stats(controller: object) -> dict[str, float]:

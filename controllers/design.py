@@ -63,17 +63,22 @@ def __getattr__(attr: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
 
 
-def controller_map(controller: Controller) -> control.StateSpace:
+def controller_map(controller: Controller) -> control.StateSpace | None:
     """Discrete map from force error (N) to the command the hand receives, delay included.
 
     For the MPC this is its unconstrained feedback law (from ``-y``) with its
-    Kalman filter, the part that closes the loop.
+    Kalman filter, the part that closes the loop. ``None`` for a controller
+    that offers neither ``transfer_function`` nor ``feedback_law`` (its loop,
+    ``loop(plant)``, still gives the margins).
     """
     if hasattr(controller, "transfer_function"):
         c = controller.transfer_function()
-    else:
+    elif hasattr(controller, "feedback_law"):
         c = controller.feedback_law()
-    return control.ss(c * delay(controller.computation_delay_samples, controller.dt_s))
+    else:
+        return None
+    delay_samples = getattr(controller, "computation_delay_samples", 1)
+    return control.ss(c * delay(delay_samples, controller.dt_s))
 
 
 @dataclass(frozen=True)
@@ -123,7 +128,7 @@ class OperatingAnalysis:
                         "ms": full["ms"], "stable": full["stable"],
                         "bandwidth_rad_s": full["bandwidth_rad_s"]},
             "plant": state_space_dict(self.plant),
-            "controller": state_space_dict(self.controller),
+            "controller": None if self.controller is None else state_space_dict(self.controller),
             "loop": state_space_dict(m.loop),
             "plant_method": self.how,
         }

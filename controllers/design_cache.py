@@ -15,49 +15,49 @@ this module keeps, per design:
 The key hashes everything the design depends on: the object's full
 specification, the controller kind, the control period, the specification
 (fragile force limit included), the force grid, the griploop and
-python-control versions and the source of the modules that design, schedule,
-run and analyse controllers (and of those the plant cache hashes). A changed
-specification, object or source file misses the cache.
+python-control versions, every source file of the packages that design, run
+and analyse controllers and build their plants (walked, not listed:
+:data:`controllers.plant_cache.SOURCE_PACKAGES`), and the module of a kind
+registered from outside them (a plugin's). A changed specification, object or
+source file misses the cache.
 
-Files are pickles (protocol 5) behind a header: a magic line, the key and the
-SHA-256 of the payload. A file whose header, key or digest does not match
-(truncated, corrupted, foreign, written by another version) is a miss: the
-design is rebuilt and the file replaced. The cache lives in the user's own
-directory (``$GRIPLOOP_CACHE_DIR/designs``, default ``~/.cache/griploop/designs``;
-``GRIPLOOP_CACHE_DIR=off`` or ``GRIPLOOP_DESIGN_CACHE=off`` disables it), which
-is trusted as the user's site-packages are. python-control state-space and transfer-function objects
-are stored as their matrices (:func:`_rebuild_ss`, :func:`_rebuild_tf`).
-Writes are atomic (temporary file, then rename), so concurrent workers never
-read half a file; a directory that cannot be written is skipped.
+Files hold no pickles: an NPZ (read with ``allow_pickle=False``) of the key,
+a JSON tree and one byte buffer of every array (:mod:`sim.codec`). Reading a
+file builds numbers, arrays, python-control systems and instances of
+griploop's own classes (or of the kind's plugin module, already imported),
+and nothing else, so a cache directory shared by users on a cluster file
+system cannot run code. A file whose key does not match, or that is
+truncated, corrupted or foreign, is a miss: the design is rebuilt and the
+file replaced. The cache lives in ``$GRIPLOOP_CACHE_DIR/designs`` (default
+``~/.cache/griploop/designs``; ``GRIPLOOP_CACHE_DIR=off`` or
+``GRIPLOOP_DESIGN_CACHE=off`` disables it). Writes are atomic (temporary
+file, then rename), so concurrent workers never read half a file; a
+directory that cannot be written is skipped.
 """
 
 from __future__ import annotations
 
-import copyreg
 import dataclasses
 import functools
 import hashlib
 import io
 import json
 import os
-import pickle
+import zipfile
 from collections.abc import Callable, Mapping
-from importlib import metadata, resources
 from pathlib import Path
 from typing import Any
 
-import control
+import numpy as np
 
 from controllers import plant_cache
+from controllers.registry import design_modules
+from sim import cache as sim_cache
 from sim.cache import write_atomic
+from sim.codec import CodecError, decode, encode
 from sim.hand.objects import ObjectSpec
 
-FORMAT = 1
-MAGIC = b"griploop-design-cache\n"
-_SOURCES = tuple(("controllers", name) for name in (
-    "design.py", "analysis.py", "approach.py", "bounds.py", "lead_lag.py", "mpc.py", "pid.py",
-    "plant.py", "reflex.py", "registry.py", "schedule.py", "base.py", "design_plant.py",
-    "design_cache.py"))
+FORMAT = 2
 
 
 def cache_dir() -> Path | None:
@@ -73,17 +73,12 @@ def cache_dir() -> Path | None:
 
 
 @functools.cache
-def source_digest() -> str:
-    """SHA-256 of the plant cache's sources, the design modules and the versions (once)."""
-    h = hashlib.sha256(plant_cache.source_digest().encode())
-    for package, name in _SOURCES:
-        h.update(resources.files(package).joinpath(name).read_bytes())
-    for dist in ("griploop", "control"):
-        try:
-            h.update(metadata.version(dist).encode())
-        except metadata.PackageNotFoundError:  # running from a source tree
-            h.update(b"source")
-    return h.hexdigest()
+def source_digest(kind: str | None = None) -> str:
+    """SHA-256 of the design sources (and of ``kind``'s own modules outside them), once."""
+    outside = tuple(m for m in (design_modules(kind) if kind else ())
+                    if m.split(".")[0] not in ("controllers", "sim"))
+    return sim_cache.source_digest(plant_cache.SOURCE_PACKAGES, outside,
+                                   distributions=("griploop", "control"))
 
 
 def design_key(obj: ObjectSpec, kind: str, control_dt_s: float, spec: Mapping[str, Any],
@@ -107,71 +102,65 @@ def design_key(obj: ObjectSpec, kind: str, control_dt_s: float, spec: Mapping[st
     payload = json.dumps({"format": FORMAT, "object": dataclasses.asdict(obj), "kind": kind,
                           "dt": float(control_dt_s), "spec": dict(spec),
                           "forces": [float(f) for f in forces_n],
-                          "source": source_digest()}, sort_keys=True, default=str)
+                          "source": source_digest(kind)}, sort_keys=True, default=str)
     return hashlib.sha256(payload.encode()).hexdigest()[:32]
 
 
-def _rebuild_ss(A: Any, B: Any, C: Any, D: Any, dt: Any, labels: dict[str, Any]
-                ) -> control.StateSpace:
-    """A ``control.StateSpace`` from its matrices, period and signal names."""
-    return control.ss(A, B, C, D, dt, **labels)
+def dumps(value: Any, key: str, kind: str | None = None) -> bytes:
+    """``value`` as a cache file's bytes: an NPZ of the key, a JSON tree and the arrays.
 
-
-def _rebuild_tf(num: Any, den: Any, dt: Any, labels: dict[str, Any]) -> control.TransferFunction:
-    """A ``control.TransferFunction`` from its coefficients, period and signal names."""
-    return control.tf(num, den, dt, **labels)
-
-
-def _reduce_ss(sys: control.StateSpace) -> tuple[Callable[..., Any], tuple[Any, ...]]:
-    labels = {"inputs": sys.input_labels, "outputs": sys.output_labels,
-              "states": sys.state_labels, "name": sys.name}
-    return _rebuild_ss, (sys.A, sys.B, sys.C, sys.D, sys.dt, labels)
-
-
-def _reduce_tf(sys: control.TransferFunction) -> tuple[Callable[..., Any], tuple[Any, ...]]:
-    labels = {"inputs": sys.input_labels, "outputs": sys.output_labels, "name": sys.name}
-    return _rebuild_tf, (sys.num, sys.den, sys.dt, labels)
-
-
-class _Pickler(pickle.Pickler):
-    """Pickles python-control systems as their matrices (they hold lambdas)."""
-
-    dispatch_table = copyreg.dispatch_table.copy()
-    dispatch_table[control.StateSpace] = _reduce_ss
-    dispatch_table[control.TransferFunction] = _reduce_tf
-
-
-def dumps(value: Any, key: str) -> bytes:
-    """``value`` as a cache file's bytes: header (magic, key, payload digest) and pickle."""
+    Raises
+    ------
+    sim.codec.CodecError
+        ``value`` holds something the codec does not store.
+    """
+    tree, arrays = encode(value, modules=design_modules(kind) if kind else ())
+    layout, chunks, offset = [], [], 0
+    for a in arrays:
+        raw = np.ascontiguousarray(a).tobytes()
+        layout.append([a.dtype.str, list(a.shape), offset, len(raw)])
+        chunks.append(raw)
+        offset += len(raw)
     buffer = io.BytesIO()
-    _Pickler(buffer, protocol=5).dump(value)
-    payload = buffer.getvalue()
-    header = f"{FORMAT} {key} {hashlib.sha256(payload).hexdigest()}\n".encode()
-    return MAGIC + header + payload
+    np.savez(buffer, key=np.array(f"{FORMAT} {key}"),
+             tree=np.frombuffer(json.dumps({"layout": layout, "value": tree}).encode(),
+                                np.uint8),
+             blob=np.frombuffer(b"".join(chunks), np.uint8))
+    return buffer.getvalue()
 
 
-def loads(data: bytes, key: str) -> Any:
+def loads(data: bytes, key: str, kind: str | None = None) -> Any:
     """The value of a cache file written by :func:`dumps` under ``key``.
 
     Raises
     ------
     ValueError
-        The header, key or payload digest does not match (the file is not trusted).
+        Not such a file, another key, a malformed tree or a class that is not
+        allowed (the file is not trusted).
     """
-    if not data.startswith(MAGIC):
-        raise ValueError("not a griploop design cache file")
-    header, _, payload = data[len(MAGIC):].partition(b"\n")
-    fields = header.decode("ascii", "replace").split()
-    expected = [str(FORMAT), key, hashlib.sha256(payload).hexdigest()]
-    if fields != expected:
-        raise ValueError(f"design cache header {fields} does not match {expected}")
-    return pickle.loads(payload)
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as f:
+            if str(f["key"]) != f"{FORMAT} {key}":
+                raise ValueError(f"design cache key {str(f['key'])!r} is not {key!r}")
+            document = json.loads(f["tree"].tobytes().decode())
+            blob = f["blob"].tobytes()
+    except (OSError, KeyError, zipfile.BadZipFile, UnicodeDecodeError) as exc:
+        raise ValueError(f"not a griploop design cache file ({exc})") from None
+    arrays = []
+    for dtype, shape, offset, size in document["layout"]:
+        if offset + size > len(blob) or np.dtype(dtype).hasobject:
+            raise ValueError("design cache file: an array lies outside its buffer")
+        arrays.append(np.frombuffer(blob[offset:offset + size], dtype=dtype).reshape(shape).copy())
+    try:
+        return decode(document["value"], arrays, modules=design_modules(kind) if kind else ())
+    except CodecError as exc:
+        raise ValueError(str(exc)) from None
 
 
-def _read(path: Path, key: str) -> Any:
+def _read(path: Path, key: str, kind: str | None = None) -> Any:
     """The value stored at ``path``, or None when missing, corrupted or foreign."""
     try:
-        return loads(path.read_bytes(), key)
+        return loads(path.read_bytes(), key, kind)
     except FileNotFoundError:
         return None
     except Exception:  # noqa: BLE001  (any unreadable or mismatched file is a miss)
@@ -181,17 +170,17 @@ def _read(path: Path, key: str) -> Any:
 class _WrittenThrough(dict):
     """A design's analyses by force; each new one is also written to the cache file."""
 
-    def __init__(self, initial: Mapping[float, Any], path: Path, key: str) -> None:
+    def __init__(self, initial: Mapping[float, Any], path: Path, key: str, kind: str) -> None:
         super().__init__(initial)
-        self._path, self._key = path, key
+        self._path, self._key, self._kind = path, key, kind
 
     def __setitem__(self, force_n: float, analysis: Any) -> None:
         super().__setitem__(force_n, analysis)
-        stored = _read(self._path, self._key)  # another process may have added some
+        stored = _read(self._path, self._key, self._kind)  # another process may have added some
         merged = {**(stored if isinstance(stored, dict) else {}), **self}
         try:
-            write_atomic(self._path, dumps(merged, self._key))
-        except (OSError, pickle.PicklingError, TypeError, AttributeError):
+            write_atomic(self._path, dumps(merged, self._key, self._kind))
+        except (OSError, CodecError):
             pass  # not cached: the analysis is still returned
 
     def __reduce__(self) -> tuple[type, tuple[dict[float, Any]]]:
@@ -215,7 +204,8 @@ def cached_design(obj: ObjectSpec, kind: str, control_dt_s: float, spec: Mapping
     Returns
     -------
     design : ControllerDesign
-    source : {"disk", "built", "built (cache off)", "built (cache not writable)"}
+    source : {"disk", "built", "built (cache off)", "built (cache not writable)", \
+"built (not storable)"}
     """
     root = cache_dir()
     if root is None:
@@ -223,17 +213,68 @@ def cached_design(obj: ObjectSpec, kind: str, control_dt_s: float, spec: Mapping
     key = design_key(obj, kind, control_dt_s, spec, forces_n)
     stem = root / f"{obj.name}-{kind}-{key}"
     design_path, analyses_path = stem.with_suffix(".design"), stem.with_suffix(".analyses")
-    design = _read(design_path, key)
+    design = _read(design_path, key, kind)
     if design is not None and getattr(design, "kind", None) == kind:
         source = "disk"
     else:
         design = build()
         try:
-            write_atomic(design_path, dumps(design, key))
+            write_atomic(design_path, dumps(design, key, kind))
             source = "built"
-        except (OSError, pickle.PicklingError, TypeError, AttributeError):
+        except OSError:
             source = "built (cache not writable)"
-    stored = _read(analyses_path, key)
+        except CodecError:  # e.g. a plugin's controller holding a function
+            source = "built (not storable)"
+    stored = _read(analyses_path, key, kind)
     analyses = {**(stored if isinstance(stored, dict) else {}), **design._cache}
-    design._cache = _WrittenThrough(analyses, analyses_path, key)
+    design._cache = _WrittenThrough(analyses, analyses_path, key, kind)
     return design, source
+
+
+_MEMO: dict[tuple, Any] = {}
+
+
+def grasp_design(obj: ObjectSpec, kind: str, control_dt_s: float,
+                 spec: Mapping[str, Any] | None) -> Any:
+    """The controller a grasp of ``obj`` runs (``design_for_object``, memoized).
+
+    Every command designs through this function (``episode``, ``margins``, the
+    feedback tasks, ``live``), so they design the same controller for the same
+    object. A fragile object's break force is the user's force limit (the
+    hand's "fragile" setting, ``force_max_n``), which bounds the MPC and the
+    slip reflex. Designs are kept in memory per process and on disk for every
+    process (:func:`cached_design`, with the loop analyses made so far); a
+    design is reset at the start of every episode, so episodes in one process
+    share it.
+
+    Parameters
+    ----------
+    obj : ObjectSpec
+        The grasped object.
+    kind : str
+        Registered controller kind.
+    control_dt_s : float
+        Control period, s.
+    spec : mapping or None
+        Keyword arguments of ``design_for_object`` (specification, kind
+        options, ``scheduled``, ``operating_force_n``, ``forces_n``).
+
+    Returns
+    -------
+    controllers.design.ControllerDesign
+    """
+    from controllers.design import design_for_object
+    from controllers.design_plant import DEFAULT_FORCE_GRID_N
+
+    spec = dict(spec or {})
+    if obj.break_force_n is not None:
+        spec.setdefault("force_max_n", float(obj.break_force_n))
+    key = (obj, kind, float(control_dt_s),
+           tuple(sorted((k, tuple(sorted(v.items())) if isinstance(v, Mapping) else
+                         tuple(v) if isinstance(v, list) else v) for k, v in spec.items())))
+    if key not in _MEMO:
+        forces_n = tuple(float(f) for f in spec.get("forces_n", DEFAULT_FORCE_GRID_N))
+        _MEMO[key], _ = cached_design(
+            obj, kind, float(control_dt_s), spec, forces_n,
+            lambda: design_for_object(obj, kind, control_dt_s=control_dt_s, **spec))
+    return _MEMO[key]

@@ -3,10 +3,11 @@
 Building an object's plant family linearizes the MuJoCo hand at 20 grip forces
 (about 2 s); every sweep worker and every command would otherwise do it again.
 A family is stored under a key that hashes the object's full specification,
-the control period, the force grid, the griploop version and the source of
-the modules that produce it (the hand model, its XML, the environment, the
-contact reading, the linearization and the design-plant code), so a change to
-any of them misses the cache instead of reading a stale model.
+the control period, the force grid, the griploop version and every source file
+of the packages that produce it (:data:`SOURCE_PACKAGES`: the hand model, its
+XML, the environment, the contact reading, the linearization and the
+design-plant code), so a change to any of them misses the cache instead of
+reading a stale model.
 
 Location: ``$GRIPLOOP_CACHE_DIR/plants`` (default ``~/.cache/griploop/plants``;
 ``GRIPLOOP_CACHE_DIR=off`` disables the disk cache). Writes are atomic (a
@@ -23,7 +24,6 @@ import functools
 import hashlib
 import io
 import json
-from importlib import metadata, resources
 from pathlib import Path
 
 import control
@@ -31,15 +31,14 @@ import numpy as np
 
 from controllers.design_plant import DesignPlant, OperatingPoint, PlantFamily
 from controllers.errors import PlantError
+from sim import cache as sim_cache
 from sim.cache import cache_subdir, write_atomic
 from sim.hand.objects import ObjectSpec
 
 FORMAT = 1
-_SOURCES = (("sim.hand", "model.py"), ("sim.hand", "grasp_env.py"), ("sim.hand", "contact.py"),
-            ("sim.hand", "linearize.py"), ("sim.hand", "objects.py"),
-            ("sim.hand", "assets/hand.xml"),
-            ("controllers", "design_plant.py"), ("controllers", "plant.py"),
-            ("controllers", "identify.py"))
+#: Packages whose every source file a plant family depends on (the hand, its XML,
+#: the environment, the linearization and the design-plant code).
+SOURCE_PACKAGES = ("sim.hand", "controllers")
 
 
 def cache_dir() -> Path | None:
@@ -49,18 +48,11 @@ def cache_dir() -> Path | None:
 
 @functools.cache
 def source_digest() -> str:
-    """SHA-256 of the modules that produce a family and the griploop version.
+    """SHA-256 of every source file of :data:`SOURCE_PACKAGES` and the griploop version.
 
     Computed once per process: the source files do not change while it runs.
     """
-    h = hashlib.sha256()
-    for package, name in _SOURCES:
-        h.update(resources.files(package).joinpath(name).read_bytes())
-    try:
-        h.update(metadata.version("griploop").encode())
-    except metadata.PackageNotFoundError:  # running from a source tree
-        h.update(b"source")
-    return h.hexdigest()
+    return sim_cache.source_digest(SOURCE_PACKAGES)
 
 
 def family_key(obj: ObjectSpec, control_dt_s: float, forces_n: tuple[float, ...]) -> str:

@@ -91,6 +91,10 @@ def register_controller(
         Malformed reference, or ``name`` already registered.
     """
     options = tuple(options)
+    if blend not in ("switch", "interpolate") or warm not in ("neighbours", "all", "none"):
+        raise RegistrationError(f"controller {name}: expected blend 'switch' or 'interpolate' "
+                                f"and warm 'neighbours', 'all' or 'none', found {blend!r}, "
+                                f"{warm!r}")
     accepted = (*LOOP_SHAPING_OPTIONS, *options) if shaping else options
     unknown = sorted(set(defaults or {}) - set(accepted))
     if unknown:
@@ -175,25 +179,62 @@ def design_controller(name: str, plant: control.LTI, **spec: Any) -> Controller:
     Returns
     -------
     Controller
-        With ``reset()``, ``act(observation)``, ``loop(plant)`` and ``report_``.
+        With ``reset()``, ``act(observation)``, ``loop(plant)``, and ``track``
+        and ``handover`` (the design's own, or the defaults of
+        :func:`controllers.base.complete_controller`).
 
     Raises
     ------
     UnknownControllerError
         If ``name`` is not registered; the message lists the valid names.
+    SpecificationError
+        The design returned something without ``reset``, ``act`` or ``loop``.
     """
-    return _REGISTRY.get(name)(plant, **spec)
+    from controllers.base import complete_controller
+
+    return complete_controller(_REGISTRY.get(name)(plant, **spec), _plant_dt(plant), kind=name)
+
+
+def _plant_dt(plant: Any) -> float:
+    """Sampling period of a discrete design plant, s (0 if it has none)."""
+    dt = getattr(plant, "dt", None)
+    return float(dt) if isinstance(dt, (int, float)) and not isinstance(dt, bool) else 0.0
 
 
 def bank_designer(name: str) -> Callable[..., Controller]:
-    """What builds each design of a scheduled bank of ``name`` (imported on first use)."""
+    """What builds each design of a scheduled bank of ``name`` (imported on first use).
+
+    The returned function completes what it builds as :func:`design_controller` does.
+    """
+    from controllers.base import complete_controller
+
     entry = _REGISTRY.entry(name)
     bank = entry.info["bank_design"]
     if bank is None:
-        return entry.resolve()
-    from sim.registry import Entry
+        build = entry.resolve()
+    else:
+        from sim.registry import Entry
 
-    return Entry(name, bank).resolve()
+        build = Entry(name, bank).resolve()
+
+    def design(plant: control.LTI, **spec: Any) -> Controller:
+        return complete_controller(build(plant, **spec), _plant_dt(plant), kind=name)
+
+    return design
+
+
+def design_modules(name: str) -> tuple[str, ...]:
+    """Modules that define ``name``'s design functions (for cache keys and stored classes)."""
+    info = controller_info(name)
+    out = []
+    for target in (_REGISTRY.entry(name).target, info["bank_design"]):
+        if target is None:
+            continue
+        module = target.partition(":")[0] if isinstance(target, str) else getattr(
+            target, "__module__", None)
+        if module and module not in out:
+            out.append(module)
+    return tuple(out)
 
 
 def __getattr__(attr: str) -> Any:

@@ -61,6 +61,9 @@ import numpy as np
 from controllers.base import Controller, Observation, as_observation, controller_stats
 from controllers.errors import SpecificationError
 
+#: What the ``"interpolate"`` blend reads and sets on every design.
+_INTERPOLATED = ("kp", "ki_per_s", "kd_s", "set_gains")
+
 
 class ScheduledController:
     """A bank of force controllers scheduled on grip force (see the module notes).
@@ -71,7 +74,8 @@ class ScheduledController:
         Grid forces, N, strictly ascending (one design each).
     designs : sequence of controller
         The designs, each with ``reset``, ``act``, ``track``, ``handover``,
-        ``loop`` and ``dt_s``.
+        ``loop``, ``dt_s`` and ``computation_delay_samples``
+        (:func:`controllers.base.complete_controller` adds the defaults).
     blend : {"interpolate", "switch"}
         ``"interpolate"`` needs PID designs (``kp``, ``ki_per_s``, ``kd_s``).
     release_s : float
@@ -127,6 +131,12 @@ class ScheduledController:
         # cell edges: geometric midpoints between neighbouring grid forces
         self._edges = [float(np.sqrt(a * b)) for a, b in zip(forces, forces[1:], strict=False)]
         if blend == "interpolate":
+            lacking = [a for a in _INTERPOLATED if not hasattr(self.designs[0], a)]
+            if lacking:
+                raise SpecificationError(
+                    f"{name}: blend 'interpolate' schedules PID gains, and a "
+                    f"{type(self.designs[0]).__name__} has no {', '.join(lacking)}; "
+                    "register the kind with blend='switch'")
             self._gains = [(d.kp, d.ki_per_s, d.kd_s) for d in self.designs]
             self._runner = copy.deepcopy(self.designs[0])
         self._alpha = min(1.0, self.dt_s / self.release_s)

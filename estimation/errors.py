@@ -12,7 +12,7 @@ import numpy as np
 import scipy.sparse
 from sklearn.exceptions import DataConversionWarning
 
-from estimation.registry import UnknownEstimatorError  # noqa: F401  (defined where it is raised)
+from estimation.registry import MODES, UnknownEstimatorError  # noqa: F401  (defined there)
 from sim.errors import GriploopError
 
 
@@ -38,9 +38,6 @@ class RiccatiError(GriploopError, ValueError):
 
 class ModeError(GriploopError, ValueError):
     """An estimator was asked for a prediction mode it does not support."""
-
-
-MODES = ("one_step", "free_run")
 
 
 def check_mode(mode: str, supported: tuple[str, ...], who: str) -> str:

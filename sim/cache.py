@@ -7,8 +7,13 @@ Every disk cache (plant families, controller designs, pretrained estimators) liv
 
 from __future__ import annotations
 
+import hashlib
+import importlib.util
 import os
+import sys
 import tempfile
+from collections.abc import Iterable
+from importlib import metadata
 from pathlib import Path
 
 _OFF = ("off", "0", "none")
@@ -43,3 +48,48 @@ def write_atomic(path: Path, data: bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+#: Files of a package whose content a cached result depends on.
+_SOURCE_SUFFIXES = (".py", ".xml")
+
+
+def source_digest(packages: Iterable[str], modules: Iterable[str] = (),
+                  distributions: Iterable[str] = ("griploop",)) -> str:
+    """SHA-256 of the source a cached result is computed by.
+
+    Every ``.py`` and ``.xml`` file under each package (found by walking its
+    directory, so a new module counts without being listed), the file of each
+    further module (e.g. a plugin's, already imported), and the installed
+    versions of ``distributions``.
+
+    Parameters
+    ----------
+    packages : iterable of str
+        Dotted package names (``"controllers"``, ``"sim.hand"``).
+    modules : iterable of str
+        Modules outside those packages; one that is not imported, or has no
+        file, counts by its name only.
+    distributions : iterable of str
+        Distributions whose version counts (``"source"`` when not installed).
+    """
+    h = hashlib.sha256()
+    for package in packages:
+        spec = importlib.util.find_spec(package)
+        roots = list(spec.submodule_search_locations or []) if spec else []
+        for root in map(Path, roots):
+            for path in sorted(p for p in root.rglob("*") if p.suffix in _SOURCE_SUFFIXES
+                               and "__pycache__" not in p.parts):
+                h.update(f"{package}/{path.relative_to(root).as_posix()}\n".encode())
+                h.update(path.read_bytes())
+    for name in modules:
+        h.update(f"module {name}\n".encode())
+        file = getattr(sys.modules.get(name), "__file__", None)
+        if file and Path(file).is_file():
+            h.update(Path(file).read_bytes())
+    for dist in distributions:
+        try:
+            h.update(f"{dist} {metadata.version(dist)}\n".encode())
+        except metadata.PackageNotFoundError:  # running from a source tree
+            h.update(f"{dist} source\n".encode())
+    return h.hexdigest()

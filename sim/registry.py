@@ -115,6 +115,10 @@ class Registry:
         lists the registered names.
     """
 
+    #: Registrations made so far in this process, over every registry (a plugin
+    #: that imports without raising this registered nothing).
+    registrations: int = 0
+
     def __init__(self, what: str, unknown_error: type[Exception] = LookupError) -> None:
         self.what = what
         self.unknown_error = unknown_error
@@ -154,6 +158,7 @@ class Registry:
                                     f"({self._entries[name].target!r}); pass replace=True")
         entry = Entry(name, target, MappingProxyType(dict(info)))
         self._entries[name] = entry
+        Registry.registrations += 1
         return entry
 
     def unregister(self, name: str) -> None:

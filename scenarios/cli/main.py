@@ -32,6 +32,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from scenarios.execution.interrupt import exit_status, raise_on_stop
+from scenarios.plugins import PluginError, load_plugins
 from sim.errors import GriploopError
 
 #: What a user can cause: griploop's own errors (bad files, options, infeasible designs)
@@ -94,11 +95,27 @@ def version() -> str:
 
 
 def _chosen(argv: Sequence[str]) -> str | None:
-    """The subcommand named in ``argv`` (the first word that is not an option)."""
-    for word in argv:
-        if not word.startswith("-"):
+    """The subcommand named in ``argv`` (the first word that is not an option or its value)."""
+    words = iter(argv)
+    for word in words:
+        if word == "--plugin":
+            next(words, None)
+        elif not word.startswith("-"):
             return word if word in COMMANDS else None
     return None
+
+
+def _plugins(argv: Sequence[str]) -> list[str]:
+    """Modules named by ``--plugin MODULE`` (or ``--plugin=MODULE``) before the subcommand."""
+    out, words = [], iter(argv)
+    for word in words:
+        if word == "--plugin":
+            out.append(next(words, ""))
+        elif word.startswith("--plugin="):
+            out.append(word.partition("=")[2])
+        elif not word.startswith("-"):
+            break
+    return out
 
 
 def build_parser(command: str | None = "*") -> argparse.ArgumentParser:
@@ -118,6 +135,9 @@ def build_parser(command: str | None = "*") -> argparse.ArgumentParser:
         "error, 130/143 stopped by Ctrl-C/SIGTERM.",
     )
     parser.add_argument("--version", action="version", version=f"griploop {version()}")
+    parser.add_argument("--plugin", action="append", metavar="MODULE", default=[],
+                        help="import MODULE first, which registers its own controllers, "
+                        "estimators, objects or scenario kinds (repeatable)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, (module, help_) in COMMANDS.items():
         if command in ("*", name):
@@ -131,6 +151,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``griploop`` console script; returns the exit status."""
     os.environ.setdefault("MPLBACKEND", "Agg")
     argv = sys.argv[1:] if argv is None else list(argv)
+    try:  # before the parser is built: its choices list what the plugins register
+        load_plugins(_plugins(argv))
+    except PluginError as exc:
+        print(f"griploop: error: {exc}", file=sys.stderr)
+        return 2
     parser = build_parser(_chosen(argv))
     args = parser.parse_args(argv)
     try:

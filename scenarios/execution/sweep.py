@@ -36,6 +36,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from scenarios.execution.interrupt import Interrupted, raise_on_stop
+from scenarios.plugins import load_plugins
 from scenarios.runners.dispatch import require_runners
 from scenarios.schema import DEFAULT_TIME_LIMIT_S, ExpandedScenario, Scenario
 from scenarios.store import Outcome, ResultStore, content_hash, encode_traces, package_version
@@ -614,6 +615,7 @@ def run_sweep(
     time_limit_s: float | None = DEFAULT_TIME_LIMIT_S,
     total: int | None = None,
     poll_s: float = 0.25,
+    plugins: Sequence[str] = (),
 ) -> SweepSummary:
     """Run the unfinished scenarios of a planned sweep and record each outcome.
 
@@ -654,6 +656,10 @@ def run_sweep(
         progress bar); default ``len(planned)``.
     poll_s : float
         How often to look at scenarios another driver is running, s.
+    plugins : sequence of str
+        Plugin modules (:func:`scenarios.plugins.load_plugins`) the scenarios
+        need: loaded here before the local workers are forked, and by every
+        dask worker before its first scenario.
 
     Returns
     -------
@@ -672,6 +678,7 @@ def run_sweep(
     """
     if workers < 1:
         raise SweepError(f"workers must be >= 1 (found {workers})")
+    plugins = load_plugins(plugins)
     if time_limit_s is not None and not time_limit_s > 0:
         raise SweepError(f"time_limit_s must be > 0 (found {time_limit_s})")
     name = task_name(task)
@@ -732,7 +739,8 @@ def run_sweep(
     with raise_on_stop() as stop:
         stopping[0] = stop
         try:
-            for p, outcome in _outcomes(stream(), task, workers, scheduler, time_limit_s):
+            for p, outcome in _outcomes(stream(), task, workers, scheduler, time_limit_s,
+                                         plugins):
                 record(p, outcome)
             while busy:  # run by another driver: wait for its rows, or take over its claims
                 time.sleep(poll_s)
@@ -743,7 +751,7 @@ def run_sweep(
                 for _ in range(len(waiting) - len(mine)):
                     _untally(bar)
                 for p, outcome in _outcomes(claimed(mine), task, workers, scheduler,
-                                            time_limit_s):
+                                            time_limit_s, plugins):
                     record(p, outcome)
         finally:
             store.release_claims(owner)
@@ -879,9 +887,16 @@ def _untally(bar: Progress | None) -> None:
         bar.total -= 1
 
 
+def execute_with_plugins(plugins: Sequence[str], task: Task, scenario: Scenario, hash_: str,
+                         time_limit_s: float | None) -> Outcome:
+    """:func:`execute_limited` after loading ``plugins`` (on a dask worker; once per process)."""
+    load_plugins(plugins)
+    return execute_limited(task, scenario, hash_, time_limit_s)
+
+
 def _outcomes(
     todo: Iterable[PlannedScenario], task: Task, workers: int, scheduler: str | None,
-    time_limit_s: float | None,
+    time_limit_s: float | None, plugins: Sequence[str] = (),
 ) -> Iterator[tuple[PlannedScenario, Outcome]]:
     items = iter(todo)
     first = next(items, None)
@@ -907,8 +922,8 @@ def _outcomes(
             if p is None:
                 return False
             future = client.submit(
-                execute_limited, task, p.scenario, p.hash, time_limit_s, pure=False
-            )
+                execute_with_plugins, tuple(plugins), task, p.scenario, p.hash, time_limit_s,
+                pure=False)
             futures[future] = p
             queue.add(future)
             return True

@@ -30,10 +30,12 @@ from typing import Any
 
 import numpy as np
 
+from controllers.design_cache import grasp_design
 from estimation.features import PAPER_CHANNELS, align_to_windows, extract_features
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
 from scenarios.live.errors import SessionError
+from scenarios.outcomes import outcome_of
 from scenarios.runners.dispatch import DivergedError
 from scenarios.runners.episode import (
     CONTACT_N,
@@ -43,12 +45,10 @@ from scenarios.runners.episode import (
     Calibration,
     _closed_loop,
     _lift_time_s,
-    cached_design,
     contact_peak_ratio,
     episode_metrics,
     fit_on_features,
     intended_grip_n,
-    outcome_of,
     reference_from_windows,
     stream_estimates,
     was_lifted,
@@ -282,7 +282,7 @@ def episode_on_recording(recording: Recording, cal: RecordedCalibration, obj: Ob
     timings = dict.fromkeys(("t_features_s", "t_estimator_s", "t_controller_s",
                              "t_physics_s"), 0.0)
     with one_blas_thread():
-        design = cached_design(obj, controller, control_dt_s, controller_spec)
+        design = grasp_design(obj, controller, control_dt_s, controller_spec)
         rec = recording.slice(0, min(recording.n_samples,
                                      int(round((episode_s + 0.5) * recording.fs_hz))))
         t0 = time.perf_counter()

@@ -51,6 +51,7 @@ from typing import Any
 
 import numpy as np
 
+from controllers.design_cache import grasp_design
 from controllers.drive import HandLoop
 from estimation.threads import one_blas_thread
 from scenarios.live.recorded import RecordedCalibration, grasp_metrics
@@ -59,7 +60,6 @@ from scenarios.runners.episode import (
     HAND_FORCE_AT_MVC_N,
     LIFT_DURATION_S,
     _lift_time_s,
-    cached_design,
 )
 from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.hand.objects import ObjectSpec
@@ -214,7 +214,7 @@ class LiveGrasp:
         s = settings
         self.settings, self.cal, self.obj, self.controller = s, cal, obj, controller
         self.lift_after_s = _lift_time_s(s.duration_s, s.hold_s)
-        self.design = cached_design(obj, controller, s.control_dt_s, controller_spec)
+        self.design = grasp_design(obj, controller, s.control_dt_s, controller_spec)
         schedule = WristSchedule(lift_after_s=self.lift_after_s, lift_duration_s=LIFT_DURATION_S)
         self.env = GraspEnv(obj, 0.0, control_dt_s=s.control_dt_s, episode_s=s.duration_s,
                             schedule=schedule)

@@ -47,7 +47,8 @@ import numpy as np
 
 from controllers.base import controller_stats
 from controllers.bounds import slip_threshold_n
-from controllers.design import ControllerDesign, OperatingAnalysis, design_for_object, worst_case
+from controllers.design import ControllerDesign, OperatingAnalysis, worst_case
+from controllers.design_cache import grasp_design
 from controllers.drive import HandLoop
 from estimation.evaluation import split_index
 from estimation.features import PAPER_CHANNELS, FeatureSet, align_to_windows, extract_features
@@ -56,6 +57,7 @@ from estimation.paper import PAPER_ORDER
 from estimation.registry import make_estimator
 from estimation.reproduce import estimator_params
 from estimation.threads import one_blas_thread
+from scenarios.outcomes import outcome_of
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.operator_loop import LiveUser, scene_from_info
 from scenarios.runners.subject import calibration_session, subject_for
@@ -79,7 +81,6 @@ SETTLE_FLOOR_N = 0.2
 CONTACT_N = 0.5  # grip force that counts as contact in the metrics
 CONTACT_PEAK_WINDOW_S = 0.5  # contact_peak_ratio: peak within this long after both sides touch
 LIFTED_FRACTION = 0.5  # lifted: the object rose at least this fraction of the lift height
-OUTCOMES = ("held", "not_lifted", "dropped", "crushed")
 
 
 # --------------------------------------------------------------------- calibration
@@ -232,15 +233,6 @@ def contact_peak_ratio(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndar
     i = window[int(np.argmax(grip_n[window]))]
     ref = float(reference_n[i])
     return (float(grip_n[i] / ref) if ref > 0 else None), t0
-
-
-def outcome_of(*, lifted: bool, dropped: bool, crushed: bool) -> str:
-    """The episode's outcome category, one of :data:`OUTCOMES` (crush first)."""
-    if crushed:
-        return "crushed"
-    if not lifted:
-        return "not_lifted"
-    return "dropped" if dropped else "held"
 
 
 def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray,
@@ -431,7 +423,7 @@ def run_episode(
                         generator=generator, order=order,
                         identification_fraction=identification_fraction,
                         calibration_s=calibration_s)
-        design = cached_design(obj, controller, control_dt_s, controller_spec)
+        design = grasp_design(obj, controller, control_dt_s, controller_spec)
         target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
         trial = run_trial(subject, obj, cal, design, operator, goal_n=target_n,
                           seeds=(episode_seq, env_seq, operator_seq), generator=generator,
@@ -747,38 +739,6 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
     return EpisodeResult(row=row, traces=traces, design=design)
 
 
-_DESIGNS: dict[tuple, ControllerDesign] = {}
-
-
-def cached_design(obj: ObjectSpec, controller: str, control_dt_s: float,
-                  spec: Mapping[str, Any] | None) -> ControllerDesign:
-    """:func:`controllers.design.design_for_object` memoized per object, kind, period and spec.
-
-    In memory per process, and on disk for every process of the machine
-    (:mod:`controllers.design_cache`, with the loop analyses made so far), so
-    sweep workers and later commands load a design instead of redoing it.
-    A design is reset at the start of every episode, so episodes in one process
-    share it (and the analyses it has cached). A fragile object's break force
-    is the user's force limit (the hand's "fragile" setting), which bounds the
-    MPC and the slip reflex.
-    """
-    from controllers import design_cache
-    from controllers.design_plant import DEFAULT_FORCE_GRID_N
-
-    spec = dict(spec or {})
-    if obj.break_force_n is not None:
-        spec.setdefault("force_max_n", float(obj.break_force_n))
-    key = (obj, controller, float(control_dt_s),
-           tuple(sorted((k, tuple(sorted(v.items())) if isinstance(v, Mapping) else v)
-                        for k, v in spec.items())))
-    if key not in _DESIGNS:
-        forces_n = tuple(float(f) for f in spec.get("forces_n", DEFAULT_FORCE_GRID_N))
-        _DESIGNS[key], _ = design_cache.cached_design(
-            obj, controller, float(control_dt_s), spec, forces_n,
-            lambda: design_for_object(obj, controller, control_dt_s=control_dt_s, **spec))
-    return _DESIGNS[key]
-
-
 def was_lifted(object_height_m: np.ndarray) -> bool:
     """Whether the object rose :data:`LIFTED_FRACTION` of the wrist's lift height, at any time."""
     rise = np.asarray(object_height_m) - object_height_m[0]
@@ -946,6 +906,7 @@ def controller_spec(scenario: Scenario) -> dict[str, Any]:
         spec["slip_reflex"] = {"latency_s": c.slip_reflex.latency_s, "gain": c.slip_reflex.gain}
     if not c.scheduled:
         spec["scheduled"] = False
+    spec.update(c.options)  # the kind's own declared options (validated by the schema)
     return spec
 
 

@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from controllers.design_cache import grasp_design
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
@@ -45,7 +46,6 @@ from scenarios.runners.episode import (
     LIFT_DURATION_S,
     Calibration,
     _lift_time_s,
-    cached_design,
     calibrate,
     controller_spec,
     hold_level_for,
@@ -107,7 +107,7 @@ class _Setup:
         cal_seq, trial_seq = root.spawn(2)
         self.trial_seqs = [s.spawn(3) for s in trial_seq.spawn(scenario.protocol.trials)]
         self.cal = _calibration(scenario, self.subject, cal_seq)
-        self.design = cached_design(self.obj, scenario.controller.kind, self.dt, self.spec)
+        self.design = grasp_design(self.obj, scenario.controller.kind, self.dt, self.spec)
         self.timings = dict.fromkeys(("t_semg_s", "t_features_s", "t_estimator_s",
                                       "t_operator_s", "t_controller_s", "t_physics_s"), 0.0)
 

@@ -134,12 +134,12 @@ def iter_design(spec: SweepConfig) -> Iterator[dict[str, Any]]:
 
 def _seed_key(scenario: Scenario, paths: Sequence[str]) -> str:
     """Canonical JSON of the fields named by ``paths`` (what seeds depend on)."""
-    data = scenario.model_dump(mode="json")
+    data = scenario.canonical_dict()
     picked = {}
     for path in sorted(set(paths)):
         node: Any = data
         for part in path.split("."):
-            node = node[part]
+            node = node.get(part) if isinstance(node, dict) else None  # unset option: None
         picked[path] = node
     return json.dumps(picked, sort_keys=True, separators=(",", ":"))
 

@@ -104,6 +104,65 @@ def _registered(value: str, names: tuple[str, ...]) -> str:
     return value
 
 
+#: Options with a field of their own in :class:`ControllerConfig`.
+_CONTROLLER_FIELDS = ("horizon", "solver")
+
+
+def controller_own_options(kind: str) -> dict[str, Any]:
+    """A controller kind's registered options without a field of their own, with defaults.
+
+    ``{name: default or None}``.
+    """
+    from controllers.registry import controller_info
+
+    info = controller_info(kind)
+    return {k: info["defaults"].get(k) for k in info["options"] if k not in _CONTROLLER_FIELDS}
+
+
+class OptionError(GriploopError, ValueError):
+    """An option the component does not declare; :attr:`key` names it (for the file line)."""
+
+    def __init__(self, message: str, key: str) -> None:
+        super().__init__(message)
+        self.key = key
+
+
+def check_declared_options(what: str, given: dict[str, Any],
+                           declared: dict[str, Any]) -> dict[str, Any]:
+    """``given`` if every key is declared and has the type of its declared default.
+
+    Parameters
+    ----------
+    what : str
+        The component, for messages (``"controller lead_lag"``).
+    given : dict
+        Options from the scenario.
+    declared : dict
+        ``{name: default}``; a ``None`` default accepts any value.
+
+    Raises
+    ------
+    OptionError
+        An undeclared option (the message names the declared ones) or a value
+        of another type than the default's.
+    """
+    for key, value in given.items():
+        if key not in declared:
+            has = ", ".join(sorted(declared)) or "none"
+            raise OptionError(f"{what} has no option {key!r} (its options: {has})", key)
+        default = declared[key]
+        if default is None:
+            continue
+        numeric = isinstance(default, (int, float)) and not isinstance(default, bool)
+        ok = (isinstance(value, (int, float)) and not isinstance(value, bool)
+              and (isinstance(default, float) or isinstance(value, int))) if numeric else (
+            isinstance(value, type(default)))
+        if not ok or (numeric and not np.isfinite(value)):
+            raise OptionError(f"{what} option {key}: expected a {type(default).__name__} "
+                              f"like its default {default!r} (found {value!r})", key)
+    return given
+
+
 class ScenarioError(GriploopError, ValueError):
     """A scenario or sweep file is malformed, has unknown keys or bad values."""
 
@@ -330,6 +389,11 @@ class ControllerConfig(_Model):
     scheduled : bool
         Gain-scheduled over grip force (default) or one fixed design at the
         design force (see :mod:`controllers.schedule`).
+    options : dict
+        The kind's own design options as registered
+        (:func:`controllers.registry.register_controller` ``options``, e.g.
+        ``lag_ratio`` of ``lead_lag``), except those with a field here
+        (``horizon``, ``solver``); each value has the type of the kind's default.
     """
 
     kind: str = "pid"
@@ -342,11 +406,21 @@ class ControllerConfig(_Model):
     control_hz: float = Field(100.0, ge=100.0, le=500.0)
     slip_reflex: SlipReflexConfig = Field(default_factory=SlipReflexConfig)
     scheduled: bool = True
+    options: dict[str, Any] = Field(default_factory=dict)
 
     @field_validator("kind")
     @classmethod
     def _registered_controller(cls, value: str) -> str:
         return _registered(value, controller_names())
+
+    @field_validator("options")
+    @classmethod
+    def _declared_options(cls, value: dict[str, Any], info: Any) -> dict[str, Any]:
+        kind = info.data.get("kind")
+        if kind is None:  # the kind itself failed; its error is reported
+            return value
+        return check_declared_options(f"controller {kind}", value,
+                                      controller_own_options(kind))
 
     @model_validator(mode="after")
     def _consistent(self) -> ControllerConfig:
@@ -485,9 +559,20 @@ class Scenario(_Model):
             )
         return self
 
+    def canonical_dict(self) -> dict[str, Any]:
+        """Every field as JSON types, without empty ``controller.options``.
+
+        A scenario that sets no kind options hashes and seeds as it did before
+        kinds could declare options.
+        """
+        data = self.model_dump(mode="json")
+        if not data["controller"]["options"]:
+            del data["controller"]["options"]
+        return data
+
     def canonical_json(self) -> str:
-        """The scenario as canonical JSON: every field, sorted keys, no spaces."""
-        return json.dumps(self.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+        """The scenario as canonical JSON (:meth:`canonical_dict`), sorted keys, no spaces."""
+        return json.dumps(self.canonical_dict(), sort_keys=True, separators=(",", ":"))
 
 
 class Uniform(_Model):
@@ -621,10 +706,16 @@ class SweepConfig(_Model):
         Dotted field path to the values it takes (cartesian product).
     random : RandomDesign or None
         Seeded random design.
+    plugins : list of str
+        Modules to import first, which register the controllers, estimators,
+        objects or kinds the scenarios name (:mod:`scenarios.plugins`); loaded
+        in the driver and in every worker.
     """
 
     name: str | None = Field(None, min_length=1, max_length=200, pattern=r"^[\w.\-]+$")
     description: str = ""
+    plugins: list[Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z_][\w.]*$")]] = Field(
+        default_factory=list)
     seed: int = Field(0, ge=0, le=_MAX_SEED)
     replicates: int = Field(1, ge=1, le=10_000)
     time_limit_s: float = Field(DEFAULT_TIME_LIMIT_S, gt=0.0, le=86_400.0)
@@ -657,6 +748,9 @@ def field_paths(model: type[BaseModel] = Scenario, prefix: str = "") -> list[str
         sub = field.annotation
         if isinstance(sub, type) and issubclass(sub, BaseModel):
             out.extend(field_paths(sub, f"{prefix}{name}."))
+        elif model is ControllerConfig and name == "options":
+            out.extend(f"{prefix}options.{k}" for k in sorted(
+                {k for kind in controller_names() for k in controller_own_options(kind)}))
         else:
             out.append(prefix + name)
     return out

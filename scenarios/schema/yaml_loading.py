@@ -233,6 +233,9 @@ def _describe(exc: ValidationError, root: type[BaseModel] | None) -> tuple[tuple
     """Location and ``field.path: reason (found VALUE)`` of the first error."""
     err = exc.errors(include_url=False)[0]
     loc = tuple(p for p in err["loc"] if p not in _DIST_TAGS)
+    key = getattr(err.get("ctx", {}).get("error"), "key", None)
+    if key is not None:  # an option error names its key: point at that key's line
+        loc = (*loc, key)
     field = _dotted(loc) or "<top>"
     if err["type"] == "extra_forbidden":
         reason = f"unknown key {loc[-1]!r}" if loc else "unknown key"
@@ -307,11 +310,28 @@ def load_sweep(path: str | Path) -> SweepConfig:
         raise ScenarioError(
             f"{source}:1: <top>: expected a mapping with 'base' (found {type(data).__name__})"
         )
+    _load_plugins_of(data, source, lines)
     spec = _validate(SweepConfig, data, source, lines)
     if spec.name is None:
         spec = spec.model_copy(update={"name": path.stem})
     _check_design(spec, source, lines)
     return spec
+
+
+def _load_plugins_of(data: Mapping[str, Any], source: str, lines: Mapping[tuple, int]) -> None:
+    """Import the sweep's ``plugins`` before validation: they register the names it uses."""
+    from scenarios.plugins import PluginError, load_plugins
+
+    plugins = data.get("plugins", [])
+    if not isinstance(plugins, list) or not all(isinstance(p, str) for p in plugins):
+        return  # the schema reports the malformed field
+    for i, module in enumerate(plugins):
+        try:
+            load_plugins([module])
+        except PluginError as exc:
+            line = _line_of(("plugins", i), lines)
+            where = f"{source}:{line}" if line else source
+            raise ScenarioError(f"{where}: plugins[{i}]: {exc}") from None
 
 
 def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>") -> Scenario:

@@ -126,3 +126,49 @@ def test_cache_off(monkeypatch):
     monkeypatch.setenv("GRIPLOOP_CACHE_DIR", "off")
     design, source = _cached()
     assert source == "built (cache off)" and design.controller is not None
+
+
+def test_a_file_that_names_a_foreign_class_is_a_miss_and_builds_nothing(cache, monkeypatch):
+    import io
+    import json
+    import os
+
+    _cached()
+    (path,) = cache.glob("*.design")
+    key = design_cache.design_key(CAN, "pid", 0.01, SPEC, GRID)
+    called = []
+    monkeypatch.setattr(os, "system", lambda *a: called.append(a))
+    buffer = io.BytesIO()  # well formed, right key, asks for os.system
+    tree = {"layout": [], "value": {"$object": "os:system", "id": 0, "state": {}}}
+    np.savez(buffer, key=np.array(f"{design_cache.FORMAT} {key}"),
+             tree=np.frombuffer(json.dumps(tree).encode(), np.uint8),
+             blob=np.zeros(0, np.uint8))
+    path.write_bytes(buffer.getvalue())
+    with pytest.raises(ValueError, match="not allowed"):
+        design_cache.loads(path.read_bytes(), key)
+    design, source = _cached()
+    assert source == "built" and called == []
+
+
+def test_the_key_follows_the_source_of_a_plugin_kinds_module(tmp_path, monkeypatch):
+    from controllers.registry import register_controller, unregister_controller
+
+    module = tmp_path / "my_keyed_plugin.py"
+    source = ("from controllers.pid import design_pid\n\n\n"
+              "def design(plant, **spec):\n    return design_pid(plant, **spec)\n")
+    module.write_text(source)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import my_keyed_plugin
+
+    register_controller("my_keyed", my_keyed_plugin.design, fixed={"structure": "pi"})
+    try:
+        design_cache.source_digest.cache_clear()
+        before = design_cache.design_key(CAN, "my_keyed", 0.01, SPEC, GRID)
+        module.write_text(source.replace("**spec)\n", "**spec)  # edited\n"))
+        design_cache.source_digest.cache_clear()
+        after = design_cache.design_key(CAN, "my_keyed", 0.01, SPEC, GRID)
+        assert before != after
+        assert design_cache.design_key(CAN, "pid", 0.01, SPEC, GRID) != after
+    finally:
+        unregister_controller("my_keyed")
+        design_cache.source_digest.cache_clear()

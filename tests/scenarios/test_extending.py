@@ -17,6 +17,9 @@ import numpy as np
 import pytest
 
 from controllers.base import Controller, as_observation
+from controllers.bounds import slip_threshold_n
+from controllers.design import design_for_object
+from controllers.errors import SpecificationError
 from controllers.registry import (
     check_options,
     controller_names,
@@ -36,10 +39,12 @@ from estimation.registry import (
 )
 from scenarios.cli.main import build_parser
 from scenarios.execution.sweep import DEFAULT_TASK, plan, run_sweep
+from scenarios.outcomes import OUTCOMES
 from scenarios.report import build_report
 from scenarios.report.html import Section
 from scenarios.report.sections import register_section, section_names, unregister_section
 from scenarios.runners.dispatch import register_kind, scenario_kinds, unregister_kind
+from scenarios.runners.episode import controller_spec, run_episode
 from scenarios.schema import ScenarioError, expand_sweep, load_sweep, parse_scenario
 from scenarios.store import ResultStore
 from sim.hand.objects import (
@@ -100,31 +105,44 @@ class MeanStream:
         return self.value
 
 
-class Proportional:
-    """Toy controller: ``u = kp (reference - grip)``, clipped to -1..1."""
+class Integral:
+    """Toy controller: ``u_k = u_(k-1) + ki T e_k``, clipped to -1..1; only reset, act and loop.
 
-    computation_delay_samples = 0
+    No ``track``, ``handover``, ``dt_s`` attribute of the protocol or gains: the
+    defaults of :class:`controllers.base.ControllerBase` complete it.
+    """
 
-    def __init__(self, kp: float, dt_s: float) -> None:
-        self.kp, self.dt_s = kp, dt_s
+    def __init__(self, ki_per_s: float, period_s: float) -> None:
+        self.ki_per_s, self.period_s, self.u = ki_per_s, period_s, 0.0
 
     def reset(self, u0: float = 0.0) -> None:
-        self.u = u0
+        self.u = float(u0)
 
     def act(self, observation) -> float:
         obs = as_observation(observation)
-        self.u = float(np.clip(self.kp * (obs.reference_n - obs.grip_force_n), -1.0, 1.0))
+        step = self.ki_per_s * self.period_s * (obs.reference_n - obs.grip_force_n)
+        self.u = float(np.clip(self.u + step, -1.0, 1.0))
         return self.u
 
     def loop(self, plant: control.LTI) -> control.LTI:
-        return control.tf([self.kp], [1.0], self.dt_s) * plant
+        # the integrator ki T z / (z - 1) and one period of computation delay
+        return control.tf([self.ki_per_s * self.period_s], [1.0, -1.0], self.period_s) * plant
 
 
-def design_proportional(plant: control.LTI, *, phase_margin_deg: float = 60.0,
-                        crossover_rad_s: float = 20.0, gain_scale: float = 1.0) -> Proportional:
-    """Gain that puts the loop's crossover at ``crossover_rad_s`` (times ``gain_scale``)."""
-    response = abs(complex(control.evalfr(plant, np.exp(1j * crossover_rad_s * plant.dt))))
-    return Proportional(gain_scale / response, float(plant.dt))
+def design_integral(plant: control.LTI, *, phase_margin_deg: float = 60.0,
+                    crossover_rad_s: float = 20.0, gain_scale: float = 1.0) -> Integral:
+    """The fastest crossover up to ``crossover_rad_s`` whose loop keeps ``phase_margin_deg``.
+
+    ``gain_scale`` multiplies the gain found (1: the loop crosses over there).
+    """
+    dt = float(plant.dt)
+    w = np.geomspace(0.05, crossover_rad_s, 400)
+    z = np.exp(1j * w * dt)
+    shape = np.array([complex(control.evalfr(plant, zi)) for zi in z]) * dt / (z - 1.0)
+    phase_deg = np.degrees(np.unwrap(np.angle(shape)))
+    ok = np.flatnonzero(phase_deg >= -180.0 + phase_margin_deg)
+    i = int(ok[-1]) if ok.size else 0
+    return Integral(gain_scale / abs(shape[i]), dt)
 
 
 @dataclass(frozen=True)
@@ -173,7 +191,7 @@ def toy_section(context) -> Section:
 def toys():
     """Register every toy, and remove the registrations afterwards."""
     register_estimator("toy_mean", MeanForce, modes=("free_run",), params={"shrink": 0.5})
-    register_controller("toy_p", design_proportional, options=("gain_scale",),
+    register_controller("toy_p", design_integral, options=("gain_scale",),
                         defaults={"phase_margin_deg": 60.0, "crossover_rad_s": 20.0,
                                   "gain_scale": 1.0})
     register_generator("half_noise", HalfNoise)
@@ -238,7 +256,9 @@ def test_registrations_are_checked():
     with pytest.raises(RegistrationError, match="'package.module:attribute'"):
         register_object("jar", "not-a-reference")
     with pytest.raises(RegistrationError, match="not among its options"):
-        register_controller("bad", design_proportional, shaping=False, defaults={"gain": 1})
+        register_controller("bad", design_integral, shaping=False, defaults={"gain": 1})
+    with pytest.raises(RegistrationError, match="expected blend"):
+        register_controller("bad", design_integral, blend="average")
     assert "bad" not in controller_names() and "jar" not in object_names()
 
 
@@ -309,7 +329,9 @@ def test_a_sweep_runs_the_toys_and_the_report_shows_the_toy_section(toys, tmp_pa
     results = sorted((r["result"] for r in rows), key=lambda r: r["mass_kg"])
     assert [r["mass_kg"] for r in results] == [0.2, 0.4]
     assert {r["kind"] for r in results} == {"toy_kind"}
-    assert {(r["generator"], r["controller"]) for r in results} == {("half_noise", "Proportional")}
+    # completed with the protocol's defaults (track, handover): the toy itself has neither
+    assert {(r["generator"], r["controller"]) for r in results} == {
+        ("half_noise", "CompletedController")}
     assert all(r["estimate_n"] < r["mean_force_n"] - 0.5 for r in results)  # shrink 0.5
     assert section_names()[-2:] == ("toy_section", "provenance")
     report = build_report(db, tmp_path / "report", render_frame=False)
@@ -349,3 +371,87 @@ def test_every_registered_generator_object_and_kind_satisfies_its_contract():
     for name in object_names():
         assert make_object(name).name == name
     assert set(scenario_kinds()) >= {"reproduction", "calibration", "episode"}
+
+
+# ------------------------------------------------------------------ end to end
+
+CAN = make_object("can")
+
+
+def test_a_controller_with_only_reset_act_and_loop_holds_the_can(toys):
+    scheduled = design_for_object(CAN, "toy_p")  # one design per grid force of the can
+    lo, hi = scheduled.family.range_n
+    assert len(scheduled.design_forces_n) >= 10 and lo <= 2.0 and hi >= 20.0
+    analyses = [scheduled.analyse(f) for f in (lo, 8.0, hi)]
+    assert all(a.ok and a.margins.stable for a in analyses)
+    assert all(a.controller is None for a in analyses)  # no transfer function: loop() only
+    assert min(a.margins.phase_margin_deg for a in analyses) >= 55.0  # the toy's design rule
+    for spec in ({"crossover_rad_s": 20.0}, {"crossover_rad_s": 20.0, "scheduled": False}):
+        result = run_episode(VirtualSubject.sample(0, 0), CAN, estimator="oracle",
+                             controller="toy_p", controller_spec=spec, seed=0)
+        row = result.row
+        assert row["outcome"] == "held", (spec, row)
+        assert row["held_force_n"] > slip_threshold_n(CAN.mass_kg, CAN.friction)
+    assert result.design.scheduled is False and len(result.design.design_forces_n) == 1
+
+
+def test_interpolated_scheduling_is_refused_for_a_controller_without_gains(toys):
+    register_controller("toy_interp", design_integral, blend="interpolate")
+    try:
+        with pytest.raises(SpecificationError) as info:
+            design_for_object(CAN, "toy_interp")
+    finally:
+        unregister_controller("toy_interp")
+    message = str(info.value)
+    assert "blend 'interpolate'" in message and "kp" in message and "\n" not in message
+
+
+def test_a_design_without_act_is_refused_in_one_line(toys):
+    register_controller("toy_broken", lambda plant, **spec: object(), shaping=False)
+    try:
+        with pytest.raises(SpecificationError, match=r"toy_broken: .* without reset, act, loop"):
+            design_controller("toy_broken", control.c2d(control.tf([1.0], [0.1, 1.0]), 0.01))
+    finally:
+        unregister_controller("toy_broken")
+
+
+def test_the_toy_estimator_drives_an_episode(toys):
+    result = run_episode(VirtualSubject.sample(0, 0), CAN, estimator="toy_mean",
+                         controller="pid", seed=0, episode_s=4.0, hold_s=1.0)
+    reference = result.traces["reference_n"]
+    assert result.row["estimator"] == "toy_mean"
+    estimated = reference[reference > 0]  # zero until the first feature window is full
+    assert estimated.size > 0.8 * reference.size
+    assert np.ptp(estimated) < 1e-9  # a constant: the shrunk calibration mean
+    assert result.row["outcome"] in OUTCOMES
+
+
+def test_a_controller_option_reaches_the_design_from_yaml(toys, tmp_path):
+    path = tmp_path / "opts.yaml"
+    path.write_text("base:\n  kind: episode\n  controller:\n    kind: toy_p\n    options:\n"
+                    "      gain_scale: 0.5\n")
+    scenario = expand_sweep(load_sweep(path))[0].scenario
+    spec = controller_spec(scenario)
+    assert spec["gain_scale"] == 0.5
+    half = design_for_object(CAN, "toy_p", **spec)
+    full = design_for_object(CAN, "toy_p", **{**spec, "gain_scale": 1.0})
+    ratio = half.core.designs[3].ki_per_s / full.core.designs[3].ki_per_s
+    assert ratio == pytest.approx(0.5)
+
+
+def test_an_undeclared_yaml_option_names_the_line_and_the_declared_options(toys, tmp_path):
+    path = tmp_path / "opts.yaml"
+    path.write_text("base:\n  kind: episode\n  controller:\n    kind: toy_p\n    options:\n"
+                    "      gain_scale: 0.5\n      gain: 2.0\n")
+    with pytest.raises(ScenarioError) as info:
+        load_sweep(path)
+    assert str(info.value) == (f"{path}:7: base.controller.options.gain: controller toy_p has "
+                               "no option 'gain' (its options: gain_scale)")
+    path.write_text("base:\n  controller: {kind: toy_p, options: {gain_scale: fast}}\n")
+    with pytest.raises(ScenarioError, match=r":2: .*gain_scale: expected a float"):
+        load_sweep(path)
+    path.write_text("base:\n  controller: {kind: pid}\ngrid:\n  controller.options.gain_scale:"
+                    " [0.5]\n")
+    with pytest.raises(ScenarioError, match=r"controller pid has no option 'gain_scale' "
+                                            r"\(its options: none\)"):
+        expand_sweep(load_sweep(path))

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from controllers.bounds import slip_threshold_n
+from controllers.design_cache import grasp_design
+from scenarios.outcomes import outcome_of
 from scenarios.runners.episode import (
     _closed_loop,
-    cached_design,
     contact_peak_ratio,
-    outcome_of,
     run_episode,
     was_lifted,
 )
@@ -27,7 +27,7 @@ LIBRARY = ([("ball", {}), ("cup", {}), ("block", {}), ("egg", {})]
 
 def _run(obj, kind, reference, episode_s, spec=None):
     t = np.arange(reference.size) * DT
-    design = cached_design(obj, kind, DT, spec or {})
+    design = grasp_design(obj, kind, DT, spec or {})
     timings = dict.fromkeys(("t_controller_s", "t_physics_s"), 0.0)
     traces, failure, info = _closed_loop(obj, design, reference, t, DT, episode_s, 3.4,
                                          np.random.SeedSequence(0), timings, False)

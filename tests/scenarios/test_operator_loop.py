@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from controllers.design_cache import grasp_design
 from scenarios.runners import episode as E
 from scenarios.runners.dispatch import UnsupportedScenarioError
 from sim.hand.objects import make_object
@@ -21,7 +22,7 @@ def _both_paths(subject, obj, estimator, mode, seed):
     """The batch reference and the live one of a scripted user, each closed on the hand."""
     cal_seq, ep_seq, env_seq, op_seq = np.random.SeedSequence(seed).spawn(4)
     cal = E.calibrate(subject, estimator, mode, rng=np.random.default_rng(cal_seq))
-    design = E.cached_design(obj, "pid", DT, None)
+    design = grasp_design(obj, "pid", DT, None)
     goal = E.intended_grip_n(obj, 1.5)
     timings = dict.fromkeys(TIMING, 0.0)
     batch = E._reference_stream(subject, cal, goal, np.random.default_rng(ep_seq),

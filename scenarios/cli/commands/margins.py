@@ -21,9 +21,9 @@ import numpy as np
 from controllers.design import (
     ControllerDesign,
     OperatingAnalysis,
-    design_for_object,
     worst_case,
 )
+from controllers.design_cache import grasp_design
 from controllers.design_plant import object_for
 from controllers.figures import margins_over_force_figure, save_loop_figures
 from controllers.registry import check_options, default_spec
@@ -69,9 +69,9 @@ def design_from_args(args: argparse.Namespace) -> ControllerDesign:
     check_options(args.controller, given)  # e.g. mpc takes no loop-shaping options
     spec.update(given)
     obj = object_for(args.object, mass_kg=args.mass_kg, friction=args.friction)
-    return design_for_object(obj, args.controller, control_dt_s=args.dt_s,
-                             scheduled=args.fixed_at_n is None,
-                             operating_force_n=args.fixed_at_n, **spec)
+    if args.fixed_at_n is not None:
+        spec.update(scheduled=False, operating_force_n=args.fixed_at_n)
+    return grasp_design(obj, args.controller, args.dt_s, spec)  # as an episode designs it
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

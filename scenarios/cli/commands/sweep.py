@@ -123,6 +123,7 @@ def run(args: argparse.Namespace) -> int:
             sweep_name=spec.name,
             retry_failed=args.retry_failed,
             progress=not args.no_progress,
+            plugins=spec.plugins,
         )
     print(
         f"{spec.name}: {summary.total} scenarios, {summary.skipped} already stored, "
