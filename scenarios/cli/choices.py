@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from scenarios.cli.errors import UnknownChoiceError
-from scenarios.schema.models import (
+from scenarios.schema.names import (
     controller_names,
     estimator_choices,
     feedback_modes,

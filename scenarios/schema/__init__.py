@@ -1,6 +1,7 @@
 """Scenario and sweep schema: pydantic models, YAML loading and sweep expansion.
 
-:mod:`~scenarios.schema.models` holds the models, :mod:`~scenarios.schema.yaml_loading`
+:mod:`~scenarios.schema.models` holds the scenario's models,
+:mod:`~scenarios.schema.sweep_file` the sweep file's, :mod:`~scenarios.schema.yaml_loading`
 reads and validates files and mappings, :mod:`~scenarios.schema.expansion` expands a
 sweep into scenarios; every public name is re-exported here.
 
@@ -53,23 +54,15 @@ from scenarios.schema.models import (
     DEFAULT_TIME_LIMIT_S,
     ORACLE,
     SIZE_LENGTHS,
-    Choice,
     ControllerConfig,
-    Distribution,
     EstimatorConfig,
-    Integers,
-    LogUniform,
-    Normal,
     ObjectConfig,
     OperatorParamsConfig,
     ProtocolConfig,
-    RandomDesign,
     Scenario,
     ScenarioError,
     SlipReflexConfig,
     SubjectConfig,
-    SweepConfig,
-    Uniform,
     UserConfig,
     controller_names,
     estimator_choices,
@@ -80,6 +73,16 @@ from scenarios.schema.models import (
     object_names,
     scenario_kinds,
     user_kinds,
+)
+from scenarios.schema.sweep_file import (
+    Choice,
+    Distribution,
+    Integers,
+    LogUniform,
+    Normal,
+    RandomDesign,
+    SweepConfig,
+    Uniform,
 )
 from scenarios.schema.yaml_loading import (
     MAX_YAML_DEPTH,

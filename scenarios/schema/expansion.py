@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from scenarios.schema.models import Scenario, ScenarioError, SweepConfig, _set_path
+from scenarios.schema.models import Scenario, ScenarioError, _set_path
+from scenarios.schema.sweep_file import SweepConfig
 from scenarios.schema.yaml_loading import _describe, _short
 
 DEFAULT_MAX_SCENARIOS = 100_000

@@ -1,13 +1,9 @@
-"""Pydantic models of a scenario and a sweep file.
+"""Pydantic models of a scenario (the sweep file's models: :mod:`scenarios.schema.sweep_file`).
 
-Names of the extensible families (scenario kinds, sEMG generators, objects,
-estimators, controllers) are not listed here: each field is checked, when a
-scenario is validated, against the registry that owns the family, so a
-registration made later (in a plugin or a test) is accepted at once. The
-registries are imported on first validation; each imports only its names.
-
-Module attributes ``ESTIMATORS``, ``OBJECTS``, ``GENERATORS``, ``CONTROLLERS``
-and ``SCENARIO_KINDS`` give the names registered at the time they are read.
+Names of the extensible families are checked against their registries when a
+scenario is validated (:mod:`scenarios.schema.names`). Module attributes
+``ESTIMATORS``, ``OBJECTS``, ``GENERATORS``, ``CONTROLLERS`` and
+``SCENARIO_KINDS`` give the names registered at the time they are read.
 """
 
 from __future__ import annotations
@@ -16,151 +12,35 @@ import copy
 import json
 from typing import Annotated, Any, Literal
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from scenarios.schema.names import (  # noqa: F401  (re-exported: the schema's public names)
+    _NAMES,
+    ORACLE,
+    _registered,
+    check_declared_options,
+    controller_names,
+    controller_own_options,
+    estimator_choices,
+    feedback_modes,
+    generator_names,
+    kind_protocols,
+    object_names,
+    scenario_kinds,
+    user_kinds,
+)
 from sim.errors import GriploopError
 
-#: Reference source that is not an estimator: the user's true intent (a perfect estimate).
-ORACLE = "oracle"
 SIZE_LENGTHS = {"sphere": 1, "cylinder": 2, "box": 3}
 _MAX_SEED = 2**63 - 1
 DEFAULT_TIME_LIMIT_S = 120.0
 """Default per-scenario time limit, s: 100x a typical episode (1 s), 10x a slow one."""
 
 
-def scenario_kinds() -> tuple[str, ...]:
-    """Scenario kinds registered in :mod:`scenarios.runners.dispatch`."""
-    from scenarios.runners.dispatch import scenario_kinds as kinds
-
-    return kinds()
-
-
-def kind_protocols(kind: str) -> tuple[str, ...]:
-    """Protocols a scenario kind runs (empty: any), from its registration."""
-    from scenarios.runners.dispatch import kind_info
-
-    return tuple(kind_info(kind)["protocols"])
-
-
-def generator_names() -> tuple[str, ...]:
-    """sEMG generators registered in :mod:`sim.user.generators`."""
-    from sim.user.generators import generator_names as names
-
-    return names()
-
-
-def object_names() -> tuple[str, ...]:
-    """Objects registered in :mod:`sim.hand.objects`."""
-    from sim.hand.objects import object_names as names
-
-    return names()
-
-
-def estimator_choices() -> tuple[str, ...]:
-    """Estimators registered in :mod:`estimation.registry`, then :data:`ORACLE`."""
-    from estimation.registry import estimator_names
-
-    return (*estimator_names(), ORACLE)
-
-
-def controller_names() -> tuple[str, ...]:
-    """Controller kinds registered in :mod:`controllers.registry`."""
-    from controllers.registry import controller_names as names
-
-    return names()
-
-
-def user_kinds() -> tuple[str, ...]:
-    """User kinds (operator models) registered in :mod:`sim.user.operators`."""
-    from sim.user.operators import operator_names
-
-    return operator_names()
-
-
-def feedback_modes() -> tuple[str, ...]:
-    """Feedback modes registered in :mod:`sim.user.operators`."""
-    from sim.user.operators import feedback_names
-
-    return feedback_names()
-
-
-_NAMES = {"ESTIMATORS": estimator_choices, "OBJECTS": object_names,
-          "GENERATORS": generator_names, "CONTROLLERS": controller_names,
-          "SCENARIO_KINDS": scenario_kinds, "USER_KINDS": user_kinds,
-          "FEEDBACK_MODES": feedback_modes}
-
-
 def __getattr__(attr: str) -> Any:
     if attr in _NAMES:  # the names registered at the time of reading
         return _NAMES[attr]()
     raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
-
-
-def _registered(value: str, names: tuple[str, ...]) -> str:
-    """``value`` if it is one of ``names``; else the one-line error listing them."""
-    if value not in names:
-        raise ValueError(f"expected one of {', '.join(names)} (found {value!r})")
-    return value
-
-
-#: Options with a field of their own in :class:`ControllerConfig`.
-_CONTROLLER_FIELDS = ("horizon", "solver")
-
-
-def controller_own_options(kind: str) -> dict[str, Any]:
-    """A controller kind's registered options without a field of their own, with defaults.
-
-    ``{name: default or None}``.
-    """
-    from controllers.registry import controller_info
-
-    info = controller_info(kind)
-    return {k: info["defaults"].get(k) for k in info["options"] if k not in _CONTROLLER_FIELDS}
-
-
-class OptionError(GriploopError, ValueError):
-    """An option the component does not declare; :attr:`key` names it (for the file line)."""
-
-    def __init__(self, message: str, key: str) -> None:
-        super().__init__(message)
-        self.key = key
-
-
-def check_declared_options(what: str, given: dict[str, Any],
-                           declared: dict[str, Any]) -> dict[str, Any]:
-    """``given`` if every key is declared and has the type of its declared default.
-
-    Parameters
-    ----------
-    what : str
-        The component, for messages (``"controller lead_lag"``).
-    given : dict
-        Options from the scenario.
-    declared : dict
-        ``{name: default}``; a ``None`` default accepts any value.
-
-    Raises
-    ------
-    OptionError
-        An undeclared option (the message names the declared ones) or a value
-        of another type than the default's.
-    """
-    for key, value in given.items():
-        if key not in declared:
-            has = ", ".join(sorted(declared)) or "none"
-            raise OptionError(f"{what} has no option {key!r} (its options: {has})", key)
-        default = declared[key]
-        if default is None:
-            continue
-        numeric = isinstance(default, (int, float)) and not isinstance(default, bool)
-        ok = (isinstance(value, (int, float)) and not isinstance(value, bool)
-              and (isinstance(default, float) or isinstance(value, int))) if numeric else (
-            isinstance(value, type(default)))
-        if not ok or (numeric and not np.isfinite(value)):
-            raise OptionError(f"{what} option {key}: expected a {type(default).__name__} "
-                              f"like its default {default!r} (found {value!r})", key)
-    return given
 
 
 class ScenarioError(GriploopError, ValueError):
@@ -573,172 +453,6 @@ class Scenario(_Model):
     def canonical_json(self) -> str:
         """The scenario as canonical JSON (:meth:`canonical_dict`), sorted keys, no spaces."""
         return json.dumps(self.canonical_dict(), sort_keys=True, separators=(",", ":"))
-
-
-class Uniform(_Model):
-    """Uniform on ``[low, high)``."""
-
-    dist: Literal["uniform"]
-    low: float
-    high: float
-
-    @model_validator(mode="after")
-    def _ordered(self) -> Uniform:
-        _check_order(self.low, self.high)
-        if not np.isfinite(self.high - self.low):
-            raise ValueError(
-                f"high - low must be a finite span (found low={self.low:g}, high={self.high:g})"
-            )
-        return self
-
-    def draw(self, rng: np.random.Generator, n: int) -> list[Any]:
-        """``n`` draws."""
-        return rng.uniform(self.low, self.high, n).tolist()
-
-
-class LogUniform(_Model):
-    """Log-uniform on ``[low, high)``, ``0 < low < high``."""
-
-    dist: Literal["loguniform"]
-    low: float = Field(gt=0.0)
-    high: float = Field(gt=0.0)
-
-    @model_validator(mode="after")
-    def _ordered(self) -> LogUniform:
-        _check_order(self.low, self.high)
-        return self
-
-    def draw(self, rng: np.random.Generator, n: int) -> list[Any]:
-        """``n`` draws."""
-        return np.exp(rng.uniform(np.log(self.low), np.log(self.high), n)).tolist()
-
-
-class Normal(_Model):
-    """Gaussian with mean ``mean`` and standard deviation ``sd``."""
-
-    dist: Literal["normal"]
-    mean: float = Field(ge=-1e300, le=1e300)
-    sd: float = Field(gt=0.0, le=1e300)
-
-    def draw(self, rng: np.random.Generator, n: int) -> list[Any]:
-        """``n`` draws."""
-        return rng.normal(self.mean, self.sd, n).tolist()
-
-
-class Integers(_Model):
-    """Integers uniform on ``low..high`` inclusive."""
-
-    dist: Literal["integers"]
-    low: int = Field(ge=-(2**62), le=2**62)
-    high: int = Field(ge=-(2**62), le=2**62)
-
-    @model_validator(mode="after")
-    def _ordered(self) -> Integers:
-        if self.high < self.low:
-            raise ValueError(f"high must be >= low (found low={self.low}, high={self.high})")
-        return self
-
-    def draw(self, rng: np.random.Generator, n: int) -> list[Any]:
-        """``n`` draws."""
-        return rng.integers(self.low, self.high, n, endpoint=True).tolist()
-
-
-class Choice(_Model):
-    """One of ``values`` with equal probability."""
-
-    dist: Literal["choice"]
-    values: list[Any] = Field(min_length=1)
-
-    def draw(self, rng: np.random.Generator, n: int) -> list[Any]:
-        """``n`` draws."""
-        return [self.values[int(i)] for i in rng.integers(0, len(self.values), n)]
-
-
-Distribution = Annotated[
-    Uniform | LogUniform | Normal | Integers | Choice, Field(discriminator="dist")
-]
-
-
-class RandomDesign(_Model):
-    """A seeded random design: ``n`` scenarios with fields drawn independently.
-
-    Attributes
-    ----------
-    n : int
-        Number of scenarios.
-    seed : int or None
-        Seed of the draws; defaults to the sweep seed.
-    params : dict of str to Distribution
-        Dotted field path to its distribution.
-    """
-
-    n: int = Field(ge=1, le=1_000_000)
-    seed: int | None = Field(None, ge=0, le=_MAX_SEED)
-    params: dict[str, Distribution] = Field(min_length=1)
-
-
-class SweepConfig(_Model):
-    """A sweep file: a base scenario expanded over a grid or a random design.
-
-    Attributes
-    ----------
-    name : str or None
-        Name of the sweep in the results store; defaults to the file stem.
-    description : str
-        Free text.
-    seed : int
-        Sweep seed: per-scenario seeds and random designs derive from it.
-    replicates : int
-        Copies of each design point; copies differ only by their derived seed.
-    time_limit_s : float
-        Wall-time limit of one scenario, s: a scenario still running after it
-        is stopped and recorded as failed with a ``timeout`` error. Not part
-        of the scenario's content hash.
-    seed_by : list of str or None
-        Dotted field paths (or sections, e.g. ``subject``) the derived seeds
-        depend on. ``None``: the whole scenario, so every scenario draws
-        independently. Listing e.g. ``[subject]`` gives every estimator,
-        controller or object of one subject the same seed: common random
-        numbers, for paired comparisons as in the paper.
-    base : Scenario
-        Values of every field the design does not set.
-    grid : dict of str to list
-        Dotted field path to the values it takes (cartesian product).
-    random : RandomDesign or None
-        Seeded random design.
-    plugins : list of str
-        Modules to import first, which register the controllers, estimators,
-        objects or kinds the scenarios name (:mod:`scenarios.plugins`); loaded
-        in the driver and in every worker.
-    """
-
-    name: str | None = Field(None, min_length=1, max_length=200, pattern=r"^[\w.\-]+$")
-    description: str = ""
-    plugins: list[Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z_][\w.]*$")]] = Field(
-        default_factory=list)
-    seed: int = Field(0, ge=0, le=_MAX_SEED)
-    replicates: int = Field(1, ge=1, le=10_000)
-    time_limit_s: float = Field(DEFAULT_TIME_LIMIT_S, gt=0.0, le=86_400.0)
-    seed_by: list[str] | None = Field(None, min_length=1)
-    base: Scenario = Field(default_factory=Scenario)
-    grid: dict[str, list[Any]] | None = None
-    random: RandomDesign | None = None
-
-    @model_validator(mode="after")
-    def _one_design(self) -> SweepConfig:
-        if self.grid is not None and self.random is not None:
-            raise ValueError("give grid or random, not both (found both)")
-        if self.grid is not None:
-            for path, values in self.grid.items():
-                if not values:
-                    raise ValueError(f"grid path {path} needs at least one value (found [])")
-        return self
-
-
-def _check_order(low: float, high: float) -> None:
-    if not high > low:
-        raise ValueError(f"high must be > low (found low={low:g}, high={high:g})")
-
 
 
 def field_paths(model: type[BaseModel] = Scenario, prefix: str = "") -> list[str]:

@@ -20,7 +20,8 @@ from typing import Any
 import yaml
 from pydantic import BaseModel, ValidationError
 
-from scenarios.schema.models import Scenario, ScenarioError, SweepConfig, _set_path, field_paths
+from scenarios.schema.models import Scenario, ScenarioError, _set_path, field_paths
+from scenarios.schema.sweep_file import SweepConfig
 
 MAX_YAML_DEPTH = 32
 """Deepest nesting of mappings and lists a sweep file may have (aliases followed)."""
