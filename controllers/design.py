@@ -360,6 +360,35 @@ def _design_at(kind: str, plant: DesignPlant, *, phase_margin_deg: float,
     return bank_designer(kind)(plant.model, **spec), spec
 
 
+def _design_bank(kind: str, points: list[tuple[float, DesignPlant]], **design: Any
+                 ) -> tuple[ScheduledController, dict[str, Any], list[str]]:
+    """One design per ``(force, plant)`` point, scheduled; the last spec; points skipped.
+
+    Raises
+    ------
+    SpecificationError
+        No point gave a design (the last point's reason).
+    """
+    info = controller_info(kind)
+    designs, forces, notes = [], [], []
+    spec: dict[str, Any] = {}
+    last_error: SpecificationError | None = None
+    for force, plant in points:
+        try:
+            core, spec = _design_at(kind, plant, **design)
+        except (ValueError, np.linalg.LinAlgError) as exc:  # Specification/PlantError too
+            last_error = exc if isinstance(exc, SpecificationError) else SpecificationError(
+                f"{kind} at {force:g} N: {exc}")
+            notes.append(f"no design at {force:g} N: {exc}")
+            continue
+        designs.append(core)
+        forces.append(force)
+    if not designs:
+        raise last_error or SpecificationError(f"{kind}: no design on any grid force")
+    bank = ScheduledController(forces, designs, name=kind, blend=info["blend"], warm=info["warm"])
+    return bank, spec, notes
+
+
 def _kind_options(kind: str, given: dict[str, Any]) -> dict[str, Any]:
     """The kind's own options (not loop shaping): its defaults updated by ``given``."""
     info = controller_info(kind)
@@ -403,11 +432,9 @@ def design_for_object(
     crossover_rad_s, bandwidth_rad_s : float, optional
         Target gain crossover or closed-loop bandwidth (PID and lead-lag), rad/s;
         neither: :data:`DEFAULT_CROSSOVER_RAD_S`.
-    horizon : int, optional
-        MPC horizon in control periods (default: the registered default, 20).
-    lag_ratio : float, optional
-        Lead-lag: crossover over the integral corner ``wc / wl`` (default:
-        the registered default, :data:`LEAD_LAG_RATIO`).
+    horizon, lag_ratio : int, float, optional
+        MPC horizon in control periods; lead-lag crossover over integral corner
+        ``wc / wl`` (defaults: the kinds' registered ones, 20 and :data:`LEAD_LAG_RATIO`).
     safety_factor : float
         Grip over the *sensed* slip threshold for the MPC's lower bound
         (:class:`controllers.bounds.SensedSlipBound`).
@@ -453,28 +480,12 @@ def design_for_object(
         force = default_operating_force_n(obj) if operating_force_n is None else float(
             operating_force_n)
         points = [(force, cached_design_plant(obj, dt, force))]
-    designs, forces, notes = [], [], []
-    spec: dict[str, Any] = {}
-    last_error: SpecificationError | None = None
-    for force, plant in points:
-        try:
-            core, spec = _design_at(kind, plant, phase_margin_deg=phase_margin_deg,
-                                    crossover_rad_s=crossover_rad_s,
-                                    bandwidth_rad_s=bandwidth_rad_s, options=options,
-                                    slip_sensing=sensing,
-                                    force_max_n=limit)
-        except (ValueError, np.linalg.LinAlgError) as exc:  # Specification/PlantError too
-            last_error = exc if isinstance(exc, SpecificationError) else SpecificationError(
-                f"{kind} at {force:g} N: {exc}")
-            notes.append(f"no design at {force:g} N: {exc}")
-            continue
-        designs.append(core)
-        forces.append(force)
-    if not designs:
-        raise last_error or SpecificationError(f"{kind}: no design on any grid force")
-    core = ScheduledController(forces, designs, name=kind, blend=info["blend"], warm=info["warm"])
+    core, spec, notes = _design_bank(
+        kind, points, phase_margin_deg=phase_margin_deg, crossover_rad_s=crossover_rad_s,
+        bandwidth_rad_s=bandwidth_rad_s, options=options, slip_sensing=sensing,
+        force_max_n=limit)
     public_spec = {**spec, "scheduled": bool(scheduled),
-                   "design_forces_n": [float(f) for f in forces],
+                   "design_forces_n": [float(f) for f in core.forces_n],
                    "schedule_signal": "measured grip force (attack-release filter)"}
     if crossover_rad_s is None and bandwidth_rad_s is not None and info["shaping"]:
         public_spec["crossover_rad_s"] = "per design force"
@@ -484,9 +495,17 @@ def design_for_object(
                            force_max_n=None if force_max_n is None else limit)
     design = ControllerDesign(kind=kind, controller=None, core=core, family=family,
                               spec=public_spec, scheduled=bool(scheduled), notes=notes)
-    controller: Controller = ContactGate(core, closing_command=closing_command,
-                                  feedforward=design.feedforward, dt_s=dt)
-    if slip_reflex:
-        controller = SlipReflex(controller, dt_s=dt, max_force_n=limit, **dict(slip_reflex))
-    design.controller = controller
+    design.controller = _runtime(design, closing_command, slip_reflex, limit)
     return design
+
+
+def _runtime(design: ControllerDesign, closing_command: float,
+             slip_reflex: dict[str, float] | None, force_max_n: float) -> Controller:
+    """The controller the hand runs: the approach gate around the bank, then the reflex."""
+    dt = design.family.control_dt_s
+    controller: Controller = ContactGate(design.core, closing_command=closing_command,
+                                         feedforward=design.feedforward, dt_s=dt)
+    if slip_reflex:
+        controller = SlipReflex(controller, dt_s=dt, max_force_n=force_max_n,
+                                **dict(slip_reflex))
+    return controller

@@ -195,16 +195,7 @@ def record_calibration(emg_inlet: Any, force_inlet: Any | None, *, cues: Sequenc
     emg = np.concatenate(chunks)
     t_emg = np.concatenate(stamps)
     if force_inlet is not None:
-        deadline = time.monotonic() + 1.0
-        while (not f_stamps or f_stamps[-1] < t_emg[-1]) and time.monotonic() < deadline:
-            fx, fts = force_inlet.pull_chunk(timeout=0.05, max_samples=1024)
-            f_vals += [float(v[0]) for v in fx]
-            f_stamps += list(fts)
-        if not f_stamps:
-            raise SessionError(f"force stream {force_name!r} sent nothing during the session; "
-                               "nothing written")
-        order = np.argsort(f_stamps, kind="stable")
-        force = np.interp(t_emg, np.asarray(f_stamps)[order], np.asarray(f_vals)[order])
+        force = _force_on(t_emg, force_inlet, f_vals, f_stamps, force_name)
         force_source = f"lsl:{force_name}"
     else:
         force = cue_levels(cues, t_emg - ts0) * mvc_n
@@ -223,3 +214,24 @@ def record_calibration(emg_inlet: Any, force_inlet: Any | None, *, cues: Sequenc
     return Recording(emg=emg.astype(np.int8) if integer else emg, fs_hz=fs,
                      force_n=np.clip(force, 0.0, None), emg_unit=unit, metadata=metadata,
                      source=source)
+
+
+def _force_on(t_emg: np.ndarray, force_inlet: Any, f_vals: list[float], f_stamps: list[float],
+              force_name: str | None) -> np.ndarray:
+    """The force stream, read up to the last sEMG sample (1 s at most), at the sEMG times, N.
+
+    Raises
+    ------
+    SessionError
+        The force stream sent nothing during the session.
+    """
+    deadline = time.monotonic() + 1.0
+    while (not f_stamps or f_stamps[-1] < t_emg[-1]) and time.monotonic() < deadline:
+        fx, fts = force_inlet.pull_chunk(timeout=0.05, max_samples=1024)
+        f_vals += [float(v[0]) for v in fx]
+        f_stamps += list(fts)
+    if not f_stamps:
+        raise SessionError(f"force stream {force_name!r} sent nothing during the session; "
+                           "nothing written")
+    order = np.argsort(f_stamps, kind="stable")
+    return np.interp(t_emg, np.asarray(f_stamps)[order], np.asarray(f_vals)[order])

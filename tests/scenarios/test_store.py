@@ -11,6 +11,7 @@ import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 import pytest
 
+from scenarios.export import export_store
 from scenarios.schema import Scenario
 from scenarios.store import (
     Outcome,
@@ -155,9 +156,9 @@ def test_export_parquet_and_csv_hold_the_same_flat_table(tmp_path):
         record(store, a, outcome(a, r2=0.91, n_slips=0, note="fine", flag=True))
         record(store, b, outcome(b, r2=0.5, n_slips=2, note=3.5, flag=False))
         record(store, c, outcome(c, "failed"))
-        written = store.export(tmp_path / "out" / "table")
+        written = export_store(store, tmp_path / "out" / "table")
         with pytest.raises(StoreError, match="export formats"):
-            store.export(tmp_path / "x", ["xlsx"])
+            export_store(store, tmp_path / "x", ["xlsx"])
     assert [p.name for p in written] == ["table.parquet", "table.csv"]
     table = pq.read_table(written[0])
     assert table.num_rows == 3
@@ -182,5 +183,5 @@ def test_export_of_one_status_only(tmp_path):
     with ResultStore(tmp_path / "r.sqlite") as store:
         record(store, a, outcome(a, r2=0.9))
         record(store, c, outcome(c, "failed"))
-        (path,) = store.export(tmp_path / "ok", ["csv"], status="ok")
+        (path,) = export_store(store, tmp_path / "ok", ["csv"], status="ok")
     assert pa_csv.read_csv(path).num_rows == 1

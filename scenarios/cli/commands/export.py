@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from scenarios.export import export_store
 from scenarios.store import EXPORT_FORMATS, STATUSES, ResultStore
 
 
@@ -44,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     formats = EXPORT_FORMATS if args.format == "both" else (args.format,)
     stem = Path(args.out) if args.out else db.with_suffix("")
     with ResultStore(db, read_only=True) as store:
-        written = store.export(stem, formats, sweep=args.sweep, status=args.status)
+        written = export_store(store, stem, formats, sweep=args.sweep, status=args.status)
     for path in written:
         print(path)
     return 0
