@@ -25,14 +25,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from estimation.evaluation import evaluate_subject  # noqa: E402
+from estimation.evaluation import fit_and_score  # noqa: E402
 from estimation.features import extract_features  # noqa: E402
 from estimation.real_recordings import (  # noqa: E402
     FREE_RUN_MEAN,
     RECORDING_STATISTICS,
     transfer_agreement,
 )
-from estimation.reproduce import estimator_params  # noqa: E402
 from estimation.threads import one_blas_thread  # noqa: E402
 from sim.user import subjects as S  # noqa: E402
 from sim.user.difficulty import recording_difficulty, summarize  # noqa: E402
@@ -95,9 +94,8 @@ def run_variant(name: str, n: int, seed: int, generator: str) -> dict:
                                                 generator=generator, rounds=rounds)
             stats.append(recording_difficulty(rec.emg, rec.force_n, rec.fs_hz))
             fs = extract_features(rec, channels=None)
-            params = estimator_params(ESTIMATORS, np.random.default_rng(est_ss), 4,
-                                      dt_s=fs.dt_s)
-            res = evaluate_subject(fs.X, fs.y, params, dt_s=fs.dt_s, time_steps=False)
+            res, _ = fit_and_score(fs, ESTIMATORS, rng=np.random.default_rng(est_ss), order=4,
+                                   time_steps=False)
             for e in ESTIMATORS:
                 r2 = res[e]["modes"]["free_run"]["r2"]
                 scores[e].append(np.nan if r2 is None else r2)

@@ -15,6 +15,11 @@ Result of :func:`evaluate_subject` (JSON-serializable)::
                                               # "unsupported" (inputs it cannot take)
             "info": {...},                    # order, stability, epochs...
             "_pipeline": ForcePipeline}}      # the fitted estimator (not serialized)
+
+:func:`fit_and_score` is the one fit-then-score of griploop: it makes the estimators
+(:func:`estimator_params`, seeded from the caller's generator) and runs
+:func:`evaluate_subject` on one feature set. The reproduction, the evaluation of a
+recording and a calibration all call it; they differ only in the generator they pass.
 """
 
 from __future__ import annotations
@@ -32,9 +37,12 @@ from estimation.errors import (
     check_features,
     check_target,
 )
+from estimation.features import FeatureSet
 from estimation.metrics import nrmse_fit, r2_score, rmse, total_variation_rate
+from estimation.paper import PAPER_ORDER
 from estimation.pipeline import ForcePipeline
-from estimation.registry import make_estimator
+from estimation.registry import estimator_info, make_estimator
+from estimation.threads import one_blas_thread
 
 #: Fraction of windows used for identification (paper: 50 %).
 IDENTIFICATION_FRACTION = 0.5
@@ -166,6 +174,94 @@ def evaluate_subject(
     if out and all("_pipeline" not in r for r in out.values()) and first_input_error:
         raise first_input_error[0]  # the recording itself is unusable: say why, once
     return out
+
+
+def estimator_params(names: Sequence[str], rng: np.random.Generator, order: int,
+                     nn_params: Mapping[str, object] | None = None, *,
+                     dt_s: float) -> dict[str, dict]:
+    """Hyperparameters per estimator: SS order and sample time, NARX delays, NN seeds.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Registry names, in the order the seeds are drawn.
+    rng : numpy.random.Generator
+        Draws one ``random_state`` per estimator that takes a seed, in ``names`` order.
+    order : int
+        State-space order; NARX delays and hidden units follow it.
+    nn_params : mapping, optional
+        Overrides for the networks' hyperparameters (e.g. ``{"max_epochs": 50}``).
+    dt_s : float
+        Window increment, s, for the estimators that take one.
+
+    Returns
+    -------
+    dict
+        ``{name: {hyperparameter: value}}``.
+    """
+    params: dict[str, dict] = {}
+    for name in names:
+        info = estimator_info(name)
+        p: dict = {}
+        if "order" in info["order_params"]:
+            p["order"] = order
+        if info["takes_dt"]:
+            p["dt_s"] = dt_s
+        if info["takes_seed"]:
+            p["random_state"] = int(rng.integers(0, 2**31 - 1))
+        p.update({k: order for k in info["order_params"] if k != "order"})
+        if info["neural"]:
+            p.update(nn_params or {})
+        params[name] = p
+    return params
+
+
+def fit_and_score(
+    features: FeatureSet,
+    estimators: Sequence[str],
+    *,
+    rng: np.random.Generator | int | None,
+    order: int = PAPER_ORDER,
+    nn_params: Mapping[str, object] | None = None,
+    fraction: float = IDENTIFICATION_FRACTION,
+    time_steps: bool = True,
+) -> tuple[dict, dict[str, dict]]:
+    """Make, fit and score estimators on one feature set: the one fit-then-score.
+
+    The estimators are made with :func:`estimator_params` (seeds drawn from ``rng``
+    in ``estimators`` order), fitted on the first ``fraction`` of the windows and
+    scored on the rest by :func:`evaluate_subject`, with one BLAS thread.
+
+    Parameters
+    ----------
+    features : FeatureSet
+        ``X`` shape (n_windows, n_inputs), ``y`` the measured force in N.
+    estimators : sequence of str
+        Registry names.
+    rng : numpy.random.Generator, int or None
+        Seeds the estimators that draw random numbers (networks, trees).
+    order : int
+        State-space order (paper: 4).
+    nn_params : mapping, optional
+        Overrides for the networks' hyperparameters.
+    fraction : float
+        Identification fraction (paper: 0.5).
+    time_steps : bool
+        Measure the median streaming step time.
+
+    Returns
+    -------
+    results : dict
+        :func:`evaluate_subject`'s result (see the module docstring).
+    params : dict
+        ``{name: {hyperparameter: value}}`` each estimator was made with.
+    """
+    params = estimator_params(estimators, np.random.default_rng(rng), order, nn_params,
+                              dt_s=features.dt_s)
+    with one_blas_thread():
+        results = evaluate_subject(features.X, features.y, params, dt_s=features.dt_s,
+                                   fraction=fraction, time_steps=time_steps)
+    return results, params
 
 
 def _mean_sd(values: list[float]) -> tuple[float | None, float | None]:

@@ -1,9 +1,14 @@
-"""Reproduction of the paper's Tables 2 and 3 on virtual subjects.
+"""Scores of the paper's protocol and their tables: Tables 2 and 3, deployable, transfer.
 
-This module is the only place that depends on the virtual-subject API
-(:func:`sim.user.subjects.make_population`, ``VirtualSubject.paper_session``).
+This module takes recordings and features and scores estimators on them
+(:func:`estimation.evaluation.fit_and_score`); it builds no subjects.
+:func:`score_recording` scores one recording (one subject's session),
+:func:`population_result` assembles the scores of a population into the JSON
+contract below, and :func:`evaluate_recording` does both for one recording (``griploop
+evaluate``). The virtual population is made and recorded by
+:func:`scenarios.runners.reproduction.run_reproduction` (``griploop reproduce``).
 
-``run_reproduction`` returns the JSON contract::
+The JSON contract::
 
     {"estimators": {name: {mode: {"r2_mean", "r2_sd", "r2_min", "nrmse_mean", "nrmse_sd",
                                   "per_subject": [...]}}},
@@ -18,14 +23,15 @@ This module is the only place that depends on the virtual-subject API
 from __future__ import annotations
 
 import csv
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from estimation.errors import EstimationInputError
-from estimation.evaluation import aggregate, evaluate_subject, split_index
-from estimation.features import PAPER_CHANNELS, extract_features
+from estimation.evaluation import aggregate, fit_and_score, split_index
+from estimation.features import PAPER_CHANNELS, FeatureSet, extract_features
 from estimation.order import select_order
 from estimation.paper import PAPER_ORDER, SECTION_4_2, TABLE2_SUMMARY, TABLE3
 from estimation.real_recordings import SOURCE as REAL_SOURCE
@@ -38,7 +44,7 @@ from estimation.registry import (
     estimator_names,
     paper_estimators,
 )
-from estimation.threads import one_blas_thread
+from sim.recording import Recording
 
 #: Paper Table 2/3 estimators, in the paper's column order (``register_estimator(paper=True)``).
 PAPER_ESTIMATORS = paper_estimators()
@@ -122,116 +128,115 @@ def model_summary(est: object) -> dict:
     }
 
 
-def estimator_params(names: Sequence[str], rng: np.random.Generator, order: int,
-                     nn_params: dict | None = None, *, dt_s: float) -> dict[str, dict]:
-    """Hyperparameters per estimator: SS order and sample time, NARX delays, NN seeds."""
-    params: dict[str, dict] = {}
-    for name in names:
-        info = estimator_info(name)
-        p: dict = {}
-        if "order" in info["order_params"]:
-            p["order"] = order
-        if info["takes_dt"]:
-            p["dt_s"] = dt_s
-        if info["takes_seed"]:
-            p["random_state"] = int(rng.integers(0, 2**31 - 1))
-        p.update({k: order for k in info["order_params"] if k != "order"})
-        if info["neural"]:
-            p.update(nn_params or {})
-        params[name] = p
-    return params
+@dataclass
+class SubjectScore:
+    """Every estimator fitted and scored on one subject's recording.
+
+    Attributes
+    ----------
+    results : dict
+        :func:`estimation.evaluation.evaluate_subject`'s result.
+    params : dict
+        ``{name: {hyperparameter: value}}`` each estimator was made with.
+    info : dict
+        ``subject_id``, ``n_windows``, ``n_identification``, ``duration_s``.
+    order_curve : dict or None
+        The AIC over candidate orders (:func:`order_curve`), when ``ss_kf`` was fitted
+        and orders were asked for.
+    """
+
+    results: dict
+    params: dict[str, dict]
+    info: dict = field(default_factory=dict)
+    order_curve: dict | None = None
 
 
-def run_reproduction(
-    n_subjects: int = 10,
-    seed: int = 0,
+def score_recording(
+    recording: Recording,
+    estimators: Sequence[str],
     *,
-    generator: str = "noise",
+    rng: np.random.Generator | int | None,
+    channels: Sequence[int | str] | None = PAPER_CHANNELS,
     order: int = PAPER_ORDER,
-    estimators: Sequence[str] | None = None,
-    orders: Sequence[int] = tuple(range(1, 13)),
-    nn_params: dict | None = None,
-    channels: str | Sequence[int | str] | None = PAPER_CHANNELS,
-) -> dict:
-    """Run the paper's protocol on ``n_subjects`` virtual subjects.
+    nn_params: Mapping[str, object] | None = None,
+    orders: Sequence[int] | None = None,
+    subject_id: int | None = None,
+) -> tuple[SubjectScore, FeatureSet]:
+    """The paper's protocol on one recording: features, then fit-then-score.
 
     Parameters
     ----------
-    n_subjects : int
-        Population size (paper: 10).
-    seed : int
-        Seeds the population, each session and the networks' initialization.
-    generator : {"noise", "motor_units"}
-        Virtual subjects' sEMG model.
-    order : int
-        SS order used for the tables (paper: 4); NARX delays and hidden units follow it.
+    recording : Recording
+        sEMG with the measured force ``force_n``.
     estimators : sequence of str
-        Registry names to evaluate (must include ``"ss_kf"`` for the ``model`` entry);
-        ``None``: every registered estimator.
-    orders : sequence of int
-        Candidate orders for the per-subject AIC curve (paper: 1..12).
-    nn_params : dict, optional
-        Overrides for the MLP/NARX hyperparameters (e.g. ``{"max_epochs": 50}``).
-    channels : "all", sequence of int (1-based) or str
-        sEMG channels whose MAV, RMS and WL are the inputs (paper: 6, 7, 8).
+        Registry names.
+    rng : numpy.random.Generator, int or None
+        Seeds the estimators (:func:`estimation.evaluation.fit_and_score`).
+    channels : sequence of int (1-based) or str, or None
+        sEMG channels whose MAV, RMS and WL are the inputs (``None``: all).
+    order : int
+        SS order; NARX delays and hidden units follow it.
+    nn_params : mapping, optional
+        Overrides for the MLP/NARX hyperparameters.
+    orders : sequence of int, optional
+        Candidate orders for the AIC curve (needs ``ss_kf``); ``None``: no curve.
+    subject_id : int, optional
+        For the score's ``info``.
+
+    Returns
+    -------
+    score : SubjectScore
+    features : FeatureSet
+        The recording's features, ``X`` shape (n_windows, n_inputs).
+    """
+    fs = extract_features(recording, channels=channels)
+    results, params = fit_and_score(fs, estimators, rng=rng, order=order, nn_params=nn_params)
+    n_id = split_index(fs.n_windows)
+    info = {"subject_id": subject_id, "n_windows": fs.n_windows, "n_identification": n_id,
+            "duration_s": recording.duration_s}
+    curve = None
+    if orders is not None and "ss_kf" in results and "_pipeline" in results["ss_kf"]:
+        curve = order_curve(subject_id, results["ss_kf"]["_pipeline"], fs, n_id, orders)
+    return SubjectScore(results, params, info, curve), fs
+
+
+def population_result(scores: Sequence[SubjectScore], *, config: dict,
+                      order: int = PAPER_ORDER) -> dict:
+    """The JSON contract of a population's scores (see the module docstring).
+
+    Parameters
+    ----------
+    scores : sequence of SubjectScore
+        One per subject, in subject order; the first gives the ``training``
+        settings and the first with a fitted ``ss_kf`` the ``model``.
+    config : dict
+        The run's settings, stored as ``config`` (``estimators`` and ``channels``
+        are read from it).
+    order : int
+        The SS order the tables use.
 
     Returns
     -------
     dict
-        The JSON contract (see the module docstring); private keys start with ``_``.
+        JSON-serializable (:func:`to_jsonable`); private keys dropped.
     """
-    from sim.user.subjects import make_population  # the only dependency on the subject API
-
-    channels = parse_channels(channels)
-    estimators = estimator_names() if estimators is None else tuple(estimators)
-
-    with one_blas_thread():
-        return _run(make_population, n_subjects, seed, generator, order, estimators, orders,
-                    nn_params, channels)
-
-
-def _run(make_population: object, n_subjects: int, seed: int, generator: str, order: int,
-         estimators: Sequence[str], orders: Sequence[int], nn_params: dict | None,
-         channels: Sequence[int | str] | None) -> dict:
-    subjects = make_population(n=n_subjects, seed=seed)
-    children = np.random.SeedSequence([seed, 0x5EED]).spawn(n_subjects)
-    per_subject, order_curves, features_info = [], [], []
-    model = None
-    for subject, child in zip(subjects, children, strict=True):
-        session_ss, est_ss = child.spawn(2)
-        rec = subject.paper_session(rng=np.random.default_rng(session_ss), generator=generator)
-        fs = extract_features(rec, channels=channels)
-        params = estimator_params(estimators, np.random.default_rng(est_ss), order, nn_params,
-                                  dt_s=fs.dt_s)
-        res = evaluate_subject(fs.X, fs.y, params, dt_s=fs.dt_s)
-        if not per_subject:
-            training = training_settings(params, _pipelines(res))
-        per_subject.append(res)
-        n_id = split_index(fs.n_windows)
-        features_info.append({"subject_id": subject.subject_id, "n_windows": fs.n_windows,
-                              "n_identification": n_id, "duration_s": rec.duration_s})
-        if "ss_kf" in res and "_pipeline" in res["ss_kf"]:
-            if model is None:
-                model = model_summary(res["ss_kf"]["_pipeline"].estimator)
-            order_curves.append(_order_curve(subject.subject_id, res["ss_kf"]["_pipeline"],
-                                             fs, n_id, orders))
+    per_subject = [s.results for s in scores]
     result = aggregate(per_subject)
-    result["model"] = model
+    result["model"] = next((model_summary(r["ss_kf"]["_pipeline"].estimator)
+                            for r in per_subject if "_pipeline" in r.get("ss_kf", {})), None)
+    curves = [s.order_curve for s in scores if s.order_curve is not None]
     result["order_selection"] = {
-        "per_subject": order_curves,
-        "chosen_orders": [c["order"] for c in order_curves],
+        "per_subject": curves,
+        "chosen_orders": [c["order"] for c in curves],
         "order_used": order,
         "paper_order": PAPER_ORDER,
     }
     result["properties"] = _properties(per_subject)
-    result["subjects"] = features_info
-    result["config"] = {"n_subjects": n_subjects, "seed": seed, "generator": generator,
-                        "order": order, "channels": channel_label(channels),
-                        "identification_fraction": 0.5, "estimators": list(estimators),
-                        "nn_params": nn_params or {}}
-    result["nn_epochs"] = {name: [s[name]["info"].get("n_epochs") for s in per_subject]
-                           for name in estimators if estimator_info(name)["neural"]}
-    result["training"] = training
+    result["subjects"] = [s.info for s in scores]
+    result["config"] = config
+    result["nn_epochs"] = {name: [r[name]["info"].get("n_epochs") for r in per_subject]
+                           for name in config["estimators"] if estimator_info(name)["neural"]}
+    result["training"] = training_settings(scores[0].params, _pipelines(scores[0].results))
     result["recommendation"] = recommendation(result)
     result["transfer"] = transfer_table(result)
     return to_jsonable(result)
@@ -242,8 +247,8 @@ def _pipelines(evaluated: dict) -> dict:
     return {n: r["_pipeline"] for n, r in evaluated.items() if "_pipeline" in r}
 
 
-def _order_curve(subject_id: int, pipeline: object, fs: object, n_id: int,
-                 orders: Sequence[int]) -> dict:
+def order_curve(subject_id: int | None, pipeline: object, fs: FeatureSet, n_id: int,
+                orders: Sequence[int]) -> dict:
     """The AIC over candidate orders on the identification part of a subject's session.
 
     Parameters
@@ -513,7 +518,7 @@ def write_csv(result: dict, directory: str | Path) -> list[Path]:
 
 
 def evaluate_recording(
-    recording: object,
+    recording: Recording,
     *,
     channels: str | Sequence[int | str] | None = PAPER_CHANNELS,
     estimators: Sequence[str] | None = None,
@@ -530,9 +535,9 @@ def evaluate_recording(
     channels : "all", sequence of int (1-based) or str
         sEMG channels whose MAV, RMS and WL are the inputs.
     estimators, order, nn_params
-        As for :func:`run_reproduction`.
+        As for :func:`scenarios.runners.reproduction.run_reproduction`.
     seed : int
-        Seeds the networks.
+        Seeds the networks (:func:`estimation.evaluation.fit_and_score`).
 
     Returns
     -------
@@ -551,13 +556,11 @@ def evaluate_recording(
         )
     channels = parse_channels(channels)
     estimators = estimator_names() if estimators is None else tuple(estimators)
-    fs = extract_features(recording, channels=channels)
-    params = estimator_params(estimators, np.random.default_rng(seed), order, nn_params,
-                              dt_s=fs.dt_s)
-    with one_blas_thread():
-        res = evaluate_subject(fs.X, fs.y, params, dt_s=fs.dt_s)
+    score, fs = score_recording(recording, estimators, rng=seed, channels=channels, order=order,
+                                nn_params=nn_params)
+    res = score.results
     result = aggregate([res])
-    result["training"] = training_settings(params, _pipelines(res))
+    result["training"] = training_settings(score.params, _pipelines(res))
     if "ss_kf" in res and "_pipeline" in res["ss_kf"]:
         result["model"] = model_summary(res["ss_kf"]["_pipeline"].estimator)
     result["properties"] = _properties([res])

@@ -249,17 +249,17 @@ def _choose_finetuning(networks: Sequence[Network], validation: Corpus, lags: in
     return best[1], best[0], {"candidates": table}
 
 
-_SOURCE_PACKAGES = ("sim.user", "estimation")
-_SOURCE_MODULES = (("sim", "recording.py"), ("scenarios.runners", "pretraining.py"))
+_SOURCE_PACKAGES = ("sim.user", "sim.recording", "estimation")
+_SOURCE_MODULES = (("scenarios.runners", "pretraining.py"),)
 
 
 @functools.cache
 def source_digest() -> str:
     """SHA-256 of everything that makes a corpus or a pretrained network, and the version.
 
-    Every module of :mod:`sim.user` (the virtual subjects) and :mod:`estimation` (features,
-    scaling, this module), the recording type and the corpus builder: an edit to any of
-    them makes the cached networks stale.
+    Every module of :mod:`sim.user` (the virtual subjects), :mod:`sim.recording` (the
+    recording type) and :mod:`estimation` (features, scaling, this module), and the corpus
+    builder: an edit to any of them makes the cached networks stale.
     """
     h = hashlib.sha256()
     for package in _SOURCE_PACKAGES:

@@ -5,7 +5,7 @@ same pieces:
 
 - :func:`fit_calibration` fits the estimator on a calibration recording (a
   virtual subject's paper session, a file from ``griploop calibrate --lsl`` or a
-  lab's recording) exactly as :func:`scenarios.runners.episode.calibrate` fits it
+  lab's recording) exactly as :func:`scenarios.runners.calibration.calibrate` fits it
   on a simulated session: features of the chosen channels, the first 50 % of the
   windows identify, the rest scores, ``mvc_cal_n`` is the largest measured force;
 - :func:`grasp_session` records a virtual subject grasping an object, aiming at the
@@ -36,18 +36,17 @@ from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
 from scenarios.live.errors import SessionError
 from scenarios.outcomes import outcome_of
+from scenarios.runners.calibration import Calibration, fit_on_features
 from scenarios.runners.dispatch import DivergedError
 from scenarios.runners.episode import (
     CONTACT_N,
     HAND_FORCE_AT_MVC_N,
     RAMP_S,
     REST_S,
-    Calibration,
     _closed_loop,
     _lift_time_s,
     contact_peak_ratio,
     episode_metrics,
-    fit_on_features,
     intended_grip_n,
     reference_from_windows,
     stream_estimates,
@@ -68,7 +67,7 @@ class RecordedCalibration:
 
     Attributes
     ----------
-    calibration : scenarios.runners.episode.Calibration
+    calibration : scenarios.runners.calibration.Calibration
         Estimator name, mode, fitted pipeline, ``mvc_cal_n`` (N), validation R^2, fit time.
     recording : Recording
         The calibration recording.
@@ -141,7 +140,7 @@ def fit_calibration(recording: Recording, estimator: str = "ridge", *, mode: str
     SessionError
         ``estimator`` is the oracle.
     UnsupportedScenarioError, DivergedError
-        As :func:`scenarios.runners.episode.calibrate`.
+        As :func:`scenarios.runners.calibration.calibrate`.
     """
     if estimator == ORACLE:
         raise SessionError("estimator: the oracle needs the user's true force, which a "

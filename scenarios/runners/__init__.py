@@ -2,7 +2,9 @@
 
 :mod:`scenarios.runners.dispatch` maps each scenario kind to its runner (a
 registry); :mod:`scenarios.runners.subject` builds the scenario's virtual user and
-records their calibration session; :mod:`scenarios.runners.episode` runs a grasp
+records their calibration session; :mod:`scenarios.runners.calibration` fits an
+estimator on it; :mod:`scenarios.runners.reproduction` runs the paper's evaluation on
+a virtual population or one scenario; :mod:`scenarios.runners.episode` runs a grasp
 from sEMG to the hand, with :mod:`scenarios.runners.operator_loop` interleaving a user
 who reacts; :mod:`scenarios.runners.feedback_tasks` runs the feedback benchmarks
 (eggs, slip recovery, force matching);

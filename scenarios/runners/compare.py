@@ -17,7 +17,8 @@ import numpy as np
 
 from controllers.design import DEFAULT_SPECS
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
-from scenarios.runners.episode import ORACLE, run_episode
+from scenarios.runners.episode import run_episode
+from scenarios.schema import ORACLE
 from sim.hand.objects import ObjectSpec
 from sim.user.subjects import VirtualSubject
 

@@ -16,11 +16,11 @@ imported on first use, so that registering a kind never imports its simulation
 stack. A kind may be known without a runner (a build without its backend):
 :func:`register_runner` and :func:`unregister_runner` change only the runner.
 
-Registered here: ``reproduction`` (:func:`run_reproduction_scenario`), and by reference
-``episode`` and ``calibration`` (:mod:`scenarios.runners.episode`) and the feedback
-benchmarks ``eggs``, ``slip_recovery`` and ``force_matching``
-(:mod:`scenarios.runners.feedback_tasks`), so that importing this module does not
-import MuJoCo.
+Registered here, by reference so that importing this module imports neither the
+simulation nor the estimators: ``reproduction`` (:mod:`scenarios.runners.reproduction`),
+``calibration`` (:mod:`scenarios.runners.calibration`), ``episode``
+(:mod:`scenarios.runners.episode`) and the feedback benchmarks ``eggs``,
+``slip_recovery`` and ``force_matching`` (:mod:`scenarios.runners.feedback_tasks`).
 """
 
 from __future__ import annotations
@@ -28,13 +28,10 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from sim.errors import GriploopError
 from sim.registry import RegistrationError, Registry, UnresolvableEntryError, import_reference
 
 if TYPE_CHECKING:
-    from estimation.features import FeatureSet
     from scenarios.schema import Scenario
 
 ResultRow = Mapping[str, Any]
@@ -209,125 +206,9 @@ def run_scenario(scenario: Scenario) -> ResultRow:
     return row
 
 
-def run_reproduction_scenario(scenario: Scenario) -> ResultRow:
-    """One subject x estimator x mode of the paper's evaluation (kind ``reproduction``).
-
-    The virtual subject ``VirtualSubject.sample(population_seed, subject_id)``
-    (with the scenario's electrode shift, extra noise and fatigue) performs the
-    paper's squeeze session with the FSR; features are extracted on the paper's
-    channels; the estimator is fitted on the first ``identification_fraction``
-    of the windows and scored on the rest (``estimation.evaluation``), as
-    ``griploop reproduce`` does for a whole population.
-
-    Parameters
-    ----------
-    scenario : Scenario
-        Kind ``reproduction``, seed set. ``seed`` drives the session (protocol
-        timing, levels, noise) and the networks' initialization.
-
-    Returns
-    -------
-    ResultRow
-        ``r2``, ``nrmse``, ``rmse_n``, ``volatility_n_per_s`` on the validation
-        part, ``train_ms``, ``step_us``, ``order``, ``n_windows``,
-        ``n_identification``, ``session_s``, and traces ``t_s``, ``force_n``
-        (measured) and ``force_hat_n`` (estimated), shape (n_validation,).
-
-    Raises
-    ------
-    UnsupportedScenarioError
-        ``protocol.calibration_s`` set (the paper session has its own length)
-        or a mode the estimator does not have.
-    DivergedError
-        The identified model is unstable in the requested mode.
-    """
-    from scenarios.runners.subject import calibration_session, subject_for
-
-    if scenario.protocol.calibration_s is not None:
-        raise UnsupportedScenarioError(
-            "the paper session has its own length (about 25-36 s): leave "
-            f"protocol.calibration_s unset (found {scenario.protocol.calibration_s:g})"
-        )
-    session_seq, estimator_seq = np.random.SeedSequence(scenario.seed).spawn(2)
-    subject = subject_for(scenario)
-    recording, features = calibration_session(subject, np.random.default_rng(session_seq),
-                                              generator=scenario.subject.generator)
-    result = _evaluate_estimator(scenario, features, np.random.default_rng(estimator_seq))
-    return _reproduction_row(scenario, result, features, recording.duration_s)
-
-
-def _evaluate_estimator(scenario: Scenario, features: FeatureSet,
-                        rng: np.random.Generator) -> dict[str, Any]:
-    """Fit the scenario's estimator on the first part of the session, score it on the rest.
-
-    Returns
-    -------
-    dict
-        :func:`estimation.evaluation.evaluate_subject`'s entry of the estimator,
-        with its fitted ``"_pipeline"``.
-
-    Raises
-    ------
-    UnsupportedScenarioError
-        The estimator has no such mode.
-    DivergedError
-        The identified model is unstable in the requested mode.
-    """
-    from estimation.evaluation import evaluate_subject
-    from estimation.paper import PAPER_ORDER
-    from estimation.reproduce import estimator_params
-    from estimation.threads import one_blas_thread
-
-    est = scenario.estimator
-    order = PAPER_ORDER if est.order is None else est.order
-    params = estimator_params([est.name], rng, order, dt_s=features.dt_s)
-    with one_blas_thread():
-        result = evaluate_subject(features.X, features.y, params, dt_s=features.dt_s,
-                                  fraction=scenario.protocol.identification_fraction)[est.name]
-    if est.mode not in result["modes"]:
-        raise UnsupportedScenarioError(
-            f"estimator {est.name} has modes {tuple(result['modes'])} (found mode {est.mode})"
-        )
-    scores = result["modes"][est.mode]
-    if scores["status"] != "ok":
-        raise DivergedError(f"{est.name} {est.mode}: {scores.get('message', scores['status'])}")
-    return result
-
-
-def _reproduction_row(scenario: Scenario, result: Mapping[str, Any], features: FeatureSet,
-                      session_s: float) -> ResultRow:
-    """The result row of :func:`run_reproduction_scenario`, with its validation traces."""
-    from estimation.evaluation import split_index
-    from estimation.paper import PAPER_ORDER
-
-    est = scenario.estimator
-    scores = result["modes"][est.mode]
-    n_id = split_index(features.n_windows, scenario.protocol.identification_fraction)
-    force_hat_n = result["_pipeline"].predict(features.X, features.y, mode=est.mode)[n_id:]
-    return {
-        "subject_id": scenario.subject.subject_id,
-        "estimator": est.name,
-        "mode": est.mode,
-        "order": PAPER_ORDER if est.order is None else est.order,
-        "r2": float(scores["r2"]),
-        "nrmse": float(scores["nrmse"]),
-        "rmse_n": float(scores["rmse_n"]),
-        "volatility_n_per_s": float(scores["volatility_n_per_s"]),
-        "train_ms": float(result["train_ms"]),
-        "step_us": None if result["step_us"] is None else float(result["step_us"]),
-        "n_windows": int(features.n_windows),
-        "n_identification": int(n_id),
-        "session_s": float(session_s),
-        "traces": {
-            "t_s": features.t_s[n_id:],
-            "force_n": features.y[n_id:],
-            "force_hat_n": np.asarray(force_hat_n, dtype=float),
-        },
-    }
-
-
-register_kind("reproduction", run_reproduction_scenario, protocols=("paper_calibration",))
-register_kind("calibration", "scenarios.runners.episode:run_calibration_scenario",
+register_kind("reproduction", "scenarios.runners.reproduction:run_reproduction_scenario",
+              protocols=("paper_calibration",))
+register_kind("calibration", "scenarios.runners.calibration:run_calibration_scenario",
               protocols=("paper_calibration",))
 register_kind("episode", "scenarios.runners.episode:run_episode_scenario",
               protocols=("grasp_lift_hold", "fragile_handling"))

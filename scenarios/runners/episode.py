@@ -50,18 +50,16 @@ from controllers.bounds import slip_threshold_n
 from controllers.design import ControllerDesign, OperatingAnalysis, worst_case
 from controllers.design_cache import grasp_design
 from controllers.drive import HandLoop
-from estimation.evaluation import split_index
 from estimation.features import PAPER_CHANNELS, FeatureSet, align_to_windows, extract_features
-from estimation.metrics import r2_score, total_variation_rate
+from estimation.metrics import total_variation_rate
 from estimation.paper import PAPER_ORDER
-from estimation.registry import make_estimator
-from estimation.reproduce import estimator_params
 from estimation.threads import one_blas_thread
 from scenarios.outcomes import outcome_of
+from scenarios.runners.calibration import Calibration, calibrate
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.operator_loop import LiveUser, scene_from_info
-from scenarios.runners.subject import calibration_session, subject_for
-from scenarios.schema import ORACLE, Scenario
+from scenarios.runners.subject import subject_for
+from scenarios.schema import Scenario
 from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.hand.objects import ObjectSpec, make_object
 from sim.user.causal import NotCausalError
@@ -81,97 +79,6 @@ SETTLE_FLOOR_N = 0.2
 CONTACT_N = 0.5  # grip force that counts as contact in the metrics
 CONTACT_PEAK_WINDOW_S = 0.5  # contact_peak_ratio: peak within this long after both sides touch
 LIFTED_FRACTION = 0.5  # lifted: the object rose at least this fraction of the lift height
-
-
-# --------------------------------------------------------------------- calibration
-@dataclass
-class Calibration:
-    """An estimator fitted on a subject's calibration session.
-
-    Attributes
-    ----------
-    name : str
-        Estimator name (or ``"oracle"``).
-    mode : {"one_step", "free_run"}
-    pipeline : object or None
-        Fitted :class:`estimation.pipeline.ForcePipeline` (``None`` for the oracle).
-    mvc_cal_n : float
-        Largest FSR force of the calibration session, N.
-    r2 : float or None
-        Validation R^2 in ``mode`` on the session's last part (None for the oracle).
-    fit_s : float
-        Time to fit, s.
-    """
-
-    name: str
-    mode: str
-    pipeline: Any
-    mvc_cal_n: float
-    r2: float | None
-    fit_s: float
-
-
-def calibrate(
-    subject: VirtualSubject,
-    estimator: str,
-    mode: str,
-    *,
-    rng: np.random.Generator,
-    generator: str = "noise",
-    order: int = PAPER_ORDER,
-    identification_fraction: float = 0.5,
-    calibration_s: float | None = None,
-) -> Calibration:
-    """Record a calibration session and fit ``estimator`` on its first part.
-
-    Raises
-    ------
-    UnsupportedScenarioError
-        ``mode`` is not one of the estimator's modes.
-    DivergedError
-        The identified model is unstable and ``mode`` would run it open loop.
-    """
-    session_rng, estimator_rng = rng.spawn(2)
-    recording, features = calibration_session(subject, session_rng, generator=generator,
-                                              min_duration_s=calibration_s)
-    mvc_cal_n = float(np.max(recording.force_n))
-    if estimator == ORACLE:
-        return Calibration(ORACLE, mode, None, mvc_cal_n, None, 0.0)
-    return fit_on_features(features, estimator, mode, rng=estimator_rng, order=order,
-                           identification_fraction=identification_fraction,
-                           mvc_cal_n=mvc_cal_n)
-
-
-def fit_on_features(features: FeatureSet, estimator: str, mode: str, *,
-                    rng: np.random.Generator, order: int, identification_fraction: float,
-                    mvc_cal_n: float) -> Calibration:
-    """Fit ``estimator`` on the identification part of a calibration's features and score it.
-
-    The one fit-then-score of a calibration, for a simulated session (:func:`calibrate`) and
-    a recording (:mod:`scenarios.live.recorded`).
-
-    Raises
-    ------
-    UnsupportedScenarioError
-        ``mode`` is not one of the estimator's modes.
-    DivergedError
-        The identified model is unstable and ``mode`` would run it open loop.
-    """
-    split = split_index(features.n_windows, identification_fraction)
-    params = estimator_params([estimator], rng, order, dt_s=features.dt_s)[estimator]
-    start = time.perf_counter()
-    pipeline = make_estimator(estimator, **params).fit(features.X[:split], features.y[:split])
-    fit_s = time.perf_counter() - start
-    if mode not in pipeline.modes:
-        raise UnsupportedScenarioError(
-            f"estimator {estimator} has modes {pipeline.modes} (found mode {mode})"
-        )
-    reason = pipeline.divergence(mode)
-    if reason is not None:
-        raise DivergedError(f"estimator {estimator}: {reason}")
-    y_val = features.y[split:]
-    y_hat = pipeline.predict(features.X[split:], y_val if mode == "one_step" else None, mode=mode)
-    return Calibration(estimator, mode, pipeline, mvc_cal_n, r2_score(y_val, y_hat), fit_s)
 
 
 # ------------------------------------------------------------------------ reference
@@ -928,18 +835,3 @@ def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False) ->
 def run_episode_scenario(scenario: Scenario) -> dict[str, Any]:
     """Runner of scenario kind ``episode`` (see :mod:`scenarios.runners.dispatch`)."""
     return episode_from_scenario(scenario).as_result_row()
-
-
-def run_calibration_scenario(scenario: Scenario) -> dict[str, Any]:
-    """Runner of scenario kind ``calibration``: fit on a session, score the rest, no grasp."""
-    e, p = scenario.estimator, scenario.protocol
-    subject = subject_for(scenario)
-    with one_blas_thread():
-        cal = calibrate(subject, e.name, e.mode,
-                        rng=np.random.default_rng(np.random.SeedSequence(scenario.seed or 0)),
-                        generator=scenario.subject.generator,
-                        order=PAPER_ORDER if e.order is None else e.order,
-                        identification_fraction=p.identification_fraction,
-                        calibration_s=p.calibration_s)
-    return {"subject_id": subject.subject_id, "estimator": e.name, "mode": e.mode,
-            "r2": cal.r2, "mvc_cal_n": cal.mvc_cal_n, "fit_s": cal.fit_s}

@@ -40,13 +40,12 @@ import numpy as np
 from controllers.design_cache import grasp_design
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
+from scenarios.runners.calibration import Calibration, calibrate
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.episode import (
     HAND_FORCE_AT_MVC_N,
     LIFT_DURATION_S,
-    Calibration,
     _lift_time_s,
-    calibrate,
     controller_spec,
     hold_level_for,
     intended_grip_n,

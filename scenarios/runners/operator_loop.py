@@ -50,7 +50,7 @@ class LiveUser:
     ----------
     subject : VirtualSubject
         The user's body (muscles, armband, FSR).
-    calibration : scenarios.runners.episode.Calibration
+    calibration : scenarios.runners.calibration.Calibration
         The fitted estimator (or the oracle) and the force mapping.
     operator : Operator
         The user's mind (:mod:`sim.user.operators`), started here with ``plan``.

@@ -122,7 +122,7 @@ def test_one_step_figures_measure_how_slowly_force_changes():
     # On make_population(10, seed=0) (noise generator): the paper's SS + KF one step
     # (channels 6-8) scores above every sEMG-only estimate and close to persistence
     # y(k-1), as on the real recordings (0.904 / 0.969 one step, best free run 0.898).
-    from estimation.reproduce import run_reproduction
+    from scenarios.runners.reproduction import run_reproduction
 
     paper = run_reproduction(10, 0, estimators=["ss_kf", "persistence", "narx"], orders=(4,))
     ours = run_reproduction(10, 0, estimators=["ridge"], orders=(4,), channels="all")

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from estimation.registry import ESTIMATOR_NAMES
-from estimation.reproduce import format_report, run_reproduction, write_csv
+from estimation.reproduce import format_report, write_csv
+from scenarios.runners.reproduction import run_reproduction
 
 
 @pytest.fixture(scope="module")

@@ -6,9 +6,12 @@ import importlib.util
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from scenarios.cli import main
+from scenarios.cli.recording_options import FLAGS
+from sim.recording import OPTIONS, Recording
 
 
 def _writers():
@@ -120,3 +123,80 @@ def test_plot_recording_takes_the_same_options(tmp_path, capsys) -> None:
     assert main(["plot-recording", str(path), "--out", str(png), "--time-column", "timestamp",
                  "--time-unit", "ms", "--resample", "200", "--duplicates", "spread"]) == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+# ----------------------------------------------------------------- the flags that fix a file
+
+#: (header, rows, layout options, what the one-line error says). The library names
+#: its options as column-map keys (tests/sim/test_recording_layouts.py, ``LAYOUT_ERRORS``);
+#: the command line says them as its flags: every hint family, fix and option at fault.
+CLI_ERRORS = [
+    ("time_s,emg1", ["0,1", "0.005,1"], [],
+     "no time column 't' (columns: 'time_s', 'emg1'); pass --time-column time_s, or "
+     "--time-column none --fs-hz HZ if the file has no time column"),
+    ("c1", ["1", "1"], ["--time-column", "none", "--emg-columns", "c1"],
+     "no time column and no sampling rate; pass --fs-hz HZ"),
+    ("t,emg_0,emg_1", ["0,1,1", "0.005,1,1"], [], "; pass --emg-columns 'emg_*'"),
+    ("t,emg1,emg3", ["0,1,1", "0.005,1,1"], [], "without gaps or repeats, found ['emg1', "
+     "'emg3']; pass --emg-columns SPEC"),
+    ("t,emg1", ["0,1", "0.005,1"], ["--emg-columns", "x*"],
+     "sEMG columns 'x*' match no column; expected a glob matching some of 't', 'emg1' "
+     "(option --emg-columns)"),
+    ("t,emg1", ["0,1", "0.005,1"], ["--emg-columns", "emg1..emg3"],
+     "sEMG column 'emg2' not in the header; expected columns among 't', 'emg1' "
+     "(option --emg-columns)"),
+    ("t,emg1,Force", ["0,1,1", "0.005,1,1"], [],
+     "no column 'force' but found 'Force'; pass --force-column Force, or --force-column none "
+     "to load without force"),
+    ("t,emg1", ["0,1", "0.005,1"], ["--force-column", "grip"],
+     "no force column 'grip'; expected one of 't', 'emg1' (option --force-column)"),
+    ("t,emg1,t", ["0,1,0", "0.005,1,0"], [],
+     "column 't' appears 2 times; expected one: rename it or choose another column; pass "
+     "--time-column NAME"),
+    ("t,emg1", ["0,300", "0.005,1"], ["--emg-unit", "int8"],
+     "; pass --emg-unit uV, or --emg-unit mV, or --emg-unit a.u."),
+    ("t,emg1", ["0,1", "0.005,1"], ["--fs-hz", "1000"],
+     "sampling rate 1000 Hz contradicts column 't' (200 Hz from its 0.005 s step); expected "
+     "them to agree within 1% (option --fs-hz)"),
+    ("t,emg1", ["0,1", "0.005,1"], ["--fs-hz", "-3"],
+     "sampling rate: expected a positive number of hertz up to 1e+06, found -3.0 "
+     "(option --fs-hz)"),
+    ("t,emg1", ["0,1", "5,1", "10,2"], [], "(0.2 Hz, expected 10..1e+06 Hz); pass --time-unit ms"),
+    ("t,emg1", ["0,1", "0.005,1", "0.005,2"], [],
+     "(1 duplicates, first at data row 3); expected one row per stamp, or resampling; pass "
+     "--resample HZ"),
+    ("t,emg1", ["0,1", "0.005,1", "0.010,2"], ["--resample", "0.001"],
+     "choose another rate (option --resample)"),
+    ("c1", ["1", "1"], ["--time-column", "none", "--emg-columns", "c1", "--fs-hz", "100",
+                        "--resample", "100"],
+     "resampling needs a time column (found none) (option --resample)"),
+    ("t,emg1", ["0,1", "0.005,1", "0.010,2"], ["--duplicates", "spread"],
+     "the duplicates rule 'spread' applies when resampling only (found no resampling rate) "
+     "(option --duplicates); pass --resample HZ"),
+]
+
+
+def test_every_layout_option_has_a_flag() -> None:
+    assert set(FLAGS) == set(OPTIONS)
+
+
+@pytest.mark.parametrize(("header", "rows", "options", "needle"), CLI_ERRORS)
+def test_errors_name_the_flag_that_fixes_the_file(tmp_path, capsys, header, rows, options,
+                                                  needle) -> None:
+    path = tmp_path / "bad.csv"
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    assert main(["evaluate", "--recording", str(path), *options, "--estimators", "ridge"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"griploop evaluate: error: {path}: ")
+    assert needle in err[0]
+    assert "set " not in err[0] and "_hz" not in err[0]  # no library names of the options
+
+
+def test_npz_names_the_csv_only_flag(tmp_path, capsys) -> None:
+    path = Recording(emg=np.zeros((20, 2), np.int8), fs_hz=200.0).save(tmp_path / "r.npz")
+    png = tmp_path / "r.png"
+    assert main(["plot-recording", str(path), "--out", str(png), "--time-unit", "ms"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].endswith(
+        "the time unit applies to CSV files only (an NPZ recording carries its own layout and "
+        "rate) (option --time-unit)")

@@ -29,11 +29,11 @@ from controllers.analysis import loop_margins
 from controllers.bounds import slip_threshold_n
 from controllers.registry import design_controller
 from estimation.paper import TABLE2, TABLE2_SUMMARY
-from estimation.reproduce import run_reproduction
 from scenarios.cli import main
 from scenarios.execution.sweep import plan, run_sweep
 from scenarios.report import ReportInputError, build_report
 from scenarios.report import data as D
+from scenarios.runners.reproduction import run_reproduction
 from scenarios.schema import Scenario, expand_sweep, load_sweep
 from scenarios.store import Outcome, ResultStore, content_hash, encode_traces, package_version
 

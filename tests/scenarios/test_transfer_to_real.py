@@ -20,7 +20,7 @@ from estimation.real_recordings import (
     MIN_SPEARMAN,
     RECORDING_STATISTICS,
 )
-from estimation.reproduce import run_reproduction
+from scenarios.runners.reproduction import run_reproduction
 from sim.user.difficulty import recording_difficulty
 from sim.user.subjects import make_population
 

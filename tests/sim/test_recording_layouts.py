@@ -15,7 +15,9 @@ import numpy as np
 import pytest
 
 from sim.recording import (
+    OPTIONS,
     ColumnMap,
+    Fix,
     Recording,
     RecordingError,
     load_recording,
@@ -82,7 +84,7 @@ def write_logger(path: Path, *, with_time: bool, jitter_s: float = 0.0) -> Path:
 @pytest.mark.parametrize("index_name", ["", "Unnamed: 0"])
 def test_pandas_style_file_with_a_column_map(tmp_path, index_name) -> None:
     path = write_pandas_style(tmp_path / "pandas.csv", index_name=index_name)
-    with pytest.raises(RecordingError, match="pass --time-column time_s"):
+    with pytest.raises(RecordingError, match="set time_column='time_s'"):
         load_recording(path)
     rec = load_recording(path, columns=ColumnMap(time="time_s", emg="emg_*", force="force_n"))
     t, force, emg = session(200.0)
@@ -104,11 +106,12 @@ def test_myo_dump_needs_ms_then_resampling(tmp_path) -> None:
     with pytest.raises(RecordingError) as info:
         load_recording(path, columns=columns)
     assert "time column 'timestamp' in ms? found steps of 10 s" in str(info.value)
-    assert "pass --time-unit ms" in str(info.value)
+    assert "set time_unit='ms'" in str(info.value)
+    assert info.value.fixes == (Fix.set("time_unit", "ms"),)
     with pytest.raises(RecordingError) as info:
         load_recording(path, columns=columns, time_unit="ms")
     assert "not strictly increasing (4000 duplicates" in str(info.value)
-    assert "pass --resample HZ" in str(info.value)
+    assert str(info.value).endswith("; set resample_hz")
     spread = load_recording(path, columns=columns, time_unit="ms", resample_hz=200,
                             duplicates="spread")
     assert spread.fs_hz == 200.0 and spread.emg.dtype == np.int8
@@ -121,19 +124,19 @@ def test_myo_dump_needs_ms_then_resampling(tmp_path) -> None:
     assert np.max(np.abs(avg.emg - pairs)) <= 0.5 + 1e-9  # pair means rounded to counts
     assert avg.metadata["resampled"]["duplicates"] == "average"
     # the rule does nothing without resampling: refused rather than silently ignored
-    with pytest.raises(RecordingError, match="--duplicates spread applies with --resample"):
+    with pytest.raises(RecordingError, match="rule 'spread' applies when resampling only"):
         load_recording(path, columns=columns, time_unit="ms", duplicates="spread")
 
 
 def test_logger_without_time_column_in_microvolts(tmp_path) -> None:
     path = write_logger(tmp_path / "logger.csv", with_time=False)
     columns = ColumnMap(time=None, emg="ch01..ch08", force="grip_N")
-    with pytest.raises(RecordingError, match="no time column and no sampling rate; pass --fs-hz"):
+    with pytest.raises(RecordingError, match="no time column and no sampling rate; set fs_hz"):
         load_recording(path, columns=columns)
     rec = load_recording(path, columns=columns, fs_hz=1000.0)
     assert rec.fs_hz == 1000.0 and rec.emg_unit == "uV" and rec.n_channels == 8
     assert rec.channel_names[0] == "ch01" and rec.duration_s == pytest.approx(30.0)
-    # the default 't' is absent, so --fs-hz alone is enough
+    # the default 't' is absent, so fs_hz alone is enough
     alone = load_recording(path, columns=ColumnMap(emg="ch*", force="grip_N"), fs_hz=1000.0)
     np.testing.assert_array_equal(alone.emg, rec.emg)
 
@@ -141,7 +144,7 @@ def test_logger_without_time_column_in_microvolts(tmp_path) -> None:
 def test_jittered_logger_is_resampled(tmp_path) -> None:
     path = write_logger(tmp_path / "jitter.csv", with_time=True, jitter_s=0.3e-3 / 2)
     columns = ColumnMap(time="time", emg="ch*", force="grip_N")
-    with pytest.raises(RecordingError, match=r"irregular at data row \d+ .*: pass --resample HZ"):
+    with pytest.raises(RecordingError, match=r"irregular at data row \d+ .*; set resample_hz"):
         load_recording(path, columns=columns)
     rec = load_recording(path, columns=columns, resample_hz=1000.0)
     assert rec.fs_hz == 1000.0 and rec.emg_unit == "uV"
@@ -267,51 +270,100 @@ def test_bad_column_map_files(tmp_path, text, needle) -> None:
 
 # ----------------------------------------------------------------- errors name the fix
 
+#: Bad layouts: (header, rows, load_recording kwargs, what the message says, the layout
+#: option the error names (at fault or to set)). The command line says the option as its
+#: flag (tests/scenarios/test_cli_recording_layouts.py, ``CLI_ERRORS``).
+LAYOUT_ERRORS = [
+    ("t,emg_0,emg_1", ["0,1,1", "0.005,1,1"], {}, "set emg_columns='emg_*'", "emg_columns"),
+    ("t,emg1,emg3", ["0,1,1", "0.005,1,1"], {}, "without gaps or repeats", "emg_columns"),
+    ("t,emg1,Force", ["0,1,1", "0.005,1,1"], {},
+     "set force_column='Force', or force_column=None to load without force", "force_column"),
+    ("time_s,emg1", ["0,1", "0.005,1"], {},
+     "set time_column='time_s', or time_column=None and fs_hz if the file has no time column",
+     "time_column"),
+    ("c1", ["1", "1"], {"columns": ColumnMap(time=None, emg="c1")},
+     "no time column and no sampling rate; set fs_hz", "fs_hz"),
+    ("t,emg1", ["0,1", "0.005,1"], {"columns": ColumnMap(emg="x*")}, "match no column",
+     "emg_columns"),
+    ("t,emg1", ["0,1", "0.005,1"], {"columns": ColumnMap(emg="emg1..emg3")},
+     "sEMG column 'emg2' not in the header", "emg_columns"),
+    ("t,emg1", ["0,1", "0.005,1"], {"columns": ColumnMap(force="grip")},
+     "no force column 'grip'", "force_column"),
+    ("t,emg1,t", ["0,1,0", "0.005,1,0"], {}, "column 't' appears 2 times", "time_column"),
+    ("t,emg1", ["0,300", "0.005,1"], {"emg_unit": "int8"},
+     "set emg_unit='uV', or emg_unit='mV', or emg_unit='a.u.'", "emg_unit"),
+    ("t,emg1", ["0,1", "0.005,1"], {"fs_hz": 1000.0}, "sampling rate 1000 Hz contradicts",
+     "fs_hz"),
+    ("t,emg1", ["0,1", "5,1", "10,2"], {"time_unit": "ms", "resample_hz": 1e6,
+                                        "max_bytes": 999},
+     "choose another rate", "resample_hz"),
+    ("t,emg1", ["0,1", "5,1", "10,2"], {}, "set time_unit='ms'", "time_unit"),
+    ("t,emg1", ["0,1", "0.005,1", "0.005,2"], {}, "1 duplicates", "resample_hz"),
+    ("t,emg1", ["0,1", "0.005,1", "0.010,2"], {"duplicates": "spread"},
+     "duplicates rule 'spread' applies when resampling only", "duplicates"),
+    ("c1", ["1", "1"], {"columns": ColumnMap(time=None, emg="c1"), "resample_hz": 100.0,
+                        "fs_hz": 100.0}, "resampling needs a time column", "resample_hz"),
+]
 
-@pytest.mark.parametrize(
-    ("header", "rows", "kwargs", "needle"),
-    [
-        ("t,emg_0,emg_1", ["0,1,1", "0.005,1,1"], {}, "--emg-columns 'emg_*'"),
-        ("t,emg1,Force", ["0,1,1", "0.005,1,1"], {}, "pass --force-column Force"),
-        ("t,emg1", ["0,1", "0.005,1"], {"columns": ColumnMap(emg="x*")}, "matches no column"),
-        ("t,emg1", ["0,1", "0.005,1"], {"columns": ColumnMap(emg="emg1..emg3")},
-         "'emg2' (from --emg-columns) not in the header"),
-        ("t,emg1", ["0,1", "0.005,1"], {"columns": ColumnMap(force="grip")},
-         "no force column 'grip'"),
-        ("t,emg1,t", ["0,1,0", "0.005,1,0"], {}, "column 't' appears 2 times"),
-        ("t,emg1", ["0,300", "0.005,1"], {"emg_unit": "int8"}, "pass --emg-unit uV"),
-        ("t,emg1", ["0,1", "0.005,1"], {"fs_hz": 1000.0}, "--fs-hz 1000 Hz contradicts"),
-        ("t,emg1", ["0,1", "5,1", "10,2"], {"time_unit": "ms", "resample_hz": 1e6,
-                                            "max_bytes": 999},
-         "choose another HZ"),
-        ("t,emg1", ["0,1", "0.005,1", "0.010,1", "0.5,1"], {"resample_hz": 200},
-         "split the file there"),
-        ("t,emg1", ["0,1", "0.005,1", "0.004,1"], {"resample_hz": 200}, "goes back"),
-        ("t;emg1", ["0;1", "0.005;1"], {}, "looks ';'-separated"),
-        ("c1", ["1", "1"], {"columns": ColumnMap(time=None, emg="c1"), "resample_hz": 100.0,
-                            "fs_hz": 100.0}, "--resample needs a time column"),
-    ],
-)
-def test_errors_name_the_option(tmp_path, header, rows, kwargs, needle) -> None:
+
+def _named_options(exc: RecordingError) -> set[str]:
+    named = {exc.option} - {None}
+    return named | {option for fix in exc.fixes for option, _ in fix.settings}
+
+
+@pytest.mark.parametrize(("header", "rows", "kwargs", "needle", "option"), LAYOUT_ERRORS)
+def test_errors_name_what_was_expected_and_the_option(tmp_path, header, rows, kwargs, needle,
+                                                     option) -> None:
     path = tmp_path / "bad.csv"
     path.write_text(header + "\n" + "\n".join(rows) + "\n")
     with pytest.raises(RecordingError) as info:
         load_recording(path, **kwargs)
     message = str(info.value)
     assert needle in message and str(path) in message and "\n" not in message
+    assert " --" not in message  # the library knows no CLI flags; the CLI adds them
+    assert option in _named_options(info.value) and _named_options(info.value) <= set(OPTIONS)
+    assert message.startswith(info.value.detail)
+
+
+@pytest.mark.parametrize(
+    ("header", "rows", "kwargs", "needle"),
+    [
+        ("t,emg1", ["0,1", "0.005,1", "0.010,1", "0.5,1"], {"resample_hz": 200},
+         "split the file there"),
+        ("t,emg1", ["0,1", "0.005,1", "0.004,1"], {"resample_hz": 200}, "goes back"),
+        ("t;emg1", ["0;1", "0.005;1"], {}, "looks ';'-separated"),
+    ],
+)
+def test_errors_without_an_option_to_set(tmp_path, header, rows, kwargs, needle) -> None:
+    path = tmp_path / "bad.csv"
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    with pytest.raises(RecordingError) as info:
+        load_recording(path, **kwargs)
+    assert needle in str(info.value) and not _named_options(info.value)
 
 
 def test_npz_refuses_csv_only_options(tmp_path) -> None:
     rec, _ = _saved(tmp_path)
     path = rec.save_npz(tmp_path / "r.npz")
-    with pytest.raises(RecordingError, match="--time-unit applies to CSV files only"):
+    with pytest.raises(RecordingError, match="the time unit applies to CSV files only") as info:
         load_recording(path, time_unit="ms")
+    assert info.value.option == "time_unit"
     # the sEMG unit and the duplicates rule are the CSV's too: never silently ignored
-    with pytest.raises(RecordingError, match="--emg-unit applies to CSV files only"):
+    with pytest.raises(RecordingError, match="the sEMG unit applies to CSV files only"):
         load_recording(path, emg_unit="uV")
-    with pytest.raises(RecordingError, match="--duplicates applies to CSV files only"):
+    with pytest.raises(RecordingError, match="the duplicates rule applies to CSV files only"):
         load_recording(path, duplicates="spread")
+    with pytest.raises(RecordingError) as info:
+        load_recording(path, columns=ColumnMap(force="grip"))
+    assert info.value.option == "force_column"
     assert load_recording(path).n_samples == rec.n_samples
+
+
+def test_fix_and_error_refuse_unknown_options() -> None:
+    with pytest.raises(ValueError, match="expected options among"):
+        Fix.set("time-unit", "ms")
+    with pytest.raises(ValueError, match="expected an option among"):
+        RecordingError("x", option="--fs-hz")
 
 
 def test_emg_column_named_twice_in_the_header_is_refused(tmp_path) -> None:

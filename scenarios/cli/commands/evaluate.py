@@ -8,8 +8,8 @@ from pathlib import Path
 
 from estimation.registry import estimator_names
 from estimation.reproduce import evaluate_recording, format_summary, parse_channels
-from scenarios.cli.recording_options import add_recording_options, recording_kwargs
-from sim.recording import RecordingError, load_recording
+from scenarios.cli.recording_options import add_recording_options, load_with_options
+from sim.recording import RecordingError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -40,7 +40,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
-    recording = load_recording(args.recording, **recording_kwargs(args))
+    recording = load_with_options(args.recording, args)
     layout = recording.metadata.get("csv_layout", {})
     ignored = layout.get("ignored", []) if isinstance(layout, dict) else []
     if recording.force_n is None:

@@ -10,7 +10,7 @@ from typing import Any
 
 from scenarios.cli.choices import controller_names, object_names, one_of
 from scenarios.cli.errors import UsageError
-from scenarios.cli.recording_options import add_recording_options, recording_kwargs
+from scenarios.cli.recording_options import add_recording_options, load_with_options
 from sim.user.feedback import FeedbackDevice
 
 DEFAULT_ESTIMATOR = "ridge"
@@ -104,11 +104,10 @@ def run(args: argparse.Namespace) -> int:
     from scenarios.live.recorded import fit_calibration
     from scenarios.live.session import LiveGrasp, SessionSettings, run_session
     from sim.hand.objects import make_object
-    from sim.recording import load_recording
 
     _check(args)
     lsl.pylsl_module()  # one line with the fix if liblsl cannot load, before any work
-    cal_recording = load_recording(args.calibration, **recording_kwargs(args))
+    cal_recording = load_with_options(args.calibration, args)
     cal = fit_calibration(cal_recording, args.estimator, channels=parse_channels(args.channels),
                           seed=args.seed)
     overrides = {k: v for k, v in (("mass_kg", args.mass_kg), ("friction", args.friction))

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from scenarios.cli.recording_options import add_recording_options, recording_kwargs
-from sim.recording import Recording, load_recording
+from scenarios.cli.recording_options import add_recording_options, load_with_options
+from sim.recording import Recording
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -29,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
-    rec = load_recording(args.file, **recording_kwargs(args))
+    rec = load_with_options(args.file, args)
     out = plot_recording(rec, args.out, dpi=args.dpi)
     print(out)
     return 0

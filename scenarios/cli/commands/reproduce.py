@@ -7,7 +7,7 @@ import json
 import time
 from pathlib import Path
 
-from estimation.reproduce import format_report, parse_channels, run_reproduction, write_csv
+from estimation.reproduce import format_report, parse_channels, write_csv
 from scenarios.cli.choices import generator_names
 
 
@@ -47,6 +47,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
+    from scenarios.runners.reproduction import run_reproduction
+
     t0 = time.perf_counter()
     result = run_reproduction(args.subjects, args.seed, generator=args.generator,
                               order=args.order, nn_params={"max_epochs": args.max_epochs},

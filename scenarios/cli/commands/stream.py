@@ -5,8 +5,7 @@ from __future__ import annotations
 import argparse
 
 from scenarios.cli.errors import UsageError
-from scenarios.cli.recording_options import add_recording_options, recording_kwargs
-from sim.recording import load_recording
+from scenarios.cli.recording_options import add_recording_options, load_with_options
 
 
 def _dropout(text: str) -> tuple[float, float]:
@@ -57,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.name.strip():
         raise UsageError("--name: expected a stream name, found an empty one")
     pylsl_module()
-    recording = load_recording(args.file, **recording_kwargs(args))
+    recording = load_with_options(args.file, args)
     play(recording, args.name, loop=args.loop, speed=args.speed,
          dropouts=[Dropout(a, d) for a, d in args.dropout], wait_for_consumer=not args.no_wait,
          log=lambda line: print(line, flush=True))

@@ -1,0 +1,164 @@
+"""Calibration: an estimator fitted on a subject's squeeze session and scored on its rest.
+
+:func:`calibrate` records the scenario subject's calibration session
+(:mod:`scenarios.runners.subject`) and fits the estimator on it;
+:func:`fit_on_features` fits it on a session's features, simulated or recorded
+(:mod:`scenarios.live.recorded`); :func:`run_calibration_scenario` is the runner of
+scenario kind ``calibration``. Fitting and scoring is
+:func:`estimation.evaluation.fit_and_score`, the same as the reproduction's
+(:mod:`scenarios.runners.reproduction`) and ``griploop evaluate``'s: the first part of
+the windows identifies, the estimator runs over the whole session and the rest scores.
+:func:`fit_one` adds what a run needs of one estimator in one mode: the mode exists and
+the model does not diverge in it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from estimation.evaluation import fit_and_score
+from estimation.features import FeatureSet
+from estimation.paper import PAPER_ORDER
+from estimation.threads import one_blas_thread
+from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
+from scenarios.runners.subject import calibration_session, subject_for
+from scenarios.schema import ORACLE, Scenario
+from sim.user.subjects import VirtualSubject
+
+
+@dataclass
+class Calibration:
+    """An estimator fitted on a subject's calibration session.
+
+    Attributes
+    ----------
+    name : str
+        Estimator name (or ``"oracle"``).
+    mode : {"one_step", "free_run"}
+    pipeline : object or None
+        Fitted :class:`estimation.pipeline.ForcePipeline` (``None`` for the oracle).
+    mvc_cal_n : float
+        Largest FSR force of the calibration session, N.
+    r2 : float or None
+        Validation R^2 in ``mode`` on the session's last part (None for the oracle).
+    fit_s : float
+        Time to fit, s.
+    """
+
+    name: str
+    mode: str
+    pipeline: Any
+    mvc_cal_n: float
+    r2: float | None
+    fit_s: float
+
+
+def fit_one(features: FeatureSet, estimator: str, mode: str, *, rng: np.random.Generator,
+            order: int, fraction: float, time_steps: bool = False) -> dict[str, Any]:
+    """Fit and score one estimator (:func:`~estimation.evaluation.fit_and_score`) for one mode.
+
+    Parameters
+    ----------
+    features : FeatureSet
+        The session's features, ``X`` shape (n_windows, n_inputs), ``y`` in N.
+    estimator : str
+        Registry name.
+    mode : {"one_step", "free_run"}
+        The mode the run will use.
+    rng : numpy.random.Generator
+        Seeds the estimator.
+    order, fraction, time_steps
+        As :func:`estimation.evaluation.fit_and_score`.
+
+    Returns
+    -------
+    dict
+        :func:`estimation.evaluation.evaluate_subject`'s entry of the estimator, with
+        its fitted ``"_pipeline"``; its ``modes[mode]["status"]`` is ``"ok"``.
+
+    Raises
+    ------
+    UnsupportedScenarioError
+        The estimator has no such mode.
+    DivergedError
+        The identified model is unstable in ``mode``, or its Kalman design failed.
+    """
+    result = fit_and_score(features, [estimator], rng=rng, order=order, fraction=fraction,
+                           time_steps=time_steps)[0][estimator]
+    if mode not in result["modes"]:
+        raise UnsupportedScenarioError(
+            f"estimator {estimator} has modes {tuple(result['modes'])} (found mode {mode})"
+        )
+    reason = result["_pipeline"].divergence(mode) if "_pipeline" in result else None
+    if reason is not None:
+        raise DivergedError(f"estimator {estimator}: {reason}")
+    scores = result["modes"][mode]
+    if scores["status"] != "ok":
+        raise DivergedError(f"{estimator} {mode}: {scores.get('message', scores['status'])}")
+    return result
+
+
+def fit_on_features(features: FeatureSet, estimator: str, mode: str, *,
+                    rng: np.random.Generator, order: int, identification_fraction: float,
+                    mvc_cal_n: float) -> Calibration:
+    """Fit ``estimator`` on the identification part of a calibration's features and score it.
+
+    The fit of a calibration, for a simulated session (:func:`calibrate`) and a
+    recording (:mod:`scenarios.live.recorded`), through :func:`fit_one`.
+
+    Raises
+    ------
+    UnsupportedScenarioError
+        ``mode`` is not one of the estimator's modes.
+    DivergedError
+        The identified model is unstable and ``mode`` would run it open loop.
+    """
+    result = fit_one(features, estimator, mode, rng=rng, order=order,
+                     fraction=identification_fraction)
+    return Calibration(estimator, mode, result["_pipeline"], mvc_cal_n,
+                       result["modes"][mode]["r2"], result["train_ms"] / 1e3)
+
+
+def calibrate(
+    subject: VirtualSubject,
+    estimator: str,
+    mode: str,
+    *,
+    rng: np.random.Generator,
+    generator: str = "noise",
+    order: int = PAPER_ORDER,
+    identification_fraction: float = 0.5,
+    calibration_s: float | None = None,
+) -> Calibration:
+    """Record a calibration session and fit ``estimator`` on its first part.
+
+    ``rng`` is split in two: the session (protocol timing, levels, noise) and the
+    estimator's seeds. Raises as :func:`fit_on_features`.
+    """
+    session_rng, estimator_rng = rng.spawn(2)
+    recording, features = calibration_session(subject, session_rng, generator=generator,
+                                              min_duration_s=calibration_s)
+    mvc_cal_n = float(np.max(recording.force_n))
+    if estimator == ORACLE:
+        return Calibration(ORACLE, mode, None, mvc_cal_n, None, 0.0)
+    return fit_on_features(features, estimator, mode, rng=estimator_rng, order=order,
+                           identification_fraction=identification_fraction,
+                           mvc_cal_n=mvc_cal_n)
+
+
+def run_calibration_scenario(scenario: Scenario) -> dict[str, Any]:
+    """Runner of scenario kind ``calibration``: fit on a session, score the rest, no grasp."""
+    e, p = scenario.estimator, scenario.protocol
+    subject = subject_for(scenario)
+    with one_blas_thread():
+        cal = calibrate(subject, e.name, e.mode,
+                        rng=np.random.default_rng(np.random.SeedSequence(scenario.seed or 0)),
+                        generator=scenario.subject.generator,
+                        order=PAPER_ORDER if e.order is None else e.order,
+                        identification_fraction=p.identification_fraction,
+                        calibration_s=p.calibration_s)
+    return {"subject_id": subject.subject_id, "estimator": e.name, "mode": e.mode,
+            "r2": cal.r2, "mvc_cal_n": cal.mvc_cal_n, "fit_s": cal.fit_s}

@@ -1,0 +1,171 @@
+"""The paper's evaluation on virtual subjects: a population (Tables 2 and 3) or one scenario.
+
+:func:`run_reproduction` (``griploop reproduce``) makes the population
+(:func:`sim.user.subjects.make_population`), records each subject's paper session and
+scores every estimator on it (:func:`estimation.reproduce.score_recording`, through
+:func:`estimation.evaluation.fit_and_score`); :func:`estimation.reproduce.population_result`
+makes the JSON contract. :func:`run_reproduction_scenario` is the runner of scenario kind
+``reproduction``: one subject, one estimator, one mode.
+
+Seeding: subject ``i`` of ``run_reproduction(n, seed)`` draws its session and its
+estimators' seeds from the two children of ``SeedSequence([seed, 0x5EED]).spawn(n)[i]``;
+a ``reproduction`` scenario from the two children of ``SeedSequence(scenario.seed)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from estimation.evaluation import split_index
+from estimation.features import PAPER_CHANNELS, FeatureSet
+from estimation.paper import PAPER_ORDER
+from estimation.registry import estimator_names
+from estimation.reproduce import channel_label, parse_channels, population_result, score_recording
+from estimation.threads import one_blas_thread
+from scenarios.runners.calibration import fit_one
+from scenarios.runners.dispatch import ResultRow, UnsupportedScenarioError
+from scenarios.runners.subject import calibration_session, subject_for
+from scenarios.schema import Scenario
+from sim.user.subjects import make_population
+
+#: Mixed into the population seed to seed the subjects' sessions and estimators.
+SESSION_SALT = 0x5EED
+
+
+def run_reproduction(
+    n_subjects: int = 10,
+    seed: int = 0,
+    *,
+    generator: str = "noise",
+    order: int = PAPER_ORDER,
+    estimators: Sequence[str] | None = None,
+    orders: Sequence[int] = tuple(range(1, 13)),
+    nn_params: Mapping[str, object] | None = None,
+    channels: str | Sequence[int | str] | None = PAPER_CHANNELS,
+) -> dict:
+    """Run the paper's protocol on ``n_subjects`` virtual subjects.
+
+    Parameters
+    ----------
+    n_subjects : int
+        Population size (paper: 10).
+    seed : int
+        Seeds the population, each session and the networks' initialization.
+    generator : {"noise", "motor_units"}
+        Virtual subjects' sEMG model.
+    order : int
+        SS order used for the tables (paper: 4); NARX delays and hidden units follow it.
+    estimators : sequence of str
+        Registry names to evaluate (must include ``"ss_kf"`` for the ``model`` entry);
+        ``None``: every registered estimator.
+    orders : sequence of int
+        Candidate orders for the per-subject AIC curve (paper: 1..12).
+    nn_params : mapping, optional
+        Overrides for the MLP/NARX hyperparameters (e.g. ``{"max_epochs": 50}``).
+    channels : "all", sequence of int (1-based) or str
+        sEMG channels whose MAV, RMS and WL are the inputs (paper: 6, 7, 8).
+
+    Returns
+    -------
+    dict
+        The JSON contract of :mod:`estimation.reproduce`; private keys dropped.
+    """
+    channels = parse_channels(channels)
+    estimators = estimator_names() if estimators is None else tuple(estimators)
+    scores = []
+    with one_blas_thread():
+        subjects = make_population(n=n_subjects, seed=seed)
+        children = np.random.SeedSequence([seed, SESSION_SALT]).spawn(n_subjects)
+        for subject, child in zip(subjects, children, strict=True):
+            session_ss, est_ss = child.spawn(2)
+            rec = subject.paper_session(rng=np.random.default_rng(session_ss), generator=generator)
+            score, _ = score_recording(rec, estimators, rng=np.random.default_rng(est_ss),
+                                       channels=channels, order=order, nn_params=nn_params,
+                                       orders=orders, subject_id=subject.subject_id)
+            scores.append(score)
+        config = {"n_subjects": n_subjects, "seed": seed, "generator": generator,
+                  "order": order, "channels": channel_label(channels),
+                  "identification_fraction": 0.5, "estimators": list(estimators),
+                  "nn_params": dict(nn_params or {})}
+        return population_result(scores, config=config, order=order)
+
+
+def run_reproduction_scenario(scenario: Scenario) -> ResultRow:
+    """One subject x estimator x mode of the paper's evaluation (kind ``reproduction``).
+
+    The virtual subject ``VirtualSubject.sample(population_seed, subject_id)``
+    (with the scenario's electrode shift, extra noise and fatigue) performs the
+    paper's squeeze session with the FSR; features are extracted on the paper's
+    channels; the estimator is fitted on the first ``identification_fraction``
+    of the windows and scored on the rest
+    (:func:`estimation.evaluation.fit_and_score`), as ``griploop reproduce`` does
+    for a whole population.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Kind ``reproduction``, seed set. ``seed`` drives the session (protocol
+        timing, levels, noise) and the networks' initialization.
+
+    Returns
+    -------
+    ResultRow
+        ``r2``, ``nrmse``, ``rmse_n``, ``volatility_n_per_s`` on the validation
+        part, ``train_ms``, ``step_us``, ``order``, ``n_windows``,
+        ``n_identification``, ``session_s``, and traces ``t_s``, ``force_n``
+        (measured) and ``force_hat_n`` (estimated), shape (n_validation,).
+
+    Raises
+    ------
+    UnsupportedScenarioError
+        ``protocol.calibration_s`` set (the paper session has its own length)
+        or a mode the estimator does not have.
+    DivergedError
+        The identified model is unstable in the requested mode.
+    """
+    if scenario.protocol.calibration_s is not None:
+        raise UnsupportedScenarioError(
+            "the paper session has its own length (about 25-36 s): leave "
+            f"protocol.calibration_s unset (found {scenario.protocol.calibration_s:g})"
+        )
+    session_seq, estimator_seq = np.random.SeedSequence(scenario.seed).spawn(2)
+    subject = subject_for(scenario)
+    recording, features = calibration_session(subject, np.random.default_rng(session_seq),
+                                              generator=scenario.subject.generator)
+    est = scenario.estimator
+    result = fit_one(features, est.name, est.mode, rng=np.random.default_rng(estimator_seq),
+                     order=PAPER_ORDER if est.order is None else est.order,
+                     fraction=scenario.protocol.identification_fraction, time_steps=True)
+    return _reproduction_row(scenario, result, features, recording.duration_s)
+
+
+def _reproduction_row(scenario: Scenario, result: Mapping[str, Any], features: FeatureSet,
+                      session_s: float) -> ResultRow:
+    """The result row of :func:`run_reproduction_scenario`, with its validation traces."""
+    est = scenario.estimator
+    scores = result["modes"][est.mode]
+    n_id = split_index(features.n_windows, scenario.protocol.identification_fraction)
+    force_hat_n = result["_pipeline"].predict(features.X, features.y, mode=est.mode)[n_id:]
+    return {
+        "subject_id": scenario.subject.subject_id,
+        "estimator": est.name,
+        "mode": est.mode,
+        "order": PAPER_ORDER if est.order is None else est.order,
+        "r2": float(scores["r2"]),
+        "nrmse": float(scores["nrmse"]),
+        "rmse_n": float(scores["rmse_n"]),
+        "volatility_n_per_s": float(scores["volatility_n_per_s"]),
+        "train_ms": float(result["train_ms"]),
+        "step_us": None if result["step_us"] is None else float(result["step_us"]),
+        "n_windows": int(features.n_windows),
+        "n_identification": int(n_id),
+        "session_s": float(session_s),
+        "traces": {
+            "t_s": features.t_s[n_id:],
+            "force_n": features.y[n_id:],
+            "force_hat_n": np.asarray(force_hat_n, dtype=float),
+        },
+    }
