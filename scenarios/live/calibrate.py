@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from scenarios.live.errors import SessionError
-from scenarios.live.session import SampleGuard
+from scenarios.live.samples import SampleGuard
 from sim.recording import EMG_UNITS, Recording
 
 LEVELS = (("small", 0.25), ("medium", 0.5), ("strong", 0.9))
@@ -128,10 +128,9 @@ def record_calibration(emg_inlet: Any, force_inlet: Any | None, *, cues: Sequenc
         From :func:`cue_schedule`.
     say : callable
         Where cue lines go.
-    mvc_n : float
-        Label of a 100 % squeeze without a force stream, N.
-    timeout_s : float
-        No sEMG for this long stops the session with an error, s.
+    mvc_n, timeout_s : float
+        Label of a 100 % squeeze without a force stream, N; no sEMG for this
+        long stops the session with an error, s.
 
     Returns
     -------
@@ -203,11 +202,8 @@ def record_calibration(emg_inlet: Any, force_inlet: Any | None, *, cues: Sequenc
     unit = stream_unit(emg_inlet, integer)
     metadata = {
         "source": "lsl", "stream": stream_name, "protocol": "paper_protocol (live)",
-        "cues": [[("start" if c.level > 0 else "end"), c.t_s] for c in cues[1:]],
-        "cue_labels": [[c.label, c.t_s, c.level] for c in cues],
-        "levels": [c.level for c in cues if c.level > 0],
-        "force_source": force_source, "mvc_n_cues": mvc_n if force_inlet is None else None,
-        "lost_samples": lost,
+        **_cue_metadata(cues), "force_source": force_source,
+        "mvc_n_cues": mvc_n if force_inlet is None else None, "lost_samples": lost,
         "bad_samples": {"non_numeric": guard.non_numeric, "out_of_range": guard.out_of_range},
         "first_timestamp": ts0,
     }
@@ -235,3 +231,10 @@ def _force_on(t_emg: np.ndarray, force_inlet: Any, f_vals: list[float], f_stamps
                            "nothing written")
     order = np.argsort(f_stamps, kind="stable")
     return np.interp(t_emg, np.asarray(f_stamps)[order], np.asarray(f_vals)[order])
+
+
+def _cue_metadata(cues: Sequence[Cue]) -> dict[str, Any]:
+    """The cues of a live session as a recording's metadata (as the paper's session has them)."""
+    return {"cues": [[("start" if c.level > 0 else "end"), c.t_s] for c in cues[1:]],
+            "cue_labels": [[c.label, c.t_s, c.level] for c in cues],
+            "levels": [c.level for c in cues if c.level > 0]}

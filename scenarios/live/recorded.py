@@ -12,7 +12,7 @@ same pieces:
   force an episode's user aims at through that calibration's force mapping;
 - :func:`episode_on_recording` is the offline episode driven by a given recording
   instead of a freshly simulated one: :func:`estimation.features.extract_features`,
-  :func:`scenarios.runners.episode.stream_estimates`, the held reference, and the
+  :func:`scenarios.runners.reference.stream_estimates`, the held reference, and the
   episode's closed loop on the MuJoCo hand;
 - :func:`grasp_metrics` scores a run (offline or live) the way an episode is scored.
 
@@ -38,19 +38,19 @@ from scenarios.live.errors import SessionError
 from scenarios.outcomes import outcome_of
 from scenarios.runners.calibration import Calibration, fit_on_features
 from scenarios.runners.dispatch import DivergedError
-from scenarios.runners.episode import (
+from scenarios.runners.episode import HAND_FORCE_AT_MVC_N, _closed_loop, _lift_time_s
+from scenarios.runners.episode_metrics import (
     CONTACT_N,
-    HAND_FORCE_AT_MVC_N,
-    RAMP_S,
-    REST_S,
-    _closed_loop,
-    _lift_time_s,
     contact_peak_ratio,
     episode_metrics,
+    was_lifted,
+)
+from scenarios.runners.reference import (
+    RAMP_S,
+    REST_S,
     intended_grip_n,
     reference_from_windows,
     stream_estimates,
-    was_lifted,
 )
 from scenarios.schema import ORACLE
 from sim.hand.objects import ObjectSpec
@@ -172,7 +172,7 @@ def grasp_session(subject: VirtualSubject, obj: ObjectSpec, *, mvc_cal_n: float,
                   tail_s: float = 1.0, fs_hz: float = FS_HZ) -> Recording:
     """A virtual subject's sEMG while they grasp ``obj``, as an episode's user does.
 
-    The user aims at :func:`scenarios.runners.episode.intended_grip_n` on the hand,
+    The user aims at :func:`scenarios.runners.reference.intended_grip_n` on the hand,
     which they reach through the calibration's mapping (``mvc_cal_n``, the largest
     force of the calibration recording): rest 1 s, a 0.5 s ramp, then a hold lasting
     beyond the session (timings jittered by 10 %).
@@ -343,7 +343,7 @@ def grasp_metrics(traces: Mapping[str, np.ndarray], info: Mapping[str, Any], *,
         ``outcome`` (held, not_lifted, dropped, crushed), ``lifted``, ``dropped``,
         ``crushed``, ``peak_force_n``, ``hold_grip_n`` (median grip in the in-air
         hold), ``contact_peak_ratio``, ``slip_events``, ``slip_distance_m`` and
-        :func:`scenarios.runners.episode.episode_metrics`'s figures, with the grasp
+        :func:`scenarios.runners.episode_metrics.episode_metrics`'s figures, with the grasp
         starting when the reference first reaches 0.5 N (a person gives no cue).
         Values that do not exist are ``None``.
     """

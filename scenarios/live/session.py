@@ -37,7 +37,7 @@ Safe when the stream is not:
 - no sample for ``timeout_s`` ends the session (``ended: "timeout"``).
 
 Bad samples (non-numeric or NaN, out of range) are counted and replaced by 0 or
-clipped by :class:`SampleGuard`; they never stop a session.
+clipped by :class:`~scenarios.live.samples.SampleGuard`; they never stop a session.
 """
 
 from __future__ import annotations
@@ -55,6 +55,7 @@ from controllers.design_cache import grasp_design
 from controllers.drive import HandLoop
 from estimation.threads import one_blas_thread
 from scenarios.live.recorded import RecordedCalibration, grasp_metrics
+from scenarios.live.samples import SampleGuard
 from scenarios.live.windowing import IncrementalFeatures
 from scenarios.runners.episode import (
     HAND_FORCE_AT_MVC_N,
@@ -63,7 +64,7 @@ from scenarios.runners.episode import (
 )
 from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.hand.objects import ObjectSpec
-from sim.recording import MAX_EMG_ABS, Recording
+from sim.recording import Recording
 from sim.user.feedback import FeedbackDevice
 
 GAP_HOLD_S = 0.2
@@ -74,7 +75,6 @@ TIMEOUT_S = 5.0
 """Default: no sample for this long ends the session, s."""
 STALE_S = 0.5
 """Before the first sample is accepted, samples older than this are skipped, s."""
-INT8_RANGE = (-128, 127)
 
 
 @dataclass(frozen=True)
@@ -109,67 +109,6 @@ class SessionSettings:
     timeout_s: float = TIMEOUT_S
     frame_dt_s: float | None = None
     seed: int = 0
-
-
-class SampleGuard:
-    """Turns whatever a stream delivers into samples the windows can take.
-
-    Non-numeric values (strings that are not numbers, NaN, inf) become 0; values
-    outside the calibration's range (int8 counts: -128..127; other units:
-    +-``MAX_EMG_ABS``) are clipped; integer streams are rounded to counts. Each
-    sample with at least one such value is counted once per kind.
-
-    Parameters
-    ----------
-    integer : bool
-        int8 counts (output int64) or another unit (output float64).
-    """
-
-    def __init__(self, integer: bool) -> None:
-        self.integer = bool(integer)
-        self.lo, self.hi = INT8_RANGE if integer else (-MAX_EMG_ABS, MAX_EMG_ABS)
-        self.dtype = np.dtype(np.int64 if integer else np.float64)
-        self.non_numeric = 0
-        self.out_of_range = 0
-
-    def clean(self, samples: Any) -> np.ndarray:
-        """Samples as an array (n_samples, n_channels) of :attr:`dtype`, bad values fixed."""
-        arr = np.asarray(samples)
-        if arr.dtype.kind in "iu" and self.integer:
-            if arr.dtype.itemsize == 1 and arr.dtype.kind == "i":
-                return arr.astype(np.int64)
-            x = arr.astype(np.int64)
-            bad = (x < self.lo) | (x > self.hi)
-            if bad.any():
-                self.out_of_range += int(bad.any(axis=1).sum())
-                np.clip(x, self.lo, self.hi, out=x)
-            return x
-        if arr.dtype.kind not in "iuf":
-            arr = self._numbers(arr)
-        x = arr.astype(np.float64)
-        finite = np.isfinite(x)
-        if not finite.all():
-            self.non_numeric += int((~finite).any(axis=1).sum())
-            x[~finite] = 0.0
-        bad = (x < self.lo) | (x > self.hi)
-        if bad.any():
-            self.out_of_range += int(bad.any(axis=1).sum())
-            np.clip(x, self.lo, self.hi, out=x)
-        if self.integer:
-            return np.rint(x).astype(np.int64)
-        return x
-
-    @staticmethod
-    def _numbers(arr: np.ndarray) -> np.ndarray:
-        """Float values of a string or object array; what does not parse becomes NaN."""
-        out = np.empty(arr.shape, dtype=np.float64)
-        flat, values = out.reshape(-1), arr.reshape(-1)
-        for i, v in enumerate(values):
-            try:
-                flat[i] = float(v.decode() if isinstance(v, bytes) else v)
-            except (TypeError, ValueError, UnicodeDecodeError):
-                flat[i] = math.nan
-        return out
 
 
 class LiveGrasp:

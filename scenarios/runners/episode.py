@@ -38,174 +38,48 @@ Conventions (documented choices):
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from controllers.base import controller_stats
-from controllers.bounds import slip_threshold_n
-from controllers.design import ControllerDesign, OperatingAnalysis, worst_case
+from controllers.design import ControllerDesign, worst_case
 from controllers.design_cache import grasp_design
 from controllers.drive import HandLoop
-from estimation.features import PAPER_CHANNELS, FeatureSet, align_to_windows, extract_features
-from estimation.metrics import total_variation_rate
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
 from scenarios.outcomes import outcome_of
 from scenarios.runners.calibration import Calibration, calibrate
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
+from scenarios.runners.episode_metrics import (
+    contact_peak_ratio,
+    episode_metrics,
+    margin_fields,
+    mpc_failures,
+    operating_forces,
+    was_lifted,
+)
 from scenarios.runners.operator_loop import LiveUser, scene_from_info
+from scenarios.runners.reference import (
+    RAMP_S,
+    REST_S,
+    ReferenceStream,
+    intended_grip_n,
+    live_stream,
+    live_user,
+    scripted_reference,
+)
 from scenarios.runners.subject import subject_for
 from scenarios.schema import Scenario
 from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.hand.objects import ObjectSpec, make_object
-from sim.user.causal import NotCausalError
-from sim.user.intent import IntentProfile, grasp_lift_hold
-from sim.user.operator import Operator, OperatorParams, Plan, ScriptedOperator
+from sim.user.operator import Operator, OperatorParams, ScriptedOperator
 from sim.user.operators import make_operator
 from sim.user.subjects import VirtualSubject
 
 HAND_FORCE_AT_MVC_N = 30.0
-MIN_GRIP_N = 2.0
-FRAGILE_MARGIN = 0.7
-REST_S = 1.0
-RAMP_S = 0.5
 LIFT_DURATION_S = 0.6
-SETTLE_BAND = 0.05  # settling band: 5 % of the hold reference (at least SETTLE_FLOOR_N)
-SETTLE_FLOOR_N = 0.2
-CONTACT_N = 0.5  # grip force that counts as contact in the metrics
-CONTACT_PEAK_WINDOW_S = 0.5  # contact_peak_ratio: peak within this long after both sides touch
-LIFTED_FRACTION = 0.5  # lifted: the object rose at least this fraction of the lift height
-
-
-# ------------------------------------------------------------------------ reference
-def intended_grip_n(obj: ObjectSpec, safety_factor: float) -> float:
-    """Hand grip force the user aims at for ``obj``, N (see module notes)."""
-    target = max(safety_factor * slip_threshold_n(obj.mass_kg, obj.friction), MIN_GRIP_N)
-    if obj.break_force_n is not None:
-        target = min(target, FRAGILE_MARGIN * obj.break_force_n)
-    return float(target)
-
-
-def reference_from_windows(values_n: np.ndarray, window_t_s: np.ndarray,
-                           control_t_s: np.ndarray) -> np.ndarray:
-    """Hold each window's value from its end time until the next one (0 before the first)."""
-    idx = np.searchsorted(window_t_s, control_t_s + 1e-9, side="right") - 1
-    held = np.where(idx >= 0, values_n[np.clip(idx, 0, None)], 0.0)
-    return held
-
-
-def stream_estimates(calibration: Calibration, features: FeatureSet) -> np.ndarray:
-    """Run the fitted estimator's stream over the episode's windows, N per window.
-
-    ``one_step`` feeds the previous window's measured FSR force; ``free_run`` feeds nothing.
-    """
-    stream = calibration.pipeline.streaming(calibration.mode)
-    stream.reset()
-    out = np.empty(features.n_windows)
-    y = features.y
-    one_step = calibration.mode == "one_step"
-    for k in range(features.n_windows):
-        y_prev = (float(y[k - 1]) if k > 0 else 0.0) if one_step else None
-        out[k] = stream.step(features.X[k], y_prev)
-    return out
-
-
-# ------------------------------------------------------------------------ metrics
-def contact_peak_ratio(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray,
-                       both_sides: np.ndarray, window_s: float = CONTACT_PEAK_WINDOW_S
-                       ) -> tuple[float | None, float | None]:
-    """Peak grip within ``window_s`` after both sides first touch, over the reference then.
-
-    The reference is the one the controller tracks: the user's, or more where
-    the controller raises it on purpose (the MPC's sensed slip bound, the slip
-    reflex), so a deliberate rise is not counted as a slam.
-
-    Returns
-    -------
-    ratio : float or None
-        ``max grip / reference at the peak`` (None if both sides never touch or
-        the reference is zero at the peak).
-    both_sides_s : float or None
-        When both sides first touched, s.
-    """
-    touching = np.flatnonzero(both_sides)
-    if touching.size == 0:
-        return None, None
-    t0 = float(t_s[touching[0]])
-    window = np.flatnonzero((t_s >= t0) & (t_s <= t0 + window_s))
-    i = window[int(np.argmax(grip_n[window]))]
-    ref = float(reference_n[i])
-    return (float(grip_n[i] / ref) if ref > 0 else None), t0
-
-
-def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray,
-                    oracle_n: np.ndarray, *, start_s: float, lift_s: float, hold_from_s: float,
-                    window_values_n: np.ndarray, window_dt_s: float) -> dict[str, Any]:
-    """Tracking, estimation and transient figures of one episode.
-
-    Parameters
-    ----------
-    t_s, reference_n, grip_n, oracle_n : ndarray, shape (n_steps,)
-        Control-rate time, reference, measured grip force and the oracle reference.
-    start_s : float
-        Start of the grasp (the user's ramp onset), s.
-    lift_s : float
-        Earliest lift, s: the grasp phase is ``start_s..lift_s``.
-    hold_from_s : float
-        Start of the in-air hold, s; the hold reference is the mean reference after it.
-    window_values_n : ndarray, shape (n_windows,)
-        The reference at the estimator's update rate (for volatility).
-    window_dt_s : float
-        Estimator update period, s.
-
-    Returns
-    -------
-    dict
-        ``contact_time_s`` (first grip force >= 0.5 N; None if never),
-        ``tracking_rmse_n`` (from contact + 0.5 s, past the closing impact, to
-        the end; None without contact),
-        ``estimation_rmse_n`` (reference vs oracle, whole episode),
-        ``hold_reference_n`` (mean reference in the air), and over the grasp
-        phase (on the table, before the lift): ``overshoot_pct`` (peak grip over
-        the reference just before the lift), ``settling_time_s`` (from the start
-        until the grip stays within 5 % or 0.2 N of the current reference; None
-        if it never does), plus ``peak_force_n`` (whole episode) and
-        ``reference_volatility_n_per_s``.
-    """
-    touching = np.flatnonzero(grip_n >= CONTACT_N)
-    contact_s = float(t_s[touching[0]]) if touching.size else None
-    track = (t_s >= contact_s + 0.5) if contact_s is not None else np.zeros(t_s.size, bool)
-    hold = t_s >= hold_from_s
-    hold_ref = float(np.mean(reference_n[hold])) if hold.any() else float("nan")
-    grasp = (t_s >= start_s) & (t_s < lift_s)
-    grasp_ref = float(reference_n[grasp][-1]) if grasp.any() else float("nan")
-    peak_grasp = float(np.max(grip_n[grasp])) if grasp.any() else 0.0
-    idx = np.flatnonzero(grasp)
-    band = np.maximum(SETTLE_BAND * reference_n[idx], SETTLE_FLOOR_N)
-    outside = idx[np.abs(grip_n[idx] - reference_n[idx]) > band]
-    if outside.size == 0:
-        settling = 0.0
-    elif outside[-1] == idx[-1]:
-        settling = None
-    else:
-        settling = float(t_s[outside[-1] + 1] - start_s)
-    return {
-        "contact_time_s": contact_s,
-        "tracking_rmse_n": float(np.sqrt(np.mean((reference_n[track] - grip_n[track]) ** 2)))
-        if track.any() else None,
-        "estimation_rmse_n": float(np.sqrt(np.mean((reference_n - oracle_n) ** 2))),
-        "hold_reference_n": hold_ref,
-        "overshoot_pct": float(max(0.0, 100.0 * (peak_grasp - grasp_ref) / grasp_ref))
-        if grasp_ref > 0 else None,
-        "settling_time_s": settling,
-        "peak_force_n": float(np.max(grip_n)),
-        "reference_volatility_n_per_s": total_variation_rate(window_values_n, window_dt_s)
-        if window_values_n.size >= 2 else 0.0,
-    }
 
 
 # ------------------------------------------------------------------------ episode
@@ -278,11 +152,10 @@ def run_episode(
         Estimator name (:func:`estimation.registry.estimator_names`) or ``"oracle"``.
     mode : {"free_run", "one_step"}
         Estimator mode (see module notes).
-    controller : {"pid", "lead_lag", "mpc"}
-        Controller family.
+    controller : str
+        Registered controller kind (``pid``, ``lead_lag``, ``mpc``, a plugin's).
     controller_spec : mapping, optional
-        Keyword arguments of :func:`controllers.design.design_for_object`
-        (``phase_margin_deg``, ``crossover_rad_s``, ``horizon``, ...).
+        Keyword arguments of :func:`controllers.design.design_for_object`.
     seed : int
         Seeds the calibration session, the episode session, the networks'
         initialization and the environment.
@@ -292,13 +165,10 @@ def run_episode(
         Control period, s (a whole multiple of the 2 ms physics step).
     record_frames : bool
         Also return rendered RGB frames every 40 ms under ``traces["frames"]``.
-    user : str
-        User kind (:mod:`sim.user.operators`): ``reacting`` (default: sees the
-        hand and corrects, :mod:`sim.user.operator`) or ``scripted`` (follows
-        the intent profile whatever happens).
-    feedback : str
-        Feedback mode of a reacting user: ``none`` (vision only),
-        ``force_vibration`` or ``slip_vibration``.
+    user, feedback : str
+        User kind (:mod:`sim.user.operators`: ``reacting``, the default, sees
+        the hand and corrects; ``scripted`` follows the intent profile) and a
+        reacting user's feedback (``none``, ``force_vibration``, ``slip_vibration``).
     operator_params : OperatorParams, optional
         The reacting user's parameters (default :class:`OperatorParams`).
 
@@ -337,20 +207,29 @@ def run_episode(
                           episode_s=episode_s, lift_after_s=lift_after_s,
                           control_dt_s=control_dt_s, hand_force_at_mvc_n=hand_force_at_mvc_n,
                           timings=timings, record_frames=record_frames)
-    traces, failure, info, stream = trial.traces, trial.failure, trial.info, trial.stream
-    if failure is not None:
-        raise DivergedError(f"physics diverged at t = {info['time_s']:.3f} s: {failure}")
-    row = {"subject_id": subject.subject_id, "seed": int(seed),
-           "object_name": obj.name, "object_mass_kg": obj.mass_kg,
-           "object_friction": obj.friction, "object_break_force_n": obj.break_force_n,
+    if trial.failure is not None:
+        raise DivergedError(f"physics diverged at t = {trial.info['time_s']:.3f} s: "
+                            f"{trial.failure}")
+    row = {"subject_id": subject.subject_id, "seed": int(seed), **_object_fields(obj),
            "controller": controller, "estimator": estimator, "mode": mode,
            "scheduled": bool(design.scheduled), "user": user, "feedback": feedback,
-           "user_corrections": int(operator.corrections),
-           "first_correction_s": (float(operator.correction_times[0])
-                                  if operator.correction_times else None)}
-    return _episode_result(row, cal, design, stream, traces, info, timings,
+           **_operator_fields(operator)}
+    return _episode_result(row, cal, design, trial.stream, trial.traces, trial.info, timings,
                            target_n=target_n, lift_after_s=lift_after_s,
                            hold_from_s=episode_s - hold_s, control_dt_s=control_dt_s)
+
+
+def _object_fields(obj: ObjectSpec) -> dict[str, Any]:
+    """The object's columns of an episode row."""
+    return {"object_name": obj.name, "object_mass_kg": obj.mass_kg,
+            "object_friction": obj.friction, "object_break_force_n": obj.break_force_n}
+
+
+def _operator_fields(operator: Operator) -> dict[str, Any]:
+    """How the user corrected the grasp: the count and the time of the first correction."""
+    times = operator.correction_times
+    return {"user_corrections": int(operator.corrections),
+            "first_correction_s": float(times[0]) if times else None}
 
 
 @dataclass
@@ -365,14 +244,14 @@ class Trial:
         MuJoCo's warning if the physics diverged.
     info : dict
         The environment's last ``info``.
-    stream : _ReferenceStream
+    stream : ReferenceStream
         The reference and the user's true force at the control rate (for the metrics).
     """
 
     traces: dict[str, np.ndarray]
     failure: str | None
     info: dict[str, Any]
-    stream: _ReferenceStream
+    stream: ReferenceStream
 
 
 def run_trial(subject: VirtualSubject, obj: ObjectSpec, cal: Calibration,
@@ -410,7 +289,7 @@ def run_trial(subject: VirtualSubject, obj: ObjectSpec, cal: Calibration,
     """
     episode_seq, env_seq, operator_seq = seeds
     if type(operator) is ScriptedOperator and hold_level is None:  # not a subclass: it may act
-        stream = _reference_stream(subject, cal, goal_n, np.random.default_rng(episode_seq),
+        stream = scripted_reference(subject, cal, goal_n, np.random.default_rng(episode_seq),
                                    generator=generator, episode_s=episode_s,
                                    control_dt_s=control_dt_s,
                                    hand_force_at_mvc_n=hand_force_at_mvc_n, timings=timings)
@@ -454,134 +333,8 @@ def _lift_time_s(episode_s: float, hold_s: float) -> float:
     return lift_after_s
 
 
-@dataclass
-class _ReferenceStream:
-    """The force reference of one episode, at the estimator's and the control rate.
-
-    Attributes
-    ----------
-    start_s : float
-        The user's ramp onset, s.
-    window_values_n : ndarray, shape (n_windows,)
-        The hand reference at each feature window that ends within the episode
-        (estimate mapped to the hand, clipped), N.
-    window_dt_s : float
-        Estimator update period, s.
-    t_s : ndarray, shape (n_steps,)
-        Control-rate time, s.
-    reference_n, oracle_n : ndarray, shape (n_steps,)
-        The held reference, and the same for the user's true grip force, N.
-    """
-
-    start_s: float
-    window_values_n: np.ndarray
-    window_dt_s: float
-    t_s: np.ndarray
-    reference_n: np.ndarray
-    oracle_n: np.ndarray
-
-
-def hold_level_for(target_n: float, cal: Calibration, subject: VirtualSubject,
-                   hand_force_at_mvc_n: float) -> float:
-    """The intent (fraction of MVC) asking for ``target_n`` through the calibration's mapping."""
-    return float(np.clip(target_n / hand_force_at_mvc_n * cal.mvc_cal_n / subject.mvc_n, 0.0, 1.0))
-
-
-def episode_profile(rng: np.random.Generator, hold_level: float, episode_s: float
-                    ) -> tuple[IntentProfile, float]:
-    """The scripted grasp-lift-hold intent of an episode at 200 Hz, and its ramp onset, s."""
-    profile = grasp_lift_hold(rng, fs_hz=200.0, hold_level=hold_level, rest_s=REST_S,
-                              ramp_s=RAMP_S, hold_s=episode_s, jitter=0.1)
-    return profile, next(t for kind, t in profile.cues if kind == "start")
-
-
-def _reference_stream(subject: VirtualSubject, cal: Calibration, target_n: float,
-                      rng: np.random.Generator, *, generator: str, episode_s: float,
-                      control_dt_s: float, hand_force_at_mvc_n: float,
-                      timings: dict[str, float]) -> _ReferenceStream:
-    """Record the user's sEMG while they grasp, estimate, and hold it at the control rate.
-
-    The scripted user: the whole episode's sEMG and reference are computed
-    before the physics runs. The user aims at ``target_n`` on the hand, which
-    they reach through the calibration's mapping (module notes); sEMG,
-    feature and estimator times are added to ``timings``.
-    """
-    # The user's intent and their sEMG during the episode.
-    hold_level = hold_level_for(target_n, cal, subject, hand_force_at_mvc_n)
-    profile, start_s = episode_profile(rng, hold_level, episode_s)
-    t0 = time.perf_counter()
-    recording = subject.record(profile, generator=generator, rng=rng)
-    timings["t_semg_s"] = time.perf_counter() - t0
-    n_keep = int(round((episode_s + 0.5) * recording.fs_hz))
-    recording = recording.slice(0, min(n_keep, recording.n_samples))
-    t0 = time.perf_counter()
-    features = extract_features(recording, channels=PAPER_CHANNELS)
-    timings["t_features_s"] = time.perf_counter() - t0
-
-    # Estimates at the window rate, then the held reference at the control rate.
-    to_hand = hand_force_at_mvc_n / cal.mvc_cal_n
-    # the user's true grip force (before the FSR) at each window's end
-    oracle_windows = align_to_windows(recording.intent_force_n, recording.fs_hz) * to_hand
-    t0 = time.perf_counter()
-    if cal.pipeline is None:
-        estimate_windows = oracle_windows
-    else:
-        estimate_windows = stream_estimates(cal, features) * to_hand
-    timings["t_estimator_s"] = time.perf_counter() - t0
-    ceiling = 1.2 * hand_force_at_mvc_n
-    estimate_windows = np.clip(estimate_windows, 0.0, ceiling)
-    n_steps = int(round(episode_s / control_dt_s))
-    t_ctrl = np.arange(n_steps) * control_dt_s
-    reference = reference_from_windows(estimate_windows, features.t_s, t_ctrl)
-    oracle = reference_from_windows(np.clip(oracle_windows, 0, ceiling), features.t_s, t_ctrl)
-    return _ReferenceStream(start_s, estimate_windows[features.t_s <= episode_s],
-                            features.dt_s, t_ctrl, reference, oracle)
-
-
-def live_user(subject: VirtualSubject, cal: Calibration, operator: Operator, goal_n: float,
-              rng: np.random.Generator, operator_rng: np.random.Generator, *, generator: str,
-              episode_s: float, control_dt_s: float, hand_force_at_mvc_n: float,
-              hold_level: float | None = None) -> tuple[LiveUser, float]:
-    """A user in the loop for one episode, and their ramp onset, s.
-
-    Draws the same profile and the same sEMG noise from ``rng`` as
-    :func:`_reference_stream` does (a scripted operator so gives its very
-    references); the operator plans from the profile and aims at ``goal_n``.
-
-    Parameters
-    ----------
-    hold_level : float, optional
-        The scripted hold level; default: ``goal_n`` through the calibration.
-    """
-    if hold_level is None:
-        hold_level = hold_level_for(goal_n, cal, subject, hand_force_at_mvc_n)
-    profile, start_s = episode_profile(rng, hold_level, episode_s)
-    plan = Plan(intent=profile.intent, fs_hz=profile.fs_hz, hold_level=hold_level,
-                goal_n=float(goal_n), force_range_n=float(hand_force_at_mvc_n))
-    try:
-        user = LiveUser(subject, cal, operator, plan, session_rng=rng,
-                        operator_rng=operator_rng, n_samples=profile.n_samples,
-                        control_dt_s=control_dt_s, hand_force_at_mvc_n=hand_force_at_mvc_n,
-                        generator=generator)
-    except NotCausalError as exc:
-        raise UnsupportedScenarioError(f"user {operator.name}: {exc}") from None
-    return user, start_s
-
-
-def live_stream(user: LiveUser, start_s: float, t_ctrl: np.ndarray, reference_n: np.ndarray,
-                episode_s: float, timings: dict[str, float]) -> _ReferenceStream:
-    """The :class:`_ReferenceStream` a live user produced (for the metrics), timings added."""
-    window_t = np.asarray(user.window_t_s)
-    estimates = np.asarray(user.window_estimate_n)
-    oracle = reference_from_windows(user.window_oracle_n(), window_t, t_ctrl)
-    for key, value in user.timings.items():
-        timings[key] = timings.get(key, 0.0) + value
-    return _ReferenceStream(start_s, estimates[window_t <= episode_s], user.hop / user.fs_hz,
-                            t_ctrl, reference_n, oracle)
-
-
 def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDesign,
-                    stream: _ReferenceStream, traces: dict[str, np.ndarray],
+                    stream: ReferenceStream, traces: dict[str, np.ndarray],
                     info: Mapping[str, Any], timings: dict[str, float], *, target_n: float,
                     lift_after_s: float, hold_from_s: float, control_dt_s: float
                     ) -> EpisodeResult:
@@ -628,7 +381,7 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
         "contact_peak_ratio": ratio, "both_sides_time_s": both_s,
         "held_force_n": held_n,
         "visited_forces_n": ",".join(f"{f:g}" for f in visited_n),
-        **_margin_fields(held),
+        **margin_fields(held),
         **{f"worst_{k}": v for k, v in worst.items()},
         "loop_dt_s": float(control_dt_s),
         "mpc_failures": mpc_failures(design),
@@ -644,63 +397,6 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
                        held.margins.loop.D))
         traces.update(loop_A=A, loop_B=B, loop_C=C, loop_D=D)
     return EpisodeResult(row=row, traces=traces, design=design)
-
-
-def was_lifted(object_height_m: np.ndarray) -> bool:
-    """Whether the object rose :data:`LIFTED_FRACTION` of the wrist's lift height, at any time."""
-    rise = np.asarray(object_height_m) - object_height_m[0]
-    return bool(rise.size and np.max(rise) >= LIFTED_FRACTION * WristSchedule().lift_height_m)
-
-
-def operating_forces(traces: Mapping[str, np.ndarray], design: ControllerDesign, *,
-                     hold_from_s: float, both_sides_s: float | None
-                     ) -> tuple[float | None, list[float]]:
-    """The force an episode held and the forces it visited, N.
-
-    The held force is the median grip in the in-air hold (the last ``hold_s``);
-    the visited forces are the design grid points between the 5th and 95th
-    percentiles of the grip once both sides touched, plus the held force. Both
-    are clamped into the analysed range and rounded to 0.1 N.
-    """
-    if both_sides_s is None:
-        return None, []
-    lo_range, hi_range = design.family.range_n
-    t, grip = traces["t_s"], traces["grip_force_n"]
-    hold = t >= hold_from_s
-    after = t >= both_sides_s
-    if not hold.any() or not after.any():
-        return None, []
-
-    def clamp(f: float) -> float:
-        return float(np.clip(round(f, 1), lo_range, hi_range))
-
-    held = clamp(float(np.median(grip[hold])))
-    p5, p95 = np.percentile(grip[after], [5, 95])
-    visited = {clamp(f) for f in design.family.forces_n if p5 <= f <= p95} | {held}
-    return held, sorted(visited)
-
-
-def mpc_failures(design: ControllerDesign) -> int:
-    """QP solves that fell back to the unconstrained law, summed over the bank."""
-    return int(controller_stats(design.core).get("n_failures", 0))
-
-
-def _margin_fields(analysis: OperatingAnalysis | None) -> dict[str, Any]:
-    keys = ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "ms", "crossover_rad_s",
-            "n_crossovers", "stable", "bandwidth_rad_s")
-    if analysis is None or not analysis.ok:
-        return dict.fromkeys(keys)
-    m = analysis.margins
-    return {"gain_margin_db": _finite(m.gain_margin_db),
-            "phase_margin_deg": _finite(m.phase_margin_deg),
-            "delay_margin_s": _finite(m.delay_margin_s), "ms": _finite(m.ms),
-            "crossover_rad_s": float(m.crossover_rad_s[0]) if len(m.crossover_rad_s) else None,
-            "n_crossovers": len(m.crossover_rad_s), "stable": bool(m.stable),
-            "bandwidth_rad_s": _finite(m.bandwidth_rad_s)}
-
-
-def _finite(x: float) -> float | None:
-    return float(x) if np.isfinite(x) else None
 
 
 def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarray | None,

@@ -47,12 +47,11 @@ from scenarios.runners.episode import (
     LIFT_DURATION_S,
     _lift_time_s,
     controller_spec,
-    hold_level_for,
-    intended_grip_n,
     run_trial,
     scenario_object,
-    was_lifted,
 )
+from scenarios.runners.episode_metrics import was_lifted
+from scenarios.runners.reference import hold_level_for, intended_grip_n
 from scenarios.runners.subject import subject_for
 from scenarios.schema import Scenario
 from sim.hand.grasp_env import WristSchedule

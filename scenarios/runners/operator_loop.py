@@ -1,7 +1,7 @@
 """The user in the loop: perception, intent, sEMG, features, estimate, reference, causally.
 
 A scripted user's reference can be computed for the whole episode before the
-physics runs (:func:`scenarios.runners.episode._reference_stream`). A user who
+physics runs (:func:`scenarios.runners.reference.scripted_reference`). A user who
 reacts cannot: what they intend at time t depends on what the hand did before
 t. :class:`LiveUser` interleaves, at every control step::
 

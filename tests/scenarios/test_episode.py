@@ -10,13 +10,13 @@ import pytest
 from scenarios.cli import main
 from scenarios.runners.compare import compare_references, format_comparison
 from scenarios.runners.dispatch import UnsupportedScenarioError, run_scenario
-from scenarios.runners.episode import (
+from scenarios.runners.episode import run_episode
+from scenarios.runners.episode_metrics import episode_metrics
+from scenarios.runners.reference import (
     FRAGILE_MARGIN,
     MIN_GRIP_N,
-    episode_metrics,
     intended_grip_n,
     reference_from_windows,
-    run_episode,
 )
 from scenarios.schema import parse_scenario
 from sim.hand.objects import make_object

@@ -10,12 +10,8 @@ import pytest
 from controllers.bounds import slip_threshold_n
 from controllers.design_cache import grasp_design
 from scenarios.outcomes import outcome_of
-from scenarios.runners.episode import (
-    _closed_loop,
-    contact_peak_ratio,
-    run_episode,
-    was_lifted,
-)
+from scenarios.runners.episode import _closed_loop, run_episode
+from scenarios.runners.episode_metrics import contact_peak_ratio, was_lifted
 from sim.hand.objects import make_object
 from sim.user.subjects import VirtualSubject
 

@@ -22,7 +22,8 @@ from scenarios.cli.main import main
 from scenarios.live.calibrate import cue_levels, cue_schedule
 from scenarios.live.display import render_states
 from scenarios.live.recorded import episode_on_recording, fit_calibration
-from scenarios.live.session import LiveGrasp, SampleGuard, SessionSettings
+from scenarios.live.samples import SampleGuard
+from scenarios.live.session import LiveGrasp, SessionSettings
 from scenarios.live.windowing import IncrementalFeatures
 from sim.hand.objects import make_object
 from sim.recording import load_recording

@@ -7,6 +7,8 @@ import pytest
 
 from controllers.design_cache import grasp_design
 from scenarios.runners import episode as E
+from scenarios.runners import reference as R
+from scenarios.runners.calibration import calibrate
 from scenarios.runners.dispatch import UnsupportedScenarioError
 from sim.hand.objects import make_object
 from sim.user.operator import ScriptedOperator
@@ -21,23 +23,23 @@ TIMING = ("t_semg_s", "t_features_s", "t_estimator_s", "t_operator_s", "t_contro
 def _both_paths(subject, obj, estimator, mode, seed):
     """The batch reference and the live one of a scripted user, each closed on the hand."""
     cal_seq, ep_seq, env_seq, op_seq = np.random.SeedSequence(seed).spawn(4)
-    cal = E.calibrate(subject, estimator, mode, rng=np.random.default_rng(cal_seq))
+    cal = calibrate(subject, estimator, mode, rng=np.random.default_rng(cal_seq))
     design = grasp_design(obj, "pid", DT, None)
-    goal = E.intended_grip_n(obj, 1.5)
+    goal = R.intended_grip_n(obj, 1.5)
     timings = dict.fromkeys(TIMING, 0.0)
-    batch = E._reference_stream(subject, cal, goal, np.random.default_rng(ep_seq),
+    batch = R.scripted_reference(subject, cal, goal, np.random.default_rng(ep_seq),
                                 generator="noise", episode_s=6.0, control_dt_s=DT,
                                 hand_force_at_mvc_n=30.0, timings=timings)
     tr_b, _, info_b = E._closed_loop(obj, design, batch.reference_n.copy(), batch.t_s, DT, 6.0,
                                      3.4, env_seq, timings, False)
-    person, start_s = E.live_user(subject, cal, ScriptedOperator(), goal,
+    person, start_s = R.live_user(subject, cal, ScriptedOperator(), goal,
                                   np.random.default_rng(ep_seq), np.random.default_rng(op_seq),
                                   generator="noise", episode_s=6.0, control_dt_s=DT,
                                   hand_force_at_mvc_n=30.0)
     reference = np.zeros(batch.t_s.size)
     tr_l, _, info_l = E._closed_loop(obj, design, reference, batch.t_s, DT, 6.0, 3.4, env_seq,
                                      timings, False, user=person)
-    live = E.live_stream(person, start_s, batch.t_s, reference, 6.0, timings)
+    live = R.live_stream(person, start_s, batch.t_s, reference, 6.0, timings)
     return batch, live, tr_b, tr_l, info_b, info_l
 
 

@@ -1,0 +1,188 @@
+"""The reference an episode's controller tracks: the user's intended grip, through the estimator.
+
+The user's intent becomes sEMG, features every 125 ms, the fitted estimator's
+output and the hand reference, held between updates
+(:mod:`scenarios.runners.episode` explains the force mapping). For a scripted
+user the whole reference is computed before the hand runs; a reacting user
+(:class:`scenarios.runners.operator_loop.LiveUser`) produces it chunk by chunk.
+"""
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from controllers.bounds import slip_threshold_n
+from estimation.features import PAPER_CHANNELS, FeatureSet, align_to_windows, extract_features
+from scenarios.runners.calibration import Calibration
+from scenarios.runners.dispatch import UnsupportedScenarioError
+from scenarios.runners.operator_loop import LiveUser
+from sim.hand.objects import ObjectSpec
+from sim.user.causal import NotCausalError
+from sim.user.intent import IntentProfile, grasp_lift_hold
+from sim.user.operator import Operator, Plan
+from sim.user.subjects import VirtualSubject
+
+MIN_GRIP_N = 2.0  # the least grip a user intends, N
+FRAGILE_MARGIN = 0.7  # a user intends at most this fraction of a fragile object's break force
+REST_S = 1.0  # rest before the grasp, s
+RAMP_S = 0.5  # ramp to the hold level, s
+
+
+
+def intended_grip_n(obj: ObjectSpec, safety_factor: float) -> float:
+    """Hand grip force the user aims at for ``obj``, N (see module notes)."""
+    target = max(safety_factor * slip_threshold_n(obj.mass_kg, obj.friction), MIN_GRIP_N)
+    if obj.break_force_n is not None:
+        target = min(target, FRAGILE_MARGIN * obj.break_force_n)
+    return float(target)
+
+
+def reference_from_windows(values_n: np.ndarray, window_t_s: np.ndarray,
+                           control_t_s: np.ndarray) -> np.ndarray:
+    """Hold each window's value from its end time until the next one (0 before the first)."""
+    idx = np.searchsorted(window_t_s, control_t_s + 1e-9, side="right") - 1
+    held = np.where(idx >= 0, values_n[np.clip(idx, 0, None)], 0.0)
+    return held
+
+
+def stream_estimates(calibration: Calibration, features: FeatureSet) -> np.ndarray:
+    """Run the fitted estimator's stream over the episode's windows, N per window.
+
+    ``one_step`` feeds the previous window's measured FSR force; ``free_run`` feeds nothing.
+    """
+    stream = calibration.pipeline.streaming(calibration.mode)
+    stream.reset()
+    out = np.empty(features.n_windows)
+    y = features.y
+    one_step = calibration.mode == "one_step"
+    for k in range(features.n_windows):
+        y_prev = (float(y[k - 1]) if k > 0 else 0.0) if one_step else None
+        out[k] = stream.step(features.X[k], y_prev)
+    return out
+
+
+@dataclass
+class ReferenceStream:
+    """The force reference of one episode, at the estimator's and the control rate.
+
+    Attributes
+    ----------
+    start_s : float
+        The user's ramp onset, s.
+    window_values_n : ndarray, shape (n_windows,)
+        The hand reference at each feature window that ends within the episode
+        (estimate mapped to the hand, clipped), N.
+    window_dt_s : float
+        Estimator update period, s.
+    t_s : ndarray, shape (n_steps,)
+        Control-rate time, s.
+    reference_n, oracle_n : ndarray, shape (n_steps,)
+        The held reference, and the same for the user's true grip force, N.
+    """
+
+    start_s: float
+    window_values_n: np.ndarray
+    window_dt_s: float
+    t_s: np.ndarray
+    reference_n: np.ndarray
+    oracle_n: np.ndarray
+
+
+def hold_level_for(target_n: float, cal: Calibration, subject: VirtualSubject,
+                   hand_force_at_mvc_n: float) -> float:
+    """The intent (fraction of MVC) asking for ``target_n`` through the calibration's mapping."""
+    return float(np.clip(target_n / hand_force_at_mvc_n * cal.mvc_cal_n / subject.mvc_n, 0.0, 1.0))
+
+
+def episode_profile(rng: np.random.Generator, hold_level: float, episode_s: float
+                    ) -> tuple[IntentProfile, float]:
+    """The scripted grasp-lift-hold intent of an episode at 200 Hz, and its ramp onset, s."""
+    profile = grasp_lift_hold(rng, fs_hz=200.0, hold_level=hold_level, rest_s=REST_S,
+                              ramp_s=RAMP_S, hold_s=episode_s, jitter=0.1)
+    return profile, next(t for kind, t in profile.cues if kind == "start")
+
+
+def scripted_reference(subject: VirtualSubject, cal: Calibration, target_n: float,
+                      rng: np.random.Generator, *, generator: str, episode_s: float,
+                      control_dt_s: float, hand_force_at_mvc_n: float,
+                      timings: dict[str, float]) -> ReferenceStream:
+    """Record the user's sEMG while they grasp, estimate, and hold it at the control rate.
+
+    The scripted user: the whole episode's sEMG and reference are computed
+    before the physics runs. The user aims at ``target_n`` on the hand, which
+    they reach through the calibration's mapping (module notes); sEMG,
+    feature and estimator times are added to ``timings``.
+    """
+    # The user's intent and their sEMG during the episode.
+    hold_level = hold_level_for(target_n, cal, subject, hand_force_at_mvc_n)
+    profile, start_s = episode_profile(rng, hold_level, episode_s)
+    t0 = time.perf_counter()
+    recording = subject.record(profile, generator=generator, rng=rng)
+    timings["t_semg_s"] = time.perf_counter() - t0
+    n_keep = int(round((episode_s + 0.5) * recording.fs_hz))
+    recording = recording.slice(0, min(n_keep, recording.n_samples))
+    t0 = time.perf_counter()
+    features = extract_features(recording, channels=PAPER_CHANNELS)
+    timings["t_features_s"] = time.perf_counter() - t0
+
+    # Estimates at the window rate, then the held reference at the control rate.
+    to_hand = hand_force_at_mvc_n / cal.mvc_cal_n
+    # the user's true grip force (before the FSR) at each window's end
+    oracle_windows = align_to_windows(recording.intent_force_n, recording.fs_hz) * to_hand
+    t0 = time.perf_counter()
+    if cal.pipeline is None:
+        estimate_windows = oracle_windows
+    else:
+        estimate_windows = stream_estimates(cal, features) * to_hand
+    timings["t_estimator_s"] = time.perf_counter() - t0
+    ceiling = 1.2 * hand_force_at_mvc_n
+    estimate_windows = np.clip(estimate_windows, 0.0, ceiling)
+    n_steps = int(round(episode_s / control_dt_s))
+    t_ctrl = np.arange(n_steps) * control_dt_s
+    reference = reference_from_windows(estimate_windows, features.t_s, t_ctrl)
+    oracle = reference_from_windows(np.clip(oracle_windows, 0, ceiling), features.t_s, t_ctrl)
+    return ReferenceStream(start_s, estimate_windows[features.t_s <= episode_s],
+                            features.dt_s, t_ctrl, reference, oracle)
+
+
+def live_user(subject: VirtualSubject, cal: Calibration, operator: Operator, goal_n: float,
+              rng: np.random.Generator, operator_rng: np.random.Generator, *, generator: str,
+              episode_s: float, control_dt_s: float, hand_force_at_mvc_n: float,
+              hold_level: float | None = None) -> tuple[LiveUser, float]:
+    """A user in the loop for one episode, and their ramp onset, s.
+
+    Draws the same profile and the same sEMG noise from ``rng`` as
+    :func:`_reference_stream` does (a scripted operator so gives its very
+    references); the operator plans from the profile and aims at ``goal_n``.
+
+    Parameters
+    ----------
+    hold_level : float, optional
+        The scripted hold level; default: ``goal_n`` through the calibration.
+    """
+    if hold_level is None:
+        hold_level = hold_level_for(goal_n, cal, subject, hand_force_at_mvc_n)
+    profile, start_s = episode_profile(rng, hold_level, episode_s)
+    plan = Plan(intent=profile.intent, fs_hz=profile.fs_hz, hold_level=hold_level,
+                goal_n=float(goal_n), force_range_n=float(hand_force_at_mvc_n))
+    try:
+        user = LiveUser(subject, cal, operator, plan, session_rng=rng,
+                        operator_rng=operator_rng, n_samples=profile.n_samples,
+                        control_dt_s=control_dt_s, hand_force_at_mvc_n=hand_force_at_mvc_n,
+                        generator=generator)
+    except NotCausalError as exc:
+        raise UnsupportedScenarioError(f"user {operator.name}: {exc}") from None
+    return user, start_s
+
+
+def live_stream(user: LiveUser, start_s: float, t_ctrl: np.ndarray, reference_n: np.ndarray,
+                episode_s: float, timings: dict[str, float]) -> ReferenceStream:
+    """The :class:`ReferenceStream` a live user produced (for the metrics), timings added."""
+    window_t = np.asarray(user.window_t_s)
+    estimates = np.asarray(user.window_estimate_n)
+    oracle = reference_from_windows(user.window_oracle_n(), window_t, t_ctrl)
+    for key, value in user.timings.items():
+        timings[key] = timings.get(key, 0.0) + value
+    return ReferenceStream(start_s, estimates[window_t <= episode_s], user.hop / user.fs_hz,
+                            t_ctrl, reference_n, oracle)
