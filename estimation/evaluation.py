@@ -178,7 +178,9 @@ def evaluate_subject(
 
 def estimator_params(names: Sequence[str], rng: np.random.Generator, order: int,
                      nn_params: Mapping[str, object] | None = None, *,
-                     dt_s: float) -> dict[str, dict]:
+                     dt_s: float,
+                     options: Mapping[str, Mapping[str, object]] | None = None
+                     ) -> dict[str, dict]:
     """Hyperparameters per estimator: SS order and sample time, NARX delays, NN seeds.
 
     Parameters
@@ -193,6 +195,9 @@ def estimator_params(names: Sequence[str], rng: np.random.Generator, order: int,
         Overrides for the networks' hyperparameters (e.g. ``{"max_epochs": 50}``).
     dt_s : float
         Window increment, s, for the estimators that take one.
+    options : mapping, optional
+        ``{name: {hyperparameter: value}}`` a user chose (a scenario's
+        ``estimator.options``), applied last.
 
     Returns
     -------
@@ -212,6 +217,7 @@ def estimator_params(names: Sequence[str], rng: np.random.Generator, order: int,
         p.update({k: order for k in info["order_params"] if k != "order"})
         if info["neural"]:
             p.update(nn_params or {})
+        p.update((options or {}).get(name, {}))
         params[name] = p
     return params
 
@@ -225,6 +231,7 @@ def fit_and_score(
     nn_params: Mapping[str, object] | None = None,
     fraction: float = IDENTIFICATION_FRACTION,
     time_steps: bool = True,
+    options: Mapping[str, Mapping[str, object]] | None = None,
 ) -> tuple[dict, dict[str, dict]]:
     """Make, fit and score estimators on one feature set: the one fit-then-score.
 
@@ -248,6 +255,8 @@ def fit_and_score(
         Identification fraction (paper: 0.5).
     time_steps : bool
         Measure the median streaming step time.
+    options : mapping, optional
+        Per-estimator hyperparameters a user chose (:func:`estimator_params`).
 
     Returns
     -------
@@ -257,7 +266,7 @@ def fit_and_score(
         ``{name: {hyperparameter: value}}`` each estimator was made with.
     """
     params = estimator_params(estimators, np.random.default_rng(rng), order, nn_params,
-                              dt_s=features.dt_s)
+                              dt_s=features.dt_s, options=options)
     with one_blas_thread():
         results = evaluate_subject(features.X, features.y, params, dt_s=features.dt_s,
                                    fraction=fraction, time_steps=time_steps)

@@ -14,6 +14,7 @@ the model does not diverge in it.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -57,7 +58,8 @@ class Calibration:
 
 
 def fit_one(features: FeatureSet, estimator: str, mode: str, *, rng: np.random.Generator,
-            order: int, fraction: float, time_steps: bool = False) -> dict[str, Any]:
+            order: int, fraction: float, time_steps: bool = False,
+            options: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Fit and score one estimator (:func:`~estimation.evaluation.fit_and_score`) for one mode.
 
     Parameters
@@ -72,6 +74,8 @@ def fit_one(features: FeatureSet, estimator: str, mode: str, *, rng: np.random.G
         Seeds the estimator.
     order, fraction, time_steps
         As :func:`estimation.evaluation.fit_and_score`.
+    options : mapping, optional
+        The estimator's own hyperparameters a user chose (``estimator.options``).
 
     Returns
     -------
@@ -87,7 +91,8 @@ def fit_one(features: FeatureSet, estimator: str, mode: str, *, rng: np.random.G
         The identified model is unstable in ``mode``, or its Kalman design failed.
     """
     result = fit_and_score(features, [estimator], rng=rng, order=order, fraction=fraction,
-                           time_steps=time_steps)[0][estimator]
+                           time_steps=time_steps,
+                           options={estimator: dict(options)} if options else None)[0][estimator]
     if mode not in result["modes"]:
         raise UnsupportedScenarioError(
             f"estimator {estimator} has modes {tuple(result['modes'])} (found mode {mode})"
@@ -103,7 +108,7 @@ def fit_one(features: FeatureSet, estimator: str, mode: str, *, rng: np.random.G
 
 def fit_on_features(features: FeatureSet, estimator: str, mode: str, *,
                     rng: np.random.Generator, order: int, identification_fraction: float,
-                    mvc_cal_n: float) -> Calibration:
+                    mvc_cal_n: float, options: Mapping[str, Any] | None = None) -> Calibration:
     """Fit ``estimator`` on the identification part of a calibration's features and score it.
 
     The fit of a calibration, for a simulated session (:func:`calibrate`) and a
@@ -117,7 +122,7 @@ def fit_on_features(features: FeatureSet, estimator: str, mode: str, *,
         The identified model is unstable and ``mode`` would run it open loop.
     """
     result = fit_one(features, estimator, mode, rng=rng, order=order,
-                     fraction=identification_fraction)
+                     fraction=identification_fraction, options=options)
     return Calibration(estimator, mode, result["_pipeline"], mvc_cal_n,
                        result["modes"][mode]["r2"], result["train_ms"] / 1e3)
 
@@ -132,8 +137,9 @@ def calibrate(
     order: int = PAPER_ORDER,
     identification_fraction: float = 0.5,
     calibration_s: float | None = None,
+    options: Mapping[str, Any] | None = None,
 ) -> Calibration:
-    """Record a calibration session and fit ``estimator`` on its first part.
+    """Record a calibration session and fit ``estimator`` (with ``options``) on its first part.
 
     ``rng`` is split in two: the session (protocol timing, levels, noise) and the
     estimator's seeds. Raises as :func:`fit_on_features`.
@@ -146,7 +152,7 @@ def calibrate(
         return Calibration(ORACLE, mode, None, mvc_cal_n, None, 0.0)
     return fit_on_features(features, estimator, mode, rng=estimator_rng, order=order,
                            identification_fraction=identification_fraction,
-                           mvc_cal_n=mvc_cal_n)
+                           mvc_cal_n=mvc_cal_n, options=options)
 
 
 def run_calibration_scenario(scenario: Scenario) -> dict[str, Any]:
@@ -159,6 +165,6 @@ def run_calibration_scenario(scenario: Scenario) -> dict[str, Any]:
                         generator=scenario.subject.generator,
                         order=PAPER_ORDER if e.order is None else e.order,
                         identification_fraction=p.identification_fraction,
-                        calibration_s=p.calibration_s)
+                        calibration_s=p.calibration_s, options=e.options)
     return {"subject_id": subject.subject_id, "estimator": e.name, "mode": e.mode,
             "r2": cal.r2, "mvc_cal_n": cal.mvc_cal_n, "fit_s": cal.fit_s}

@@ -139,6 +139,7 @@ def run_episode(
     user: str = "reacting",
     feedback: str = "none",
     operator_params: OperatorParams | None = None,
+    estimator_options: Mapping[str, Any] | None = None,
 ) -> EpisodeResult:
     """Calibrate, then run one closed-loop grasp-lift-hold episode.
 
@@ -171,6 +172,8 @@ def run_episode(
         reacting user's feedback (``none``, ``force_vibration``, ``slip_vibration``).
     operator_params : OperatorParams, optional
         The reacting user's parameters (default :class:`OperatorParams`).
+    estimator_options : mapping, optional
+        The estimator's own hyperparameters (a scenario's ``estimator.options``).
 
     Returns
     -------
@@ -199,7 +202,7 @@ def run_episode(
         cal = calibrate(subject, estimator, mode, rng=np.random.default_rng(cal_seq),
                         generator=generator, order=order,
                         identification_fraction=identification_fraction,
-                        calibration_s=calibration_s)
+                        calibration_s=calibration_s, options=estimator_options)
         design = grasp_design(obj, controller, control_dt_s, controller_spec)
         target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
         trial = run_trial(subject, obj, cal, design, operator, goal_n=target_n,
@@ -525,7 +528,7 @@ def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False) ->
         episode_s=p.episode_s, hold_s=p.hold_s,
         control_dt_s=1.0 / scenario.controller.control_hz, record_frames=record_frames,
         user=scenario.user.kind, feedback=scenario.user.feedback,
-        operator_params=scenario.user.operator_params())
+        operator_params=scenario.user.operator_params(), estimator_options=e.options)
 
 
 def run_episode_scenario(scenario: Scenario) -> dict[str, Any]:

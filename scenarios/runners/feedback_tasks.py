@@ -78,7 +78,8 @@ def _calibration(scenario: Scenario, subject: Any, rng_seq: np.random.SeedSequen
     """:func:`calibrate` for the scenario, memoized per process (the trials share it)."""
     e, p = scenario.estimator, scenario.protocol
     key = (subject, e.name, e.mode, e.order, scenario.subject.generator,
-           p.identification_fraction, p.calibration_s, tuple(rng_seq.generate_state(4)))
+           p.identification_fraction, p.calibration_s, tuple(rng_seq.generate_state(4)),
+           tuple(sorted(e.options.items())))
     if key not in _CALIBRATIONS:
         if len(_CALIBRATIONS) >= _MAX_CALIBRATIONS:
             _CALIBRATIONS.pop(next(iter(_CALIBRATIONS)))
@@ -86,7 +87,8 @@ def _calibration(scenario: Scenario, subject: Any, rng_seq: np.random.SeedSequen
             subject, e.name, e.mode, rng=np.random.default_rng(rng_seq),
             generator=scenario.subject.generator,
             order=PAPER_ORDER if e.order is None else e.order,
-            identification_fraction=p.identification_fraction, calibration_s=p.calibration_s)
+            identification_fraction=p.identification_fraction, calibration_s=p.calibration_s,
+            options=e.options)
     return _CALIBRATIONS[key]
 
 

@@ -22,6 +22,7 @@ from scenarios.schema.names import (  # noqa: F401  (re-exported: the schema's p
     controller_names,
     controller_own_options,
     estimator_choices,
+    estimator_own_options,
     feedback_modes,
     generator_names,
     kind_protocols,
@@ -209,16 +210,29 @@ class EstimatorConfig(_Model):
     order : int or None
         State-space order (also NARX delays and hidden units); ``None`` uses
         the paper's n = 4, which its AIC over n = 1..12 selected.
+    options : dict
+        The estimator's own hyperparameters (its ``get_params``, e.g. an MLP's
+        ``alpha``), except the order, seed and feature period an evaluation
+        sets; each value has the type of its default.
     """
 
     name: str = "ss_kf"
     mode: Literal["one_step", "free_run"] = "free_run"
     order: int | None = Field(None, ge=1, le=12)
+    options: dict[str, Any] = Field(default_factory=dict)
 
     @field_validator("name")
     @classmethod
     def _registered_estimator(cls, value: str) -> str:
         return _registered(value, estimator_choices())
+
+    @field_validator("options")
+    @classmethod
+    def _declared_options(cls, value: dict[str, Any], info: Any) -> dict[str, Any]:
+        name = info.data.get("name")
+        if name is None or not value:  # the name itself failed (reported), or nothing set
+            return value
+        return check_declared_options(f"estimator {name}", value, estimator_own_options(name))
 
 
 class SlipReflexConfig(_Model):
@@ -440,14 +454,15 @@ class Scenario(_Model):
         return self
 
     def canonical_dict(self) -> dict[str, Any]:
-        """Every field as JSON types, without empty ``controller.options``.
+        """Every field as JSON types, without empty ``controller`` and ``estimator`` options.
 
         A scenario that sets no kind options hashes and seeds as it did before
         kinds could declare options.
         """
         data = self.model_dump(mode="json")
-        if not data["controller"]["options"]:
-            del data["controller"]["options"]
+        for section in ("controller", "estimator"):
+            if not data[section]["options"]:
+                del data[section]["options"]
         return data
 
     def canonical_json(self) -> str:

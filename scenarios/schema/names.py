@@ -138,6 +138,9 @@ def check_declared_options(what: str, given: dict[str, Any],
         default = declared[key]
         if default is None:
             continue
+        if isinstance(default, tuple) and isinstance(value, list):  # YAML has lists only
+            given[key] = value = tuple(value)
+            continue
         numeric = isinstance(default, (int, float)) and not isinstance(default, bool)
         ok = (isinstance(value, (int, float)) and not isinstance(value, bool)
               and (isinstance(default, float) or isinstance(value, int))) if numeric else (
@@ -146,3 +149,21 @@ def check_declared_options(what: str, given: dict[str, Any],
             raise OptionError(f"{what} option {key}: expected a {type(default).__name__} "
                               f"like its default {default!r} (found {value!r})", key)
     return given
+
+
+def estimator_own_options(name: str) -> dict[str, Any]:
+    """An estimator's own hyperparameters a scenario may set, with their defaults.
+
+    What the estimator declares (scikit-learn's ``get_params``), less what its
+    registration fixes and what an evaluation sets (order, seed, feature period).
+    The oracle has none.
+    """
+    if name == ORACLE:
+        return {}
+    from estimation.registry import estimator_info, make_estimator
+
+    est = make_estimator(name, normalize=False)
+    declared = est.get_params(deep=False) if hasattr(est, "get_params") else {}
+    info = estimator_info(name)
+    reserved = {*info["params"], *info["order_params"], "random_state", "dt_s"}
+    return {k: v for k, v in declared.items() if k not in reserved}

@@ -374,7 +374,7 @@ def _check_design(spec: SweepConfig, source: str, lines: Mapping[tuple, int]) ->
         design, where_in_file = spec.random.params, ("random", "params")
     for path in design:
         loc = (*where_in_file, path)
-        if path not in known:
+        if path not in known and not path.startswith("estimator.options."):  # values checked below
             line = _line_of(loc, lines)
             where = f"{source}:{line}" if line else source
             near = difflib.get_close_matches(path, sorted(known), n=1)

@@ -44,7 +44,7 @@ from scenarios.report import build_report
 from scenarios.report.html import Section
 from scenarios.report.sections import register_section, section_names, unregister_section
 from scenarios.runners.dispatch import register_kind, scenario_kinds, unregister_kind
-from scenarios.runners.episode import controller_spec, run_episode
+from scenarios.runners.episode import controller_spec, episode_from_scenario, run_episode
 from scenarios.schema import ScenarioError, expand_sweep, load_sweep, parse_scenario
 from scenarios.store import ResultStore
 from sim.hand.objects import (
@@ -455,3 +455,27 @@ def test_an_undeclared_yaml_option_names_the_line_and_the_declared_options(toys,
     with pytest.raises(ScenarioError, match=r"controller pid has no option 'gain_scale' "
                                             r"\(its options: none\)"):
         expand_sweep(load_sweep(path))
+
+
+def test_an_estimator_option_reaches_the_fit_from_yaml(toys, tmp_path):
+    register_estimator("toy_mean_free", MeanForce, modes=("free_run",))
+    path = tmp_path / "opts.yaml"
+    base = ("base:\n  kind: episode\n  seed: 4\n  protocol: {name: grasp_lift_hold, "
+            "episode_s: 4.0, hold_s: 1.0}\n  controller: {kind: pid}\n"
+            "  estimator:\n    name: toy_mean_free\n    mode: free_run\n")
+    try:
+        held = {}
+        for shrink in (0.25, 1.0):
+            path.write_text(base + f"    options: {{shrink: {shrink}}}\n")
+            scenario = expand_sweep(load_sweep(path))[0].scenario
+            assert scenario.estimator.options == {"shrink": shrink}
+            reference = episode_from_scenario(scenario).traces["reference_n"]
+            held[shrink] = float(reference[-1])
+        assert 0.0 < held[0.25] < 0.6 * held[1.0]  # the mean calibration force, shrunk
+        path.write_text(base + "    options:\n      shrink: 0.5\n      scale: 2.0\n")
+        with pytest.raises(ScenarioError) as info:
+            load_sweep(path)
+        assert str(info.value) == (f"{path}:11: base.estimator.options.scale: estimator "
+                                   "toy_mean_free has no option 'scale' (its options: shrink)")
+    finally:
+        unregister_estimator("toy_mean_free")
