@@ -11,6 +11,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from scenarios.rows import ROW_TYPES
 from scenarios.store import _META_COLUMNS, EXPORT_FORMATS, ResultStore, StoreError
 
 
@@ -74,7 +75,7 @@ def flat_columns(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         if row.get("sweep") is not None:
             record.update(sweep=row["sweep"], idx=row["idx"])
         record.update(_flatten(row["config"], "config."))
-        record.update({f"result.{k}": v for k, v in row["result"].items()})
+        record.update({f"result.{k}": v for k, v in _in_field_order(row).items()})
         flat.append(record)
     names: dict[str, None] = dict.fromkeys(_META_COLUMNS)
     for record in flat:
@@ -113,3 +114,13 @@ def _kind(value: Any) -> str:
     if isinstance(value, str):
         return "str"
     return "json"
+
+
+def _in_field_order(row: Mapping[str, Any]) -> dict[str, Any]:
+    """A row's result, the fields of its kind's row type first (:mod:`scenarios.rows`)."""
+    result = row["result"]
+    row_type = ROW_TYPES.get(str(row.get("kind")))
+    if row_type is None:
+        return dict(result)
+    first = {k: result[k] for k in row_type.field_names() if k in result}
+    return {**first, **{k: v for k, v in result.items() if k not in first}}

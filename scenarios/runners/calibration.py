@@ -24,6 +24,7 @@ from estimation.evaluation import fit_and_score
 from estimation.features import FeatureSet
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
+from scenarios.rows import CalibrationRow
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.subject import calibration_session, subject_for
 from scenarios.schema import ORACLE, Scenario
@@ -166,5 +167,5 @@ def run_calibration_scenario(scenario: Scenario) -> dict[str, Any]:
                         order=PAPER_ORDER if e.order is None else e.order,
                         identification_fraction=p.identification_fraction,
                         calibration_s=p.calibration_s, options=e.options)
-    return {"subject_id": subject.subject_id, "estimator": e.name, "mode": e.mode,
-            "r2": cal.r2, "mvc_cal_n": cal.mvc_cal_n, "fit_s": cal.fit_s}
+    return CalibrationRow.build(subject_id=subject.subject_id, estimator=e.name, mode=e.mode,
+                                r2=cal.r2, mvc_cal_n=cal.mvc_cal_n, fit_s=cal.fit_s).as_dict()

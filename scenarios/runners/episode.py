@@ -50,6 +50,7 @@ from controllers.drive import HandLoop
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
 from scenarios.outcomes import outcome_of
+from scenarios.rows import WORST_FIELDS, EpisodeRow
 from scenarios.runners.calibration import Calibration, calibrate
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.episode_metrics import (
@@ -374,7 +375,7 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
     simulated = traces["t_s"][-1] + control_dt_s
     loop_time = sum(timings[k] for k in ("t_estimator_s", "t_controller_s", "t_physics_s",
                                          "t_semg_s", "t_features_s", "t_operator_s"))
-    row = {
+    row = EpisodeRow.build(**{
         **row,
         **metrics,
         "intended_grip_n": target_n,
@@ -385,6 +386,7 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
         "held_force_n": held_n,
         "visited_forces_n": ",".join(f"{f:g}" for f in visited_n),
         **margin_fields(held),
+        **dict.fromkeys(WORST_FIELDS),  # no visited force: no worst case
         **{f"worst_{k}": v for k, v in worst.items()},
         "loop_dt_s": float(control_dt_s),
         "mpc_failures": mpc_failures(design),
@@ -392,7 +394,7 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
         **timings,
         "simulated_s": float(simulated),
         "realtime_factor": float(simulated / loop_time) if loop_time > 0 else None,
-    }
+    }).as_dict()
     traces["intent_n"] = stream.oracle_n[:n_run]
     if held is not None and held.ok:
         A, B, C, D = (np.atleast_2d(np.asarray(M, dtype=float)) for M in

@@ -25,6 +25,7 @@ from estimation.paper import PAPER_ORDER
 from estimation.registry import estimator_names
 from estimation.reproduce import channel_label, parse_channels, population_result, score_recording
 from estimation.threads import one_blas_thread
+from scenarios.rows import ReproductionRow
 from scenarios.runners.calibration import fit_one
 from scenarios.runners.dispatch import ResultRow, UnsupportedScenarioError
 from scenarios.runners.subject import calibration_session, subject_for
@@ -138,7 +139,8 @@ def run_reproduction_scenario(scenario: Scenario) -> ResultRow:
     est = scenario.estimator
     result = fit_one(features, est.name, est.mode, rng=np.random.default_rng(estimator_seq),
                      order=PAPER_ORDER if est.order is None else est.order,
-                     fraction=scenario.protocol.identification_fraction, time_steps=True)
+                     fraction=scenario.protocol.identification_fraction, time_steps=True,
+                     options=est.options)
     return _reproduction_row(scenario, result, features, recording.duration_s)
 
 
@@ -149,20 +151,23 @@ def _reproduction_row(scenario: Scenario, result: Mapping[str, Any], features: F
     scores = result["modes"][est.mode]
     n_id = split_index(features.n_windows, scenario.protocol.identification_fraction)
     force_hat_n = result["_pipeline"].predict(features.X, features.y, mode=est.mode)[n_id:]
+    row = ReproductionRow.build(
+        subject_id=scenario.subject.subject_id,
+        estimator=est.name,
+        mode=est.mode,
+        order=PAPER_ORDER if est.order is None else est.order,
+        r2=float(scores["r2"]),
+        nrmse=float(scores["nrmse"]),
+        rmse_n=float(scores["rmse_n"]),
+        volatility_n_per_s=float(scores["volatility_n_per_s"]),
+        train_ms=float(result["train_ms"]),
+        step_us=None if result["step_us"] is None else float(result["step_us"]),
+        n_windows=int(features.n_windows),
+        n_identification=int(n_id),
+        session_s=float(session_s),
+    )
     return {
-        "subject_id": scenario.subject.subject_id,
-        "estimator": est.name,
-        "mode": est.mode,
-        "order": PAPER_ORDER if est.order is None else est.order,
-        "r2": float(scores["r2"]),
-        "nrmse": float(scores["nrmse"]),
-        "rmse_n": float(scores["rmse_n"]),
-        "volatility_n_per_s": float(scores["volatility_n_per_s"]),
-        "train_ms": float(result["train_ms"]),
-        "step_us": None if result["step_us"] is None else float(result["step_us"]),
-        "n_windows": int(features.n_windows),
-        "n_identification": int(n_id),
-        "session_s": float(session_s),
+        **row.as_dict(),
         "traces": {
             "t_s": features.t_s[n_id:],
             "force_n": features.y[n_id:],
