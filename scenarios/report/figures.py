@@ -44,8 +44,9 @@ def fixed_margins(fig: Figure, left: float, right: float, bottom: float, top: fl
 def plain_log(ax: Any, axis: str = "x") -> None:
     """Log scale on ``axis`` with plain tick labels (``0.01``, ``10``; no mathtext, whose
     parser costs the report about half a second to build); on a span of less than 20x the
-    minor ticks at 2 and 5 are labelled too."""
-    from matplotlib.ticker import FuncFormatter
+    minor ticks at 2 and 5 are labelled too, on a wider one there are no minor ticks.
+    Call it after plotting (the span is the axis's data limits)."""
+    from matplotlib.ticker import FuncFormatter, NullLocator
 
     scale = ax.xaxis if axis == "x" else ax.yaxis
     (ax.set_xscale if axis == "x" else ax.set_yscale)("log")
@@ -58,7 +59,11 @@ def plain_log(ax: Any, axis: str = "x") -> None:
         return f"{value:g}" if round(mantissa, 6) in (2.0, 5.0) else ""
 
     scale.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
-    scale.set_minor_formatter(FuncFormatter(minor))
+    low, high = sorted(ax.get_xlim() if axis == "x" else ax.get_ylim())
+    if low > 0 and high / low > 20:  # no minor label: no minor ticks (each costs a Tick)
+        scale.set_minor_locator(NullLocator())
+    else:
+        scale.set_minor_formatter(FuncFormatter(minor))
 
 
 def heat_colors(value: float, vmin: float, vmax: float, cmap: str = "Reds") -> tuple[str, str]:
@@ -74,8 +79,36 @@ def heat_colors(value: float, vmin: float, vmax: float, cmap: str = "Reds") -> t
 
 
 def readable(fig: Figure, min_pt: float = MIN_FONT_PT) -> Figure:
-    """Raise every text of ``fig`` (labels, ticks, legends, annotations) to at least ``min_pt``."""
-    for text in fig.findobj(Text):
+    """Raise every text of ``fig`` (labels, ticks, legends, annotations) to at least ``min_pt``.
+
+    Tick labels are raised through ``tick_params``, which also sizes the ticks made when
+    the figure is drawn (walking the figure's artists instead would make every tick now,
+    which cost the report a quarter of a second per figure).
+    """
+    from matplotlib.axis import Axis
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.legend import Legend
+
+    texts: list[Text] = []
+
+    def collect(artist: Any) -> None:
+        if isinstance(artist, Text):
+            texts.append(artist)
+        elif isinstance(artist, Legend):
+            texts.extend([*artist.get_texts(), artist.get_title()])
+        elif isinstance(artist, Axis):
+            texts.extend([artist.label, artist.get_offset_text()])
+
+    for artist in [*fig.texts, *fig.legends]:
+        collect(artist)
+    for ax in fig.axes:
+        for artist in ax.get_children():
+            collect(artist)
+        for axis in ("x", "y"):
+            size = FontProperties(size=matplotlib.rcParams[f"{axis}tick.labelsize"])
+            if size.get_size_in_points() < min_pt:
+                ax.tick_params(axis=axis, which="both", labelsize=min_pt)
+    for text in texts:
         if text.get_fontsize() < min_pt:
             text.set_fontsize(min_pt)
     return fig
