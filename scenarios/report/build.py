@@ -661,10 +661,11 @@ class FrameRender:
         return self._out.read_bytes()
 
     def cancel(self) -> None:
-        """Stop the child if it still runs and remove its files (no effect when done)."""
+        """Stop the child if it still runs, reap it and remove its files (no effect when
+        done)."""
         if self._proc.poll() is None:
             self._proc.kill()
-            self._proc.communicate()
+        self._proc.communicate()  # closes its pipes
         self._tmp.cleanup()
 
 

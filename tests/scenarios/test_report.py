@@ -472,6 +472,12 @@ def test_sections_without_data_become_a_note(store_path, tmp_path):
                        "margins", "frame", "feedback"}
     html = result.path.read_text()
     assert "No episode rows: section omitted." in section(html, "traces")
+    with ResultStore(store_path) as store:
+        rows = store.rows(sweep="tiny_paper")
+    failed = sum(r["status"] == "failed" for r in rows)
+    assert (f"Sweep tiny_paper holds no episode rows ({len(rows) - failed} reproduction, 0 "
+            f"other, {failed} failed): there is no grasp outcome to summarize.") \
+        in unescape(section(html, "summary"))
     assert result.n_images == 1  # the bar chart
 
 
