@@ -2,7 +2,7 @@
 
 Everything here is plain data (no figures, no HTML), so each aggregation can be
 tested against an independent re-computation. Input enters at
-:func:`load_reproduction_json`, :func:`split_rows` and :func:`check_episode`,
+:func:`read_reproduction_json`, :func:`split_rows` and :func:`check_traces`,
 which raise :class:`ReportInputError` with one line saying what was expected
 and what was found.
 """

@@ -23,7 +23,7 @@ is the report's first section.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -147,6 +147,7 @@ def cramers_v(counts: np.ndarray) -> tuple[float, float, int]:
     n = table.sum()
     expected = np.outer(table.sum(axis=1), table.sum(axis=0)) / n
     chi2 = float(((table - expected) ** 2 / expected).sum())
+    chi2 = 0.0 if chi2 < 1e-9 else chi2  # equal proportions up to round-off: no association
     return float(np.sqrt(chi2 / (n * (min(r, c) - 1)))), chi2, (r - 1) * (c - 1)
 
 
@@ -202,8 +203,7 @@ def factor_effects(episodes: Sequence[Mapping[str, Any]],
         effects.append(FactorEffect(factor, levels, chi2, dof, v,
                                     chi2_sf(chi2, dof) if dof else float("nan"),
                                     outcome, high, low))
-    effects = [FactorEffect(**{**e.__dict__, "aliases": tuple(aliases[e.factor])})
-               for e in effects]
+    effects = [replace(e, aliases=tuple(aliases[e.factor])) for e in effects]
     order = {f: i for i, f in enumerate(factors)}
     return sorted(effects, key=lambda e: (-round(e.cramers_v, 12), -round(e.spread, 12),
                                           order[e.factor]))
