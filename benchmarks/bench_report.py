@@ -114,10 +114,12 @@ def main() -> int:
         print(f"load average after: {os.getloadavg()[0]:.2f}")
     median = statistics.median(times)
     spread = f"{min(times):.2f}-{max(times):.2f} s over {len(times)} runs"
+    demo = label == "the demo store"  # main's figures were measured on that store only
     goal_line(f"griploop report of {label} <= {TIME_LIMIT_S:g} s (median)", median, "s",
-              limit=TIME_LIMIT_S, reference=f"spread {spread}; main at 61d0d64: 24.8 s")
+              limit=TIME_LIMIT_S, reference=f"spread {spread}"
+              + ("; main at 61d0d64: 24.8 s" if demo else ""))
     goal_line(f"report of {label} <= {SIZE_LIMIT_MB:g} MB", max(sizes) / 1e6, "MB",
-              limit=SIZE_LIMIT_MB, reference="main at 61d0d64: 3.04 MB")
+              limit=SIZE_LIMIT_MB, reference="main at 61d0d64: 3.04 MB" if demo else "")
     return 0
 
 
