@@ -13,6 +13,7 @@ import control
 import numpy as np
 
 from controllers.errors import PlantError, SpecificationError
+from controllers.response import state_space_response
 
 # |z| above 1 + _UNIT_TOL (or Re s above _UNIT_TOL) counts as unstable; on the
 # boundary only integrators (z = 1, s = 0) are accepted.
@@ -234,29 +235,19 @@ def frequency_response(sys: control.LTI, omega_rad_s: np.ndarray) -> np.ndarray:
     """Complex response of a SISO system on ``omega_rad_s`` (rad/s), shape (n_freqs,).
 
     A state-space system is evaluated as ``C (pI - A)^-1 B + D`` with one batched
-    linear solve over all frequencies (python-control solves one system per
-    point, which dominated the margin analysis of the MPC's 20-state loops);
-    transfer functions go through python-control.
+    linear solve over all frequencies (:func:`controllers.response.state_space_response`;
+    python-control solves one system per point, which dominated the margin analysis of
+    the MPC's 20-state loops); transfer functions, and a frequency on a pole, go through
+    python-control.
     """
     omega = np.asarray(omega_rad_s, dtype=float)
-    if _is_discrete(sys):
-        point = np.exp(1j * omega * sys.dt)
-    else:
-        point = 1j * omega
+    point = np.exp(1j * omega * sys.dt) if _is_discrete(sys) else 1j * omega
     if isinstance(sys, control.StateSpace) and sys.nstates:
-        a = np.asarray(sys.A, dtype=float)
-        b = np.asarray(sys.B, dtype=float)[:, :1]
-        c = np.asarray(sys.C, dtype=float)[:1]
-        d = float(np.asarray(sys.D, dtype=float)[0, 0])
-        shape = point.shape
-        p = point.reshape(-1)
-        m = p[:, None, None] * np.eye(a.shape[0]) - a
-        with np.errstate(all="ignore"):
-            try:
-                x = np.linalg.solve(m, np.broadcast_to(b.astype(complex), (p.size, *b.shape)))
-            except np.linalg.LinAlgError:  # a frequency on a pole: fall back point by point
-                return np.asarray(sys(point), dtype=complex).reshape(-1)
-        return (np.einsum("j,ijk->i", c[0], x) + d).reshape(shape).reshape(-1)
+        try:
+            return state_space_response(sys.A, sys.B, sys.C, sys.D,
+                                        sys.dt if _is_discrete(sys) else None, omega)
+        except np.linalg.LinAlgError:  # a frequency on a pole: fall back point by point
+            pass
     return np.asarray(sys(point), dtype=complex).reshape(-1)
 
 

@@ -2,8 +2,11 @@
 
 Modules: :mod:`~scenarios.report.data` gathers and aggregates (no drawing): swept
 factors, outcome summary with Wilson intervals, paired controller differences,
-faceted outcome grids, loop designs;
-:mod:`~scenarios.report.figures` draws PNGs in memory (every text at 9 pt or more),
+faceted outcome grids, loop designs with their stored margins;
+:mod:`~scenarios.report.findings` finds the factor that changes the outcome most and
+writes the first section;
+:mod:`~scenarios.report.figures` draws SVG figures in memory (every text at 9 pt or more),
+:mod:`~scenarios.report.svg` writes the inline force-trace charts,
 :mod:`~scenarios.report.html` renders the Jinja2 templates of ``templates/``
 (autoescaped), and
 :mod:`~scenarios.report.build` puts the sections together; the sections themselves are
@@ -13,8 +16,8 @@ registered in :mod:`~scenarios.report.sections` (one builder per section, in pag
 force matching) side by side.
 
 May import: :mod:`scenarios.store`, :mod:`scenarios.schema`, :mod:`scenarios.stats`,
-:mod:`scenarios.feedback_summary`, :mod:`controllers` (loop figures), matplotlib and
-Jinja2.
+:mod:`scenarios.feedback_summary`, :mod:`controllers` (loop responses; python-control
+only to re-analyse loops), matplotlib and Jinja2.
 """
 
 from scenarios.report.build import ReportResult, build_report

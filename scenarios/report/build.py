@@ -1,10 +1,18 @@
 """Assembling the report: one section per kind of data, in page order.
 
 :func:`build_report` reads a results store (and optionally the JSON of
-``griploop reproduce --json``) into a :class:`~scenarios.report.sections.ReportContext`,
-builds every section registered in :mod:`scenarios.report.sections` from the
-data present -- a section without data becomes a one-line note -- and writes
-``OUT/index.html``. The built-in sections are registered at the end of this module.
+``griploop reproduce --json``, read once) into a
+:class:`~scenarios.report.sections.ReportContext`, builds every section registered in
+:mod:`scenarios.report.sections` from the data present -- a section without data becomes a
+one-line note -- and writes ``OUT/index.html``. The page opens with what the sweep found
+(:mod:`scenarios.report.findings`); the built-in sections are registered at the end of
+this module.
+
+Speed: the analyses are read from the store (the episode runner stored each loop's
+margins), so the report imports neither python-control nor scipy.stats unless asked to
+re-analyse the loops (``recheck_margins``); figures are a handful of SVGs, the force
+traces inline SVG charts (:mod:`scenarios.report.svg`), the outcome maps coloured tables;
+the grasp frame renders in a child process while the sections are built.
 """
 
 from __future__ import annotations
@@ -28,17 +36,21 @@ from estimation.paper import TABLE2, TABLE3
 from estimation.registry import paper_estimators
 from scenarios.report import data as D
 from scenarios.report import figures as F
+from scenarios.report import findings
+from scenarios.report import svg as S
 from scenarios.report.html import (
+    HeatCell,
     Section,
     choices,
     esc,
     figure,
     fmt,
+    heat_table,
     img,
     note,
     page,
     pm,
-    side_by_side,
+    svg_img,
     table,
 )
 from scenarios.report.sections import ReportContext, build_sections, register_section
@@ -60,7 +72,7 @@ class ReportResult:
     sections : list of Section
         Every section, in page order (``omitted`` ones hold only a note).
     n_images : int
-        Embedded PNG images.
+        Figures: embedded images (SVG figures, the PNG of the grasp) and inline SVG charts.
     elapsed_s : float
         Wall time of the build, s.
     """
@@ -80,6 +92,7 @@ def build_report(
     render_frame: bool = True,
     max_designs: int = 6,
     max_traces: int = 120,
+    recheck_margins: bool = False,
     created: _dt.datetime | None = None,
 ) -> ReportResult:
     """Write ``out_dir/index.html`` from a results store and an optional reproduction JSON.
@@ -95,11 +108,16 @@ def build_report(
     reproduction : str or Path, optional
         JSON written by ``griploop reproduce --json``.
     render_frame : bool
-        Render a MuJoCo frame of the grasp (a child process, about 3 s with EGL).
+        Render a MuJoCo frame of the grasp (a child process, about 2 s with EGL, run
+        while the other sections are built).
     max_designs : int
-        Loop designs drawn as Bode / Nyquist / pole maps (all are tabulated).
+        Loop designs drawn in the Bode / Nyquist / pole figure (all are tabulated).
     max_traces : int
-        Episodes drawn as force traces (one selectable figure per scenario).
+        Episodes drawn as force traces (one selectable chart per scenario).
+    recheck_margins : bool
+        Re-analyse every distinct loop with :func:`controllers.analysis.loop_margins`
+        and mark where the stored margins differ (imports python-control; about 0.1 s
+        a loop); by default the margins are the stored ones.
     created : datetime, optional
         Creation time printed in the provenance (default: now, UTC).
 
@@ -122,34 +140,45 @@ def build_report(
         raise FileNotFoundError(
             f"{results}: no such results store (expected a file written by griploop sweep)"
         )
-    json_scores = D.load_reproduction_json(reproduction) if reproduction is not None else None
-    json_config = _json_config(reproduction) if reproduction is not None else {}
+    repro_data = D.read_reproduction_json(reproduction) if reproduction is not None else None
+    json_scores = (D.reproduction_scores(repro_data, reproduction)
+                   if repro_data is not None else None)
+    json_config = repro_data.get("config", {}) if repro_data is not None else {}
+    json_config = json_config if isinstance(json_config, dict) else {}
     rows, split, traces, members = _read_store(results, sweep)
     created = created or _dt.datetime.now(_dt.timezone.utc)
-
-    sources = _score_sources(split, json_scores, reproduction)
-    factors = D.swept_factors(split.episodes)
-    conditions = [f for f in factors if f != D.CONTROLLER_FACTOR]
-    designs = (D.loop_designs(split.episodes, traces,
-                              label=lambda row: D.scenario_title(row, conditions))
-               if split.episodes else [])
-
-    context = ReportContext(
-        results=results, sweep=sweep, rows=rows, split=split, traces=traces, members=members,
-        sources=sources, factors=factors, designs=designs,
-        reproduction=None if reproduction is None else Path(reproduction),
-        json_config=json_config, created=created,
-        options={"render_frame": render_frame, "max_designs": max_designs,
-                 "max_traces": max_traces},
-    )
-    sections = build_sections(context)
+    frame = (FrameRender(D.most_common_object(split.episodes), FRAME_GRIP_N)
+             if render_frame else None)
+    try:
+        sources = _score_sources(split, json_scores, reproduction)
+        factors = D.swept_factors(split.episodes)
+        conditions = [f for f in factors if f != D.CONTROLLER_FACTOR]
+        designs = (D.loop_designs(split.episodes, traces,
+                                  label=lambda row: D.scenario_title(row, conditions),
+                                  recheck=recheck_margins)
+                   if split.episodes else [])
+        context = ReportContext(
+            results=results, sweep=sweep, rows=rows, split=split, traces=traces,
+            members=members, sources=sources, factors=factors, designs=designs,
+            reproduction=None if reproduction is None else Path(reproduction),
+            json_config=json_config, created=created,
+            options={"render_frame": render_frame, "max_designs": max_designs,
+                     "max_traces": max_traces, "recheck_margins": recheck_margins,
+                     "frame": frame},
+            reproduction_data=repro_data,
+        )
+        sections = build_sections(context)
+    finally:
+        if frame is not None:
+            frame.cancel()
     text = page("griploop report", _subtitle(results, sweep, rows, split, reproduction),
                 sections)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     path = out / "index.html"
     path.write_text(text, encoding="utf-8")
-    return ReportResult(path, sections, text.count("<img "), time.perf_counter() - t0)
+    n_figures = text.count("<img ") + text.count("<svg ")
+    return ReportResult(path, sections, n_figures, time.perf_counter() - t0)
 
 
 def _read_store(results: Path, sweep: str | None
@@ -198,13 +227,13 @@ def _subtitle(results: Path, sweep: str | None, rows: Sequence[dict], split: D.S
             f"{f'; reproduction JSON {Path(reproduction).name}' if reproduction else ''}.")
 
 
-# ---------------------------------------------------------------- 1. paper tables
+# ---------------------------------------------------------------- 4. paper tables
 
 
 def _paper_section(sources: Sequence[tuple[str, D.ScoreTable]],
                    reproduction: Path | None = None,
-                   json_config: Mapping[str, Any] | None = None) -> Section:
-    title = "3. Paper tables: ours next to the paper's"
+                   reproduction_data: Mapping[str, Any] | None = None) -> Section:
+    title = "4. Paper tables: ours next to the paper's"
     if not sources:
         return Section("paper", title, note("No reproduction rows in the store and no "
                                             "--reproduction JSON: section omitted."), True)
@@ -212,19 +241,21 @@ def _paper_section(sources: Sequence[tuple[str, D.ScoreTable]],
                   "prediction); its numbers appear only next to our one_step figures. "
                   "free_run (sEMG only) has no counterpart in the paper. Virtual subject Vi is "
                   "not the paper's subject Vi: per-subject rows are side by side, not paired.")]
+    data = reproduction_data or {}
     for label, scores in sources:
         parts.append(f"<h3>From {esc(label)}</h3>")
         for mode in scores:
             parts.append(_summary_table(scores[mode], mode))
             parts.append(_per_subject_table(scores[mode], mode))
         from_json = reproduction is not None and label.startswith(Path(reproduction).name)
-        channels = (json_config or {}).get("channels") if from_json else None
+        config = data.get("config") if isinstance(data.get("config"), dict) else {}
+        channels = config.get("channels") if from_json else None
         parts.append(note(_deployment_sentence(scores, channels)))
         if from_json:
-            parts.append(_transfer_table(reproduction))
+            parts.append(_transfer_table(data.get("transfer")))
         parts.append(_timing_table(scores))
-        parts.append(img(F.png_bytes(F.score_bars_figure(scores, f"Scores ({label})")),
-                         f"R2 and NRMSE bars per estimator and mode, {label}"))
+        parts.append(svg_img(F.svg_bytes(F.score_bars_figure(scores, f"Scores ({label})")),
+                             f"R2 and NRMSE bars per estimator and mode, {label}"))
     return Section("paper", title, "\n".join(parts))
 
 
@@ -264,13 +295,9 @@ def _deployment_sentence(scores: D.ScoreTable, channels: Any = None) -> str:
                                       "can be recommended.")
 
 
-def _transfer_table(path: Path | None) -> str:
-    """Virtual next to real (``griploop reproduce --channels all --json``), or empty."""
-    import json
-
-    if path is None:
-        return ""
-    tr = json.loads(Path(path).read_text()).get("transfer")
+def _transfer_table(tr: Any) -> str:
+    """Virtual next to real (the ``transfer`` entry of ``griploop reproduce --channels all
+    --json``), or empty."""
     if not isinstance(tr, dict) or not tr.get("rows"):
         return ""
     rows = [[r["estimator"], fmt(r["virtual_mean"], 3), fmt(r["virtual_min"], 2),
@@ -329,12 +356,21 @@ def _timing_table(scores: D.ScoreTable) -> str:
                   "loop ms (paper)"], rows, "Timing (Table 3 layout)")
 
 
-# ---------------------------------------------------------------- 2. traces
+# ---------------------------------------------------------------- 5. traces
+
+
+def trace_chart(traces: Mapping[str, np.ndarray], name: str) -> str:
+    """Inline SVG chart of one episode's intent, reference and grip force against time."""
+    return S.line_chart(traces["t_s"], [("intent", traces["intent_n"], S.GREY),
+                                        ("reference", traces["reference_n"], S.ORANGE),
+                                        ("grip force", traces["grip_force_n"], S.BLUE)],
+                        x_label="time (s)", y_label="force (N)",
+                        label=f"force trace of {name}")
 
 
 def _traces_section(episodes: Sequence[dict], traces: Mapping[str, Mapping[str, np.ndarray]],
                     limit: int, factors: Sequence[str] = ()) -> Section:
-    title = "4. Force traces, one per scenario"
+    title = "5. Force traces, one per scenario"
     if not episodes:
         return Section("traces", title, note("No episode rows: section omitted."), True)
     chosen = list(episodes)[:limit]
@@ -347,8 +383,8 @@ def _traces_section(episodes: Sequence[dict], traces: Mapping[str, Mapping[str, 
         outcome = D.episode_outcome(res).replace("_", " ")
         caption = (f"{name}: {outcome}; seed {seed}, subject {res.get('subject_id', '?')}, "
                    f"scenario {row['hash'][:12]}.")
-        png = F.png_bytes(F.trace_figure(traces[row["hash"]], name))
-        items.append((f"{name} ({outcome})", figure(png, f"force trace of {name}", caption)))
+        items.append((f"{name} ({outcome})",
+                      figure(trace_chart(traces[row["hash"]], name), caption)))
     shown = (f"all {len(episodes)} episodes" if len(chosen) == len(episodes)
              else f"the first {len(chosen)} of {len(episodes)} episodes (store order)")
     body = [note(f"Open a scenario to see its intent, reference and grip force: {shown}, "
@@ -357,44 +393,46 @@ def _traces_section(episodes: Sequence[dict], traces: Mapping[str, Mapping[str, 
     return Section("traces", title, "\n".join(body))
 
 
-# ---------------------------------------------------------------- 1 + 2. summary, comparison
+# ---------------------------------------------------------------- 2 + 3. combinations, comparison
 
 
-def _rate(k: int, n: int) -> str:
-    low, high = D.wilson_interval(k, n)
-    return f"{100 * k / n:.0f} ({100 * low:.0f}–{100 * high:.0f})"
-
-
-def _summary_section(episodes: Sequence[dict], factors: Sequence[str]) -> Section:
-    title = "1. Outcome summary per combination of the swept factors"
+def _combinations_section(episodes: Sequence[dict], factors: Sequence[str]) -> Section:
+    title = "2. Outcomes per combination of the swept factors"
     if not episodes:
-        return Section("summary", title, note("No episode rows: section omitted."), True)
-    rows = []
+        return Section("combinations", title, note("No episode rows: section omitted."), True)
     summary = D.outcome_summary(episodes, factors)
+    single = all(r.n == 1 for r in summary)
+    names = [D.factor_name(f) for f in factors] or ["episodes"]
+    outcome_headers = (["outcome"] if single
+                       else [*(f"{findings.OUTCOME_WORDS[o]} %" for o in D.OUTCOMES)])
+    headers = [*names, "n", *outcome_headers, "tracking RMSE (N)", "contact peak ratio",
+               "slip distance (m)", "PM at held force (deg)", "worst visited PM (deg)"]
+    rows = []
     for r in summary:
         levels = [D.level_text(v) for v in r.levels] or ["all"]
-        rows.append([*levels, r.n,
-                     *(_rate(r.counts[o], r.n) for o in D.OUTCOMES),
-                     r.tracking_rmse_n, r.contact_peak_ratio, r.slip_distance_m,
-                     r.phase_margin_deg, r.worst_phase_margin_deg])
-    names = [D.factor_name(f) for f in factors] or ["episodes"]
-    headers = [*names, "n", "held %", "not lifted %", "dropped %", "crushed %",
-               "tracking RMSE (N)", "contact peak ratio", "slip distance (m)",
-               "PM at held force (deg)", "worst visited PM (deg)"]
+        level = findings.LevelOutcomes(r.levels, r.n, r.counts)
+        cells = ([findings.OUTCOME_WORDS[D.OUTCOMES[[r.counts[o] for o in D.OUTCOMES].index(1)]]]
+                 if single else findings.rate_cells(level, D.OUTCOMES))
+        rows.append([*levels, r.n, *cells, r.tracking_rmse_n, r.contact_peak_ratio,
+                     r.slip_distance_m, r.phase_margin_deg, r.worst_phase_margin_deg])
     swept = ", ".join(f"{D.factor_name(f)} ({f})" for f in factors) or "nothing"
+    rates = ("Each combination ran once, so each row shows its episode's outcome (a rate of "
+             "one episode would say nothing more)." if single else
+             "Rates are the percentage of the row's episodes with its 95 % Wilson interval; "
+             "a row of one episode shows its outcome instead.")
     parts = [note(f"Factors that vary between the stored scenario configs (the seed apart): "
                   f"{swept}. One row per combination ({len(summary)} rows, "
-                  f"{len(episodes)} episodes). Rates are the percentage of the row's episodes "
-                  "with its 95 % Wilson interval in brackets; tracking RMSE, contact peak ratio, "
+                  f"{len(episodes)} episodes). {rates} Tracking RMSE, contact peak ratio, "
                   "slip distance and the phase margin at the held force are means, the worst "
                   "visited phase margin is the minimum over the row's episodes."),
-             table(headers, rows, "Outcomes and metrics per factor combination",
-                   text_columns=len(names))]
-    return Section("summary", title, "\n".join(parts))
+             f"<details><summary>Table of the {len(summary)} combinations</summary>"
+             + table(headers, rows, "Outcomes and metrics per factor combination",
+                     text_columns=len(names)) + "</details>"]
+    return Section("combinations", title, "\n".join(parts))
 
 
 def _compare_section(episodes: Sequence[dict], factors: Sequence[str]) -> Section:
-    title = "2. Controllers side by side on the same scenarios"
+    title = "3. Controllers side by side on the same scenarios"
     if not episodes:
         return Section("compare", title, note("No episode rows: section omitted."), True)
     if D.CONTROLLER_FACTOR not in factors:
@@ -416,34 +454,57 @@ def _compare_section(episodes: Sequence[dict], factors: Sequence[str]) -> Sectio
     return Section("compare", title, "\n".join(parts))
 
 
-# ---------------------------------------------------------------- 3 + 5. loops
+# ---------------------------------------------------------------- 6 + 8. loops
+
+
+def drawn_designs(designs: Sequence[D.LoopDesign], limit: int) -> list[D.LoopDesign]:
+    """At most ``limit`` designs, taken in turn from each controller family (first seen
+    first), in their original order: every family is drawn before any has two."""
+    queues: dict[str, list[D.LoopDesign]] = {}
+    for d in designs:
+        queues.setdefault(d.controller, []).append(d)
+    chosen: list[D.LoopDesign] = []
+    while len(chosen) < min(limit, len(designs)):
+        for queue in queues.values():
+            if queue and len(chosen) < limit:
+                chosen.append(queue.pop(0))
+    return sorted(chosen, key=lambda d: designs.index(d))
+
+
+def _conditions(d: D.LoopDesign, n: int = 3) -> str:
+    return "; ".join(d.conditions[:n]) + (" ..." if len(d.conditions) > n else "")
 
 
 def _loop_section(designs: Sequence[D.LoopDesign], limit: int) -> Section:
-    title = "5. Loop analysis: Bode, Nyquist and pole maps"
+    title = "6. Loop analysis: Bode, Nyquist and pole maps"
     if not designs:
         return Section("loops", title, note("No episode rows with an analysed loop: "
                                             "section omitted."), True)
-    from controllers.figures import bode_figure, nyquist_figure, pole_zero_figure
-
-    parts = []
-    if len(designs) > limit:
-        parts.append(note(f"{len(designs)} distinct loops; the first {limit} are drawn, all are "
-                          "in the margin table."))
-    for d in designs[:limit]:
-        name = f"{d.label}: {d.conditions[0]}"
-        parts.append(f"<h3>{esc(name)} ({len(d.hashes)} episode(s))</h3>")
-        figures = (("Bode", bode_figure), ("Nyquist", nyquist_figure),
-                   ("poles", pole_zero_figure))
-        parts.append(side_by_side([
-            img(F.png_bytes(F.offset_annotations(make(d.margins, title=f"{d.label}: {kind}"))),
-                f"{kind} of {name}")
-            for kind, make in figures]))
+    chosen = drawn_designs(designs, limit)
+    parts = [note(f"{len(designs)} distinct loops (each episode's loop at the force it held); "
+                  + (f"{len(chosen)} drawn, taken in turn from each controller family; "
+                     if len(chosen) < len(designs) else "all drawn; ")
+                  + "every one is in the margin table. Each loop is drawn from the state "
+                  "space stored with its first episode; the legend gives its stored margins."),
+             table(["design", "episodes", "conditions"],
+                   [[d.label, len(d.hashes), _conditions(d)] for d in chosen],
+                   "Designs drawn", text_columns=3),
+             svg_img(F.svg_bytes(F.loop_figure(chosen)),
+                     "Bode, Nyquist and closed-loop poles of the drawn designs")]
     return Section("loops", title, "\n".join(parts))
 
 
+def _crossovers(stored: Mapping[str, Any]) -> str:
+    """The stored gain crossover, and how many more the loop has."""
+    w, n = stored.get("crossover_rad_s"), stored.get("n_crossovers")
+    if w is None:
+        return "none"
+    more = int(n) - 1 if n is not None else 0
+    return fmt(w) + (f" (+{more} more)" if more > 0 else "")
+
+
 def _margin_section(designs: Sequence[D.LoopDesign], episodes: Sequence[dict] = ()) -> Section:
-    title = "7. Margins per controller design"
+    title = "8. Margins per controller design"
     if not designs:
         return Section("margins", title, note("No episode rows with an analysed loop: "
                                               "section omitted."), True)
@@ -458,89 +519,179 @@ def _margin_section(designs: Sequence[D.LoopDesign], episodes: Sequence[dict] = 
                           "margins are those of the controller that ran at the grip force it "
                           "held in the air, on the plant linearized at that force; the open "
                           "markers are the worst over the forces it visited."))
-        parts.append(img(F.png_bytes(F.margins_vs_force_figure(list(episodes))),
-                         "margins against held grip force"))
+        parts.append(svg_img(F.svg_bytes(F.margins_vs_force_figure(list(episodes))),
+                             "margins against held grip force"))
+    rechecked = all(d.margins is not None for d in designs)
     rows = []
     for d in designs:
-        m = d.margins
-        rows.append([
-            d.label, "; ".join(d.conditions[:3]) + (" ..." if len(d.conditions) > 3 else ""),
-            len(d.hashes), m.gain_margin_db, m.phase_margin_deg, m.delay_margin_s,
-            ", ".join(fmt(w) for w in m.crossover_rad_s) or "none",
-            ", ".join(fmt(w) for w in m.phase_crossover_rad_s) or "none",
-            m.ms, m.stable, d.row_agrees,
-        ])
-    body = table(["design", "conditions", "episodes", "GM (dB)", "PM (deg)", "delay margin (s)",
-                  "gain crossovers (rad/s)", "phase crossovers (rad/s)", "Ms", "stable",
-                  "row agrees"], rows, "Recomputed from each loop's state space", text_columns=2)
-    bad = [d.label for d in designs if not d.row_agrees]
+        m, st = d.margins, d.stored
+        row = [d.label, _conditions(d), len(d.hashes)]
+        if rechecked:
+            row += [m.gain_margin_db, m.phase_margin_deg, m.delay_margin_s,
+                    ", ".join(fmt(w) for w in m.crossover_rad_s) or "none",
+                    ", ".join(fmt(w) for w in m.phase_crossover_rad_s) or "none",
+                    m.ms, m.stable, d.row_agrees]
+        else:
+            row += [st["gain_margin_db"], st["phase_margin_deg"], st["delay_margin_s"],
+                    _crossovers(st), st["ms"], st["stable"]]
+        rows.append(row)
+    headers = ["design", "conditions", "episodes", "GM (dB)", "PM (deg)", "delay margin (s)",
+               "gain crossovers (rad/s)"]
+    if rechecked:
+        headers += ["phase crossovers (rad/s)", "Ms", "stable", "row agrees"]
+        caption = "Recomputed from each loop's state space (--recheck-margins)"
+    else:
+        headers += ["Ms", "stable"]
+        caption = ("Stored by the episode runner (controllers.analysis.loop_margins of the "
+                   "loop at the held force); griploop report --recheck-margins recomputes them")
+    body = table(headers, rows, caption, text_columns=2)
+    bad = [d.label for d in designs if d.row_agrees is False]
     if bad:
         body += (f'<p class="bad">Stored margins differ from the recomputed ones for '
                  f"{esc(', '.join(bad))}.</p>")
     return Section("margins", title, "\n".join(parts) + body)
 
 
-# ---------------------------------------------------------------- 4. outcome maps
+# ---------------------------------------------------------------- 7. outcome maps
+
+
+def _heat_rows(grid: D.OutcomeGrid, attr: str, limits: tuple[float, float], cmap: str
+               ) -> list[tuple[str, list[HeatCell]]]:
+    values = getattr(grid, attr)
+    rows = []
+    for i, level in enumerate(grid.row_levels):
+        cells = []
+        for j in range(len(grid.col_levels)):
+            n = int(grid.n_episodes[i, j])
+            background, color = F.heat_colors(values[i, j], *limits, cmap) if n else ("#fff",
+                                                                                     "#000")
+            cells.append(HeatCell(f"{values[i, j]:.2g}" if n else "", n, background, color))
+        rows.append((D.level_text(level), cells))
+    return rows
 
 
 def _outcome_section(episodes: Sequence[dict], factors: Sequence[str] = ()) -> Section:
-    title = "6. Not lifted, slip, drop and crush maps"
+    title = "7. Not lifted, slip, drop and crush maps"
     if not episodes:
         return Section("outcomes", title, note("No episode rows: section omitted."), True)
     rows_f, cols_f, grids = D.faceted_grids(episodes, factors)
     facets = [D.factor_name(f) for f in factors if f not in (rows_f, cols_f)]
-    parts = [note(f"{D.factor_name(rows_f)} x {D.factor_name(cols_f)}; one panel per "
-                  f"combination of the other swept factors ({', '.join(facets) or 'none'}), "
-                  "so no cell averages different objects or designs. Each cell averages "
-                  "its episodes (seeds), n below the value. Each episode has one outcome: "
-                  "held, not lifted, dropped or crushed.")]
-    for metric, (_, label, _) in F.OUTCOME_METRICS.items():
+    corner = f"{D.factor_name(rows_f)} \\ {D.factor_name(cols_f)}"
+    parts = [note(f"{D.factor_name(rows_f)} (rows) x {D.factor_name(cols_f)} (columns); one "
+                  "table per combination of the other swept factors "
+                  f"({', '.join(facets) or 'none'}), so no cell averages different objects or "
+                  "designs. Each cell averages its episodes (seeds), n below the value; darker "
+                  "is more. Each episode has "
+                  "one outcome: held, not lifted, dropped or crushed.")]
+    for metric, (attr, label, limits) in F.OUTCOME_METRICS.items():
+        if metric in D.OUTCOMES and not any(np.nansum(getattr(g, attr)) for g in grids):
+            parts.append(note(f"No episode was {findings.OUTCOME_WORDS[metric]}: its map "
+                              "would be all zeros."))
+            continue
+        if limits is None:
+            finite = np.concatenate([getattr(g, attr)[np.isfinite(getattr(g, attr))]
+                                     for g in grids])
+            limits = (0.0, max(1.0, float(finite.max(initial=0.0))))
+        cmap = "Blues" if limits != (0.0, 1.0) else "Reds"
+        tables = [heat_table(corner, [D.level_text(c) for c in g.col_levels],
+                             _heat_rows(g, attr, limits, cmap), g.label or str(g.key))
+                  for g in grids]
         parts.append(f"<h3>{esc(label)}</h3>")
-        parts.append(img(F.png_bytes(F.outcome_figure(
-            grids, metric, D.factor_name(rows_f), D.factor_name(cols_f))), f"{label} map"))
+        parts.append('<div class="row">' + "".join(tables) + "</div>")
     return Section("outcomes", title, "\n".join(parts))
 
 
-# ---------------------------------------------------------------- 6. frame
+# ---------------------------------------------------------------- 9. frame
+
+
+class FrameRender:
+    """A PNG of the hand holding an object (``sim.hand.render_snapshot``), rendered in a
+    child process started at construction, so the report builds its sections meanwhile.
+
+    MuJoCo picks its OpenGL backend when first imported, and the child, importing
+    :mod:`sim` first, gets a headless one when there is no display (whatever this
+    process loaded); the child also keeps a GL crash out of the report.
+
+    Parameters
+    ----------
+    name : str
+        Object name.
+    grip_force_n : float
+        Grip force held, N.
+    timeout_s : float
+        Longest wait in :meth:`result`, s.
+    """
+
+    def __init__(self, name: str, grip_force_n: float, timeout_s: float = 120.0) -> None:
+        self.name = name
+        self.timeout_s = timeout_s
+        self._tmp = tempfile.TemporaryDirectory(prefix="griploop-frame-")
+        self._out = Path(self._tmp.name) / "grasp.png"
+        cmd = [sys.executable, "-m", "sim.hand.render_snapshot", str(self._out), "--object",
+               name, "--grip", f"{grip_force_n:.6g}"]
+        self._proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                      stdin=subprocess.DEVNULL, text=True)
+        self._outcome: bytes | RuntimeError | None = None
+
+    def result(self) -> bytes:
+        """The PNG bytes (waits for the child).
+
+        Raises
+        ------
+        RuntimeError
+            The renderer exited with an error or timed out (message: its last line).
+        """
+        if self._outcome is None:
+            self._outcome = self._collect()
+            self.cancel()
+        if isinstance(self._outcome, RuntimeError):
+            raise self._outcome
+        return self._outcome
+
+    def _collect(self) -> bytes | RuntimeError:
+        try:
+            stdout, stderr = self._proc.communicate(timeout=self.timeout_s)
+        except subprocess.TimeoutExpired:
+            return RuntimeError(f"renderer timed out after {self.timeout_s:g} s")
+        if self._proc.returncode != 0 or not self._out.is_file():
+            lines = (stderr or stdout).strip().splitlines()
+            errors = [ln for ln in lines if re.match(r"[\w.]+(Error|Exception)\b", ln)]
+            last = errors[-1] if errors else lines[-1] if lines else ""
+            return RuntimeError(last or f"renderer exit status {self._proc.returncode}")
+        return self._out.read_bytes()
+
+    def cancel(self) -> None:
+        """Stop the child if it still runs, reap it and remove its files (no effect when
+        done)."""
+        if self._proc.poll() is None:
+            self._proc.kill()
+        self._proc.communicate()  # closes its pipes
+        self._tmp.cleanup()
 
 
 def render_frame_png(name: str, grip_force_n: float, timeout_s: float = 120.0) -> bytes:
-    """PNG of the hand holding ``name`` at ``grip_force_n`` N (``sim.hand.render_snapshot``).
-
-    Rendered in a child process: MuJoCo picks its OpenGL backend when first
-    imported, and the child, importing :mod:`sim` first, gets a headless one
-    when there is no display (whatever this process loaded); the child also
-    keeps a GL crash out of the report.
+    """PNG of the hand holding ``name`` at ``grip_force_n`` N (:class:`FrameRender`, waited for).
 
     Raises
     ------
     RuntimeError
         The renderer exited with an error or timed out (message: its last line).
     """
-    with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "grasp.png"
-        cmd = [sys.executable, "-m", "sim.hand.render_snapshot", str(out), "--object", name,
-               "--grip", f"{grip_force_n:.6g}"]
-        try:
-            proc = subprocess.run(cmd, capture_output=True, text=True,
-                                  timeout=timeout_s, check=False)
-        except subprocess.TimeoutExpired:
-            raise RuntimeError(f"renderer timed out after {timeout_s:g} s") from None
-        if proc.returncode != 0 or not out.is_file():
-            lines = (proc.stderr or proc.stdout).strip().splitlines()
-            errors = [ln for ln in lines if re.match(r"[\w.]+(Error|Exception)\b", ln)]
-            last = errors[-1] if errors else lines[-1] if lines else ""
-            raise RuntimeError(last or f"renderer exit status {proc.returncode}")
-        return out.read_bytes()
+    job = FrameRender(name, grip_force_n, timeout_s)
+    try:
+        return job.result()
+    finally:
+        job.cancel()
 
 
-def _frame_section(episodes: Sequence[dict], render: bool) -> Section:
-    title = "8. Rendered grasp"
+def _frame_section(episodes: Sequence[dict], render: bool, job: FrameRender | None = None
+                   ) -> Section:
+    title = "9. Rendered grasp"
     if not render:
         return Section("frame", title, note("Rendering switched off (--no-render)."), True)
-    name = D.most_common_object(episodes)
+    name = job.name if job is not None else D.most_common_object(episodes)
     try:
-        png = render_frame_png(name, FRAME_GRIP_N)
+        png = job.result() if job is not None else render_frame_png(name, FRAME_GRIP_N)
     except RuntimeError as exc:
         return Section("frame", title, note(f"Rendering {name} failed: {exc}"), True)
     source = "most common object of the episodes" if episodes else "no episodes: default object"
@@ -550,11 +701,11 @@ def _frame_section(episodes: Sequence[dict], render: bool) -> Section:
     return Section("frame", title, body)
 
 
-# ---------------------------------------------------------------- 7. failures
+# ---------------------------------------------------------------- 10. failures
 
 
 def _failed_section(failed: Sequence[dict]) -> Section:
-    title = "9. Failed scenarios"
+    title = "10. Failed scenarios"
     if not failed:
         return Section("failed", title, note("No failed scenarios."))
     rows = [[r["hash"][:12], D.scenario_summary(r),
@@ -564,7 +715,7 @@ def _failed_section(failed: Sequence[dict]) -> Section:
                                           f"{len(failed)} failed row(s)", text_columns=3))
 
 
-# ---------------------------------------------------------------- 8. provenance
+# ---------------------------------------------------------------- 11. provenance
 
 
 def library_versions() -> dict[str, str]:
@@ -576,13 +727,6 @@ def library_versions() -> dict[str, str]:
         except metadata.PackageNotFoundError:
             out[dist] = "not installed"
     return out
-
-
-def _json_config(path: str | Path) -> dict[str, Any]:
-    import json
-
-    config = json.loads(Path(path).read_text()).get("config", {})
-    return config if isinstance(config, dict) else {}
 
 
 def _provenance_section(results: Path, sweep: str | None, rows: Sequence[dict],
@@ -611,22 +755,24 @@ def _provenance_section(results: Path, sweep: str | None, rows: Sequence[dict],
                     f"{esc(D.scenario_summary(r))}</li>" for r in rows)
     parts.append(f"<details><summary>Config hashes of {len(rows)} rows</summary>"
                  f"<ul>{items}</ul></details>")
-    return Section("provenance", "10. Provenance", "\n".join(parts))
+    return Section("provenance", "11. Provenance", "\n".join(parts))
 
 
 # ---------------------------------------------------------------- registrations
-register_section("summary", lambda c: _summary_section(c.split.episodes, c.factors), order=10)
+register_section("summary", "scenarios.report.findings:summary_section", order=5)
+register_section("combinations", lambda c: _combinations_section(c.split.episodes, c.factors),
+                 order=10)
 register_section("compare", lambda c: _compare_section(c.split.episodes, c.factors), order=20)
-register_section("paper", lambda c: _paper_section(c.sources, c.reproduction, c.json_config),
-                 order=30)
+register_section("paper", lambda c: _paper_section(c.sources, c.reproduction,
+                                                   c.reproduction_data), order=30)
 register_section("traces", lambda c: _traces_section(c.split.episodes, c.traces,
                                                      c.options["max_traces"], c.factors),
                  order=40)
 register_section("loops", lambda c: _loop_section(c.designs, c.options["max_designs"]), order=50)
 register_section("outcomes", lambda c: _outcome_section(c.split.episodes, c.factors), order=60)
 register_section("margins", lambda c: _margin_section(c.designs, c.split.episodes), order=70)
-register_section("frame", lambda c: _frame_section(c.split.episodes, c.options["render_frame"]),
-                 order=80)
+register_section("frame", lambda c: _frame_section(c.split.episodes, c.options["render_frame"],
+                                                   c.options.get("frame")), order=80)
 register_section("feedback", "scenarios.report.feedback:feedback_section", order=85)
 register_section("failed", lambda c: _failed_section(c.split.failed), order=90)
 register_section("provenance", lambda c: _provenance_section(

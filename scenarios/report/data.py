@@ -2,7 +2,7 @@
 
 Everything here is plain data (no figures, no HTML), so each aggregation can be
 tested against an independent re-computation. Input enters at
-:func:`load_reproduction_json`, :func:`split_rows` and :func:`check_episode`,
+:func:`read_reproduction_json`, :func:`split_rows` and :func:`check_traces`,
 which raise :class:`ReportInputError` with one line saying what was expected
 and what was found.
 """
@@ -15,15 +15,17 @@ from collections import Counter
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import control
 import numpy as np
 
-from controllers.analysis import LoopMargins, loop_margins
-from scenarios.schema import estimator_choices
-from scenarios.stats import wilson_interval
+from scenarios.stats import t_quantile, wilson_interval
 from sim.errors import GriploopError
+
+if TYPE_CHECKING:  # python-control is imported only to re-analyse loops (recheck)
+    import control
+
+    from controllers.analysis import LoopMargins
 
 MODES = ("one_step", "free_run")
 
@@ -125,8 +127,10 @@ def scores_from_rows(rows: Iterable[Mapping[str, Any]]) -> ScoreTable:
 
 def _mode_key(key: tuple[str, str]) -> tuple[int, int, str]:
     """Sort key: modes in :data:`MODES` order, estimators in the schema's order."""
+    from estimation.registry import estimator_names  # the schema's order, without pydantic
+
     mode, name = key
-    names = estimator_choices()
+    names = estimator_names()
     rank = names.index(name) if name in names else len(names)
     return (MODES.index(mode) if mode in MODES else len(MODES), rank, name)
 
@@ -134,13 +138,28 @@ def _mode_key(key: tuple[str, str]) -> tuple[int, int, str]:
 def load_reproduction_json(path: str | Path) -> ScoreTable:
     """Read the JSON of ``griploop reproduce --json`` into a :data:`ScoreTable`.
 
+    :func:`read_reproduction_json`, then :func:`reproduction_scores`.
+
     Raises
     ------
     FileNotFoundError
         No such file.
     ReportInputError
-        Not JSON, or not the reproduce contract (``estimators`` -> name -> mode
-        -> ``r2_mean``, ``r2_sd``, ``nrmse_mean``, ``nrmse_sd``, ``per_subject``).
+        Not JSON, or not the reproduce contract.
+    """
+    return reproduction_scores(read_reproduction_json(path), path)
+
+
+def read_reproduction_json(path: str | Path) -> dict[str, Any]:
+    """The JSON object of ``griploop reproduce --json`` (read once; the report's sections
+    take its scores, ``config`` and ``transfer`` from it).
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    ReportInputError
+        Not JSON, or not an object with ``estimators``.
     """
     path = Path(path)
     if not path.is_file():
@@ -159,6 +178,18 @@ def load_reproduction_json(path: str | Path) -> ScoreTable:
             f"{path}: expected an object with 'estimators' (griploop reproduce --json), "
             f"found {found}"
         )
+    return data
+
+
+def reproduction_scores(data: Mapping[str, Any], path: str | Path = "reproduction") -> ScoreTable:
+    """The :data:`ScoreTable` of a reproduction JSON object (:func:`read_reproduction_json`).
+
+    Raises
+    ------
+    ReportInputError
+        An estimator entry lacks ``r2_mean``, ``r2_sd``, ``nrmse_mean``, ``nrmse_sd`` or
+        ``per_subject`` (``path`` names the file in the message).
+    """
     subject_ids = [s.get("subject_id") for s in data.get("subjects", [])]
     timing = data.get("timing", {})
     table: ScoreTable = {}
@@ -401,6 +432,12 @@ def outcome_grids(episodes: Sequence[Mapping[str, Any]], *, key: Any = None, row
 # ---------------------------------------------------------------- loop designs
 
 
+#: Margin fields of an episode row: the episode runner computed them with
+#: :func:`controllers.analysis.loop_margins` of the loop it ran at the held force.
+STORED_MARGINS = ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "crossover_rad_s",
+                  "n_crossovers", "ms", "stable", "bandwidth_rad_s")
+
+
 @dataclass(frozen=True)
 class LoopDesign:
     """One distinct analysed open loop of the episodes, with its margins.
@@ -411,29 +448,47 @@ class LoopDesign:
         ``"D1 pid"``: number in order of appearance and controller.
     controller : str
         Controller family.
-    margins : LoopMargins
-        :func:`controllers.analysis.loop_margins` of the rebuilt loop.
+    matrices : tuple of ndarray
+        The loop's ``(A, B, C, D)`` as stored with the first episode.
+    dt_s : float
+        Its sampling period, s.
+    stored : dict
+        The first episode's stored margins (:data:`STORED_MARGINS`, ``None`` where absent).
     hashes : list of str
         Store hashes of the episodes that share this loop.
     conditions : list of str
         ``"object m=0.2 kg mu=0.8"`` of those episodes (distinct, in order).
-    row_agrees : bool
-        Whether the first episode's stored scalars (gain and phase margin, Ms,
-        stable) match the recomputed margins (rtol 1e-3).
+    margins : LoopMargins or None
+        :func:`controllers.analysis.loop_margins` of the rebuilt loop, when re-analysed
+        (``loop_designs(..., recheck=True)``).
+    row_agrees : bool or None
+        Whether the stored scalars (gain and phase margin, Ms, stable) match the
+        re-analysed margins (rtol 1e-3); ``None`` when not re-analysed.
     """
 
     label: str
     controller: str
-    margins: LoopMargins
+    matrices: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    dt_s: float
+    stored: dict[str, Any]
     hashes: list[str]
     conditions: list[str]
-    row_agrees: bool
+    margins: LoopMargins | None = None
+    row_agrees: bool | None = None
+
+
+def loop_matrices(traces: Mapping[str, np.ndarray]
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, B, C, D)`` of the analysed loop in an episode's traces, each 2-D."""
+    a, b, c, d = (np.atleast_2d(np.asarray(traces[n], dtype=float)) for n in LOOP_TRACES)
+    return a, b, c, d
 
 
 def rebuild_loop(traces: Mapping[str, np.ndarray], dt_s: float) -> control.StateSpace:
     """The analysed open loop ``control.ss(A, B, C, D, dt)`` from an episode's loop traces."""
-    a, b, c, d = (np.atleast_2d(np.asarray(traces[n], dtype=float)) for n in LOOP_TRACES)
-    return control.ss(a, b, c, d, float(dt_s))
+    import control
+
+    return control.ss(*loop_matrices(traces), float(dt_s))
 
 
 def loop_fingerprint(traces: Mapping[str, np.ndarray], dt_s: float) -> str:
@@ -462,7 +517,7 @@ def condition_label(result: Mapping[str, Any]) -> str:
 
 def loop_designs(episodes: Sequence[Mapping[str, Any]],
                  traces: Mapping[str, Mapping[str, np.ndarray]],
-                 label: Any = None) -> list[LoopDesign]:
+                 label: Any = None, *, recheck: bool = True) -> list[LoopDesign]:
     """Distinct analysed loops of the episodes, in order of first appearance.
 
     Parameters
@@ -474,6 +529,10 @@ def loop_designs(episodes: Sequence[Mapping[str, Any]],
     label : callable, optional
         Condition text of an episode row (default: :func:`condition_label` of
         its result).
+    recheck : bool
+        Re-analyse each loop with :func:`controllers.analysis.loop_margins` (imports
+        python-control; about 0.1 s a loop) and compare with the stored margins; otherwise
+        the designs carry the stored margins only.
 
     Episodes that never held a force in the air (``held_force_n`` is None: not
     lifted, or crushed on the way) and carry no loop traces are skipped.
@@ -499,13 +558,20 @@ def loop_designs(episodes: Sequence[Mapping[str, Any]],
     for i, entry in enumerate(found.values(), start=1):
         row = entry["row"]
         res = row["result"]
-        margins = loop_margins(rebuild_loop(traces[row["hash"]], res["loop_dt_s"]))
-        agrees = (_close(res["gain_margin_db"], margins.gain_margin_db)
-                  and _close(res["phase_margin_deg"], margins.phase_margin_deg)
-                  and _close(res["ms"], margins.ms)
-                  and bool(res["stable"]) == margins.stable)
-        designs.append(LoopDesign(f"D{i} {res['controller']}", str(res["controller"]), margins,
-                                  entry["hashes"], entry["conditions"], agrees))
+        margins, agrees = None, None
+        if recheck:
+            from controllers.analysis import loop_margins
+
+            margins = loop_margins(rebuild_loop(traces[row["hash"]], res["loop_dt_s"]))
+            agrees = (_close(res["gain_margin_db"], margins.gain_margin_db)
+                      and _close(res["phase_margin_deg"], margins.phase_margin_deg)
+                      and _close(res["ms"], margins.ms)
+                      and bool(res["stable"]) == margins.stable)
+        designs.append(LoopDesign(
+            f"D{i} {res['controller']}", str(res["controller"]),
+            loop_matrices(traces[row["hash"]]), float(res["loop_dt_s"]),
+            {k: res.get(k) for k in STORED_MARGINS}, entry["hashes"], entry["conditions"],
+            margins, agrees))
     return designs
 
 
@@ -622,6 +688,11 @@ def factor_value(row: Mapping[str, Any], path: str) -> Any:
         return round(float(value), 9) if isinstance(value, float) else value
     value = flatten_config(row.get("config") or {}).get(path)
     return round(value, 9) if isinstance(value, float) else value
+
+
+def level_key(row: Mapping[str, Any], path: str) -> Any:
+    """The level of ``path`` for an episode row as :func:`levels` lists it (hashable)."""
+    return _hashable(factor_value(row, path))
 
 
 def level_text(value: Any) -> str:
@@ -799,8 +870,6 @@ def paired_differences(episodes: Sequence[Mapping[str, Any]], factors: Sequence[
         When a scenario appears more than once per controller (repeated rows),
         the first row is used.
     """
-    from scipy import stats
-
     if controller not in factors:
         return []
     others = [p for p in factors if p != controller]
@@ -826,7 +895,7 @@ def paired_differences(episodes: Sequence[Mapping[str, Any]], factors: Sequence[
                 diff = xb - xa
                 mean = _mean(diff)
                 if n >= 2:
-                    half = float(stats.t.ppf(0.975, n - 1) * diff.std(ddof=1) / np.sqrt(n))
+                    half = float(t_quantile(0.975, n - 1) * diff.std(ddof=1) / np.sqrt(n))
                     low, high = mean - half, mean + half
                 else:
                     low = high = float("nan")

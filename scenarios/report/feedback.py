@@ -18,7 +18,7 @@ from scenarios.report.html import Section, note, table
 from scenarios.report.sections import ReportContext
 
 TASK_KINDS = ("eggs", "slip_recovery", "force_matching")
-TITLE = "8b. Feedback benchmarks: eggs, slip recovery, force matching"
+TITLE = "9b. Feedback benchmarks: eggs, slip recovery, force matching"
 
 
 def _pct(v: float | None) -> float | None:

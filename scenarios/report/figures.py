@@ -1,24 +1,25 @@
 """The report's figures, drawn on :class:`matplotlib.figure.Figure` (no pyplot) and rendered
-to PNG bytes in memory.
+to SVG in memory (vector: sharp at any zoom, and smaller than a PNG of the same figure).
 
-Loop figures (Bode, Nyquist, pole-zero) come from :mod:`controllers.figures`.
+The loop figure overlays the designs' stored loops (:mod:`controllers.response`, numpy
+only); the force traces are inline SVG charts of :mod:`scenarios.report.svg`.
 """
 
 from __future__ import annotations
 
 import io
-import textwrap
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
+from typing import Any
 
+import matplotlib
 import numpy as np
-from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
-from matplotlib.text import Annotation, Text
+from matplotlib.text import Text
 
+from controllers.response import closed_loop_poles, state_space_response
 from estimation.paper import SECTION_4_2, TABLE2_SUMMARY
-from scenarios.report.data import MODES, OutcomeGrid, ScoreTable, level_text
+from scenarios.report.data import MODES, PAIRED_METRICS, LoopDesign, PairedDifference, ScoreTable
 
-DPI = 80
 #: Smallest font size of any text in a report figure, pt.
 MIN_FONT_PT = 9.0
 _MODE_COLORS = {"one_step": "C0", "free_run": "C1"}
@@ -31,37 +32,98 @@ OUTCOME_METRICS: dict[str, tuple[str, str, tuple[float, float] | None]] = {
 }
 
 
+def fixed_margins(fig: Figure, left: float, right: float, bottom: float, top: float,
+                  **spacing: float) -> None:
+    """Place the axes with margins in inches (constrained layout would cost as much as
+    drawing the figure again); ``spacing``: ``wspace`` and ``hspace`` as fractions."""
+    width, height = fig.get_size_inches()
+    fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=bottom / height,
+                        top=1 - top / height, **spacing)
+
+
+def plain_log(ax: Any, axis: str = "x") -> None:
+    """Log scale on ``axis`` with plain tick labels (``0.01``, ``10``; no mathtext, whose
+    parser costs the report about half a second to build); on a span of less than 20x the
+    minor ticks at 2 and 5 are labelled too, on a wider one there are no minor ticks.
+    Call it after plotting (the span is the axis's data limits)."""
+    from matplotlib.ticker import FuncFormatter, NullLocator
+
+    scale = ax.xaxis if axis == "x" else ax.yaxis
+    (ax.set_xscale if axis == "x" else ax.set_yscale)("log")
+
+    def minor(value: float, _: int) -> str:
+        low, high = sorted(scale.get_view_interval())
+        if low <= 0 or high / low > 20 or value <= 0:
+            return ""
+        mantissa = value / 10 ** np.floor(np.log10(value) + 1e-9)
+        return f"{value:g}" if round(mantissa, 6) in (2.0, 5.0) else ""
+
+    scale.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    low, high = sorted(ax.get_xlim() if axis == "x" else ax.get_ylim())
+    if low > 0 and high / low > 20:  # no minor label: no minor ticks (each costs a Tick)
+        scale.set_minor_locator(NullLocator())
+    else:
+        scale.set_minor_formatter(FuncFormatter(minor))
+
+
+def heat_colors(value: float, vmin: float, vmax: float, cmap: str = "Reds") -> tuple[str, str]:
+    """Background colour of ``value`` on the colour map ``cmap`` over ``[vmin, vmax]``, and a
+    text colour readable on it (white on dark, black on light): two ``#rrggbb`` strings."""
+    from matplotlib import colormaps
+    from matplotlib.colors import to_hex
+
+    t = 0.0 if vmax <= vmin else float(np.clip((value - vmin) / (vmax - vmin), 0.0, 1.0))
+    r, g, b, _ = colormaps[cmap](0.05 + 0.85 * t)
+    luminance = 0.2126 * r + 0.7152 * g + 0.0722 * b
+    return to_hex((r, g, b)), "#ffffff" if luminance < 0.5 else "#000000"
+
+
 def readable(fig: Figure, min_pt: float = MIN_FONT_PT) -> Figure:
-    """Raise every text of ``fig`` (labels, ticks, legends, annotations) to at least ``min_pt``."""
-    for text in fig.findobj(Text):
+    """Raise every text of ``fig`` (labels, ticks, legends, annotations) to at least ``min_pt``.
+
+    Tick labels are raised through ``tick_params``, which also sizes the ticks made when
+    the figure is drawn (walking the figure's artists instead would make every tick now,
+    which cost the report a quarter of a second per figure).
+    """
+    from matplotlib.axis import Axis
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.legend import Legend
+
+    texts: list[Text] = []
+
+    def collect(artist: Any) -> None:
+        if isinstance(artist, Text):
+            texts.append(artist)
+        elif isinstance(artist, Legend):
+            texts.extend([*artist.get_texts(), artist.get_title()])
+        elif isinstance(artist, Axis):
+            texts.extend([artist.label, artist.get_offset_text()])
+
+    for artist in [*fig.texts, *fig.legends]:
+        collect(artist)
+    for ax in fig.axes:
+        for artist in ax.get_children():
+            collect(artist)
+        for axis in ("x", "y"):
+            size = FontProperties(size=matplotlib.rcParams[f"{axis}tick.labelsize"])
+            if size.get_size_in_points() < min_pt:
+                ax.tick_params(axis=axis, which="both", labelsize=min_pt)
+    for text in texts:
         if text.get_fontsize() < min_pt:
             text.set_fontsize(min_pt)
     return fig
 
 
-def offset_annotations(fig: Figure, dx_pt: float = 6.0, dy_pt: float = 6.0) -> Figure:
-    """Move annotations placed on their point (margin labels) ``dx_pt, dy_pt`` points away
-    from it, so that the text does not sit on the curve it labels."""
-    for ann in fig.findobj(Annotation):
-        if ann.anncoords == "data" and tuple(ann.xyann) == tuple(ann.xy):
-            ann.anncoords = "offset points"
-            ann.xyann = (dx_pt, dy_pt)
-    return fig
+def svg_bytes(fig: Figure) -> bytes:
+    """The figure as SVG bytes, every text at least :data:`MIN_FONT_PT` (:func:`readable`).
 
-
-def short_title(text: str, width: int = 34) -> str:
-    """``text`` wrapped on lines of at most ``width`` characters (two lines, then cut)."""
-    lines = textwrap.wrap(text, width) or [""]
-    if len(lines) > 2:
-        lines = [lines[0], textwrap.shorten(" ".join(lines[1:]), width, placeholder=" ...")]
-    return "\n".join(lines)
-
-
-def png_bytes(fig: Figure, dpi: int = DPI) -> bytes:
-    """The figure as PNG bytes, every text at least :data:`MIN_FONT_PT` (:func:`readable`)."""
+    Text stays text (``svg.fonttype`` none: smaller, selectable), and the file carries no
+    date and fixed element ids, so the same figure gives the same bytes.
+    """
     readable(fig)
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=dpi)
+    with matplotlib.rc_context({"svg.fonttype": "none", "svg.hashsalt": "griploop-report"}):
+        fig.savefig(buffer, format="svg", metadata={"Date": None})
     return buffer.getvalue()
 
 
@@ -88,9 +150,11 @@ def score_bars_figure(table: ScoreTable, title: str = "") -> Figure:
     names = list(dict.fromkeys(n for m in modes for n in table[m]))
     x = np.arange(len(names))
     width = 0.8 / max(len(modes), 1)
-    fig = Figure(figsize=(max(6.0, 0.9 * len(names) + 2), 5.5), layout="constrained")
+    fig = Figure(figsize=(max(6.0, 0.9 * len(names) + 2), 5.5))
     axes = fig.subplots(2, 1, sharex=True)
-    for ax, (metric, label) in zip(axes, (("r2", "R$^2$"), ("nrmse", "NRMSE fit")), strict=True):
+    longest = max((len(n) for n in names), default=4)
+    fixed_margins(fig, 0.75, 0.2, 0.35 + 0.065 * longest, 0.75, hspace=0.08)
+    for ax, (metric, label) in zip(axes, (("r2", "R²"), ("nrmse", "NRMSE fit")), strict=True):
         for j, mode in enumerate(modes):
             offset = (j - (len(modes) - 1) / 2) * width
             mean = np.array([getattr(table[mode][n], f"{metric}_mean") if n in table[mode]
@@ -110,90 +174,9 @@ def score_bars_figure(table: ScoreTable, title: str = "") -> Figure:
         ax.set_ylim(min(0.0, float(np.nanmin(ax.get_ylim()))), 1.05)
         ax.grid(True, axis="y", alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, fontsize=8, loc="outside upper right", ncols=3)
+    fig.legend(handles, labels, fontsize=9, loc="upper right", ncols=3, frameon=False)
     axes[1].set_xticks(x, names, rotation=30, ha="right")
-    axes[0].set_title(title or "Validation scores, mean and SD over subjects")
-    return fig
-
-
-def force_traces_figure(episodes: Sequence[tuple[str, Mapping[str, np.ndarray]]]) -> Figure:
-    """Intent, reference and grip force vs time, one panel per ``(label, traces)``."""
-    n = len(episodes)
-    cols = 2 if n > 1 else 1
-    rows = int(np.ceil(n / cols))
-    fig = Figure(figsize=(5.2 * cols, 2.4 * rows + 0.4), layout="constrained")
-    axes = np.atleast_1d(fig.subplots(rows, cols, sharex=False, squeeze=False)).ravel()
-    for ax, (label, tr) in zip(axes, episodes, strict=False):
-        ax.plot(tr["t_s"], tr["intent_n"], color="0.5", lw=1, label="intent")
-        ax.plot(tr["t_s"], tr["reference_n"], color="C1", lw=1, label="reference")
-        ax.plot(tr["t_s"], tr["grip_force_n"], color="C0", lw=1.2, label="grip force")
-        ax.set_title(label, fontsize=9)
-        ax.set_ylabel("force (N)")
-        ax.grid(True, alpha=0.3)
-    for ax in axes[n:]:
-        ax.set_visible(False)
-    for ax in axes[max(0, n - cols):n]:
-        ax.set_xlabel("time (s)")
-    axes[0].legend(fontsize=7, loc="upper right")
-    return fig
-
-
-def outcome_figure(grids: Sequence[OutcomeGrid], metric: str, row_name: str = "mass (kg)",
-                   col_name: str = "friction coefficient") -> Figure:
-    """Heatmaps of one outcome over two factors, one panel per facet (``grid.label``).
-
-    Each cell shows its value and, below, the number of episodes behind it;
-    empty cells stay blank.
-    """
-    attr, label, limits = OUTCOME_METRICS[metric]
-    values = [getattr(g, attr) for g in grids]
-    finite = np.concatenate([v[np.isfinite(v)] for v in values])
-    vmin, vmax = limits if limits else (0.0, max(1.0, float(finite.max(initial=0.0))))
-    norm = Normalize(vmin, vmax)
-    n = len(grids)
-    g0 = grids[0]
-    n_rows, n_cols = len(g0.row_levels), len(g0.col_levels)
-    cols = min(n, 3 if n_cols <= 4 else 2)
-    rows = int(np.ceil(n / cols))
-    cell_w = 0.75 * max(n_cols, 2)
-    cell_h = 0.55 * max(n_rows, 2)
-    fig = Figure(figsize=(cols * (cell_w + 1.4) + 1.2, rows * (cell_h + 1.4) + 0.3),
-                 layout="constrained")
-    axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False)).ravel()
-    image = None
-    for ax, grid, value in zip(axes, grids, values, strict=False):
-        image = ax.imshow(value, origin="lower", cmap="viridis" if metric == "slip" else "Reds",
-                          norm=norm, aspect="auto")
-        for (i, j), v in np.ndenumerate(value):
-            if grid.n_episodes[i, j]:
-                shade = "white" if norm(v) > 0.6 else "black"
-                ax.text(j, i, f"{v:.2g}\nn={grid.n_episodes[i, j]}", ha="center", va="center",
-                        fontsize=9, color=shade)
-        ax.set_xticks(range(n_cols), [level_text(f) for f in grid.col_levels], fontsize=9,
-                      rotation=30 if n_cols > 4 else 0)
-        ax.set_yticks(range(n_rows), [level_text(m) for m in grid.row_levels], fontsize=9)
-        ax.set_xlabel(col_name, fontsize=10)
-        ax.set_ylabel(row_name, fontsize=10)
-        ax.set_title(short_title(grid.label or str(grid.key), 30), fontsize=10)
-    for ax in axes[n:]:
-        ax.set_visible(False)
-    fig.colorbar(image, ax=axes[:n].tolist(), label=label, shrink=0.9)
-    return fig
-
-
-def trace_figure(traces: Mapping[str, np.ndarray], title: str = "") -> Figure:
-    """Intent, reference and grip force vs time of one episode."""
-    fig = Figure(figsize=(7.0, 3.0), layout="constrained")
-    ax = fig.subplots()
-    ax.plot(traces["t_s"], traces["intent_n"], color="0.5", lw=1, label="intent")
-    ax.plot(traces["t_s"], traces["reference_n"], color="C1", lw=1, label="reference")
-    ax.plot(traces["t_s"], traces["grip_force_n"], color="C0", lw=1.2, label="grip force")
-    if title:
-        ax.set_title(short_title(title, 60), fontsize=10)
-    ax.set_xlabel("time (s)", fontsize=10)
-    ax.set_ylabel("force (N)", fontsize=10)
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=9, loc="lower right", ncols=3)
+    axes[0].set_title(title or "Validation scores, mean and SD over subjects", loc="left")
     return fig
 
 
@@ -204,8 +187,9 @@ def margins_vs_force_figure(episodes: list[dict]) -> Figure:
     held in the air (the scheduled design there, on the plant linearized there);
     the open marker below it is the worst over the forces the episode visited.
     """
-    fig = Figure(figsize=(8, 5.5), layout="constrained")
+    fig = Figure(figsize=(8, 5.5))
     ax_pm, ax_gm = fig.subplots(2, 1, sharex=True)
+    fixed_margins(fig, 0.8, 0.15, 0.6, 0.15, hspace=0.08)
     kinds = sorted({str(e["result"]["controller"]) for e in episodes})
     for i, kind in enumerate(kinds):
         rows = [e["result"] for e in episodes if e["result"]["controller"] == kind
@@ -227,8 +211,170 @@ def margins_vs_force_figure(episodes: list[dict]) -> Figure:
     ax_pm.set_ylabel("phase margin (deg)", fontsize=11)
     ax_gm.set_ylabel("gain margin (dB)", fontsize=11)
     ax_gm.set_xlabel("grip force held in the air (N)", fontsize=11)
-    ax_pm.legend(fontsize=8, ncols=2)
+    ax_pm.legend(fontsize=9, ncols=2, loc="lower right")
     for ax in (ax_pm, ax_gm):
-        ax.set_xscale("log")
+        plain_log(ax)
         ax.grid(True, which="both", alpha=0.3)
     return fig
+
+
+def forest_figure(diffs: Sequence[PairedDifference]) -> Figure:
+    """Paired controller differences ``B - A``: one panel per metric, one row per pair.
+
+    Each row is the mean paired difference with its 95 % t interval (a bare point below
+    two pairs); the dashed line is no difference. The held rate is in percentage points,
+    the slip distance in mm.
+    """
+    from matplotlib.ticker import MaxNLocator
+
+    metrics = list(dict.fromkeys(d.metric for d in diffs))
+    pairs = list(dict.fromkeys((d.baseline, d.other) for d in diffs))
+    cols = 2 if len(metrics) > 1 else 1
+    rows = int(np.ceil(len(metrics) / cols))
+    fig = Figure(figsize=(6.6, 0.55 + rows * (0.32 * len(pairs) + 0.95)))
+    axes = fig.subplots(rows, cols, squeeze=False)
+    longest = max(len(a) + len(b) + 3 for a, b in pairs)
+    fixed_margins(fig, 0.25 + 0.075 * longest, 0.15, 0.35, 0.55, wspace=0.12, hspace=0.75)
+    y = np.arange(len(pairs))[::-1]
+    for k, (ax, metric) in enumerate(zip(axes.ravel(), metrics, strict=False)):
+        scale = 100.0 if metric == "held" else 1e3 if metric == "slip_distance_m" else 1.0
+        for yi, pair in zip(y, pairs, strict=True):
+            d = next((d for d in diffs if d.metric == metric
+                      and (d.baseline, d.other) == pair), None)
+            if d is None or not np.isfinite(d.mean_diff):
+                continue
+            mean = d.mean_diff * scale
+            if np.isfinite(d.ci_low):
+                ax.errorbar(mean, yi, xerr=[[mean - d.ci_low * scale], [d.ci_high * scale - mean]],
+                            fmt="o", color="C0", ms=4, capsize=3, lw=1.2)
+            else:
+                ax.plot(mean, yi, "o", color="C0", ms=4)
+        ax.axvline(0.0, color="0.5", lw=0.8, ls="--")
+        ax.set_ylim(-0.6, len(pairs) - 0.4)
+        labels = [f"{b} − {a}" for a, b in pairs] if k % cols == 0 else [""] * len(pairs)
+        ax.set_yticks(y, labels)
+        label = ("held rate (points)" if metric == "held" else "slip distance (mm)"
+                 if metric == "slip_distance_m" else PAIRED_METRICS[metric][0])
+        ax.set_title(label, fontsize=10)
+        ax.grid(True, axis="x", alpha=0.3)
+        ax.xaxis.set_major_locator(MaxNLocator(4))
+    for ax in axes.ravel()[len(metrics):]:
+        ax.set_visible(False)
+    fig.suptitle("Paired controller differences B − A, 95 % CI", fontsize=10)
+    return fig
+
+
+def held_rate_figure(x_name: str, x_levels: Sequence[str],
+                     series: Sequence[tuple[str, Sequence[tuple[int, int]]]],
+                     series_name: str = "") -> Figure:
+    """Held rate (%) with 95 % Wilson intervals at each level of one factor, one line per
+    level of another.
+
+    Parameters
+    ----------
+    x_name : str
+        The factor on the x axis.
+    x_levels : sequence of str
+        Its levels, in order.
+    series : sequence of (str, sequence of (int, int))
+        Per series: its label and, per x level, ``(held, episodes)``; a level with no
+        episode (0 episodes) is left out.
+    series_name : str
+        The factor of the series (legend title); empty for one unlabelled series.
+    """
+    from scenarios.stats import wilson_interval
+
+    fig = Figure(figsize=(5.6, 3.7))
+    ax = fig.subplots()
+    fixed_margins(fig, 0.7, 1.45 if series_name else 0.15, 0.6, 0.35)
+    x = np.arange(len(x_levels), dtype=float)
+    width = 0.35 if len(series) > 1 else 0.0
+    markers = "osD^vP*X"
+    for j, (label, counts) in enumerate(series):
+        shift = (j / max(len(series) - 1, 1) - 0.5) * width if width else 0.0
+        pts = [(xi + shift, k, n) for xi, (k, n) in zip(x, counts, strict=True) if n]
+        if not pts:
+            continue
+        px = np.array([p[0] for p in pts])
+        rate = np.array([100.0 * k / n for _, k, n in pts])
+        ci = np.array([wilson_interval(k, n) for _, k, n in pts]) * 100.0
+        ax.errorbar(px, rate, yerr=[rate - ci[:, 0], ci[:, 1] - rate], fmt=f"-{markers[j % 8]}",
+                    color=f"C{j}", ms=5, capsize=3, lw=1.3, label=label or None)
+    ax.set_xticks(x, list(x_levels))
+    ax.set_xlim(-0.5, len(x_levels) - 0.5)
+    ax.set_ylim(-4, 104)
+    ax.set_xlabel(x_name)
+    ax.set_ylabel("episodes held (%)")
+    ax.grid(True, axis="y", alpha=0.3)
+    if series_name:
+        ax.legend(title=series_name, fontsize=9, title_fontsize=9, loc="upper left",
+                  bbox_to_anchor=(1.0, 1.0), frameon=False)
+    ax.set_title(f"Held rate by {x_name}" + (f" and {series_name}" if series_name else "")
+                 + ", 95 % Wilson CI", fontsize=10)
+    return fig
+
+
+def loop_figure(designs: Sequence[LoopDesign]) -> Figure:
+    """Bode magnitude and phase, Nyquist curve and closed-loop poles of several loops, overlaid.
+
+    Each loop is evaluated from its stored matrices (:func:`controllers.response.
+    state_space_response`), from a thousandth of its gain crossover (or 0.01 rad/s) to the
+    Nyquist frequency; the legend gives each design's stored phase and gain margin, and the
+    dot on each magnitude curve is its stored gain crossover.
+    """
+    fig = Figure(figsize=(10.5, 7.2))  # fixed margins: constrained layout doubles the cost
+    (ax_mag, ax_nyq), (ax_ph, ax_pole) = fig.subplots(2, 2)
+    fixed_margins(fig, 0.75, 0.15, 0.55, 0.35, wspace=0.22, hspace=0.28)
+    theta = np.linspace(0.0, 2.0 * np.pi, 181)
+    span = 2.0
+    for i, d in enumerate(designs):
+        color = f"C{i % 10}"
+        wc = d.stored.get("crossover_rad_s")
+        top = np.pi / d.dt_s * (1 - 1e-6)
+        low = min(1e-2, 1e-3 * wc) if wc else 1e-2
+        omega = np.geomspace(low, top, 250)
+        resp = state_space_response(*d.matrices, d.dt_s, omega)
+        pm, gm = d.stored.get("phase_margin_deg"), d.stored.get("gain_margin_db")
+        label = (f"{d.label}: PM {_num(pm, '.0f')} deg, GM {_num(gm, '.1f')} dB")
+        with np.errstate(divide="ignore"):
+            ax_mag.plot(omega, 20 * np.log10(np.abs(resp)), color=color, lw=1.1)
+        ax_ph.plot(omega, np.rad2deg(np.unwrap(np.angle(resp))), color=color, lw=1.1,
+                   label=label)
+        if wc:
+            ax_mag.plot([wc], [0.0], "o", color=color, ms=4)
+        ax_nyq.plot(resp.real, resp.imag, color=color, lw=1.1)
+        span = max(span, float(np.clip(1.1 * np.max(np.abs(resp[omega >= (wc or 0) / 10])),
+                                       2.0, 5.0)))
+        poles = closed_loop_poles(*d.matrices)
+        ax_pole.plot(poles.real, poles.imag, "x", color=color, ms=6)
+    ax_mag.axhline(0.0, color="0.5", lw=0.8, ls="--")
+    ax_ph.axhline(-180.0, color="0.5", lw=0.8, ls="--")
+    for ax in (ax_mag, ax_ph):
+        plain_log(ax)
+    ax_mag.set_ylabel("|L| (dB)")
+    ax_ph.set_ylabel("phase of L (deg)")
+    ax_ph.set_xlabel("frequency (rad/s)")
+    ax_mag.set_title("Bode: open loop L = C P", fontsize=10)
+    ax_ph.legend(fontsize=9, loc="lower left")
+    ax_nyq.plot(np.cos(theta), np.sin(theta), color="0.6", lw=0.8)
+    ax_nyq.plot([-1], [0], "k+", ms=12)
+    ax_nyq.set_xlim(-span, span)
+    ax_nyq.set_ylim(-span, span)
+    ax_nyq.set_aspect("equal")
+    ax_nyq.set_xlabel("Re L")
+    ax_nyq.set_ylabel("Im L")
+    ax_nyq.set_title("Nyquist (w > 0); + is -1", fontsize=10)
+    ax_pole.plot(np.cos(theta), np.sin(theta), color="0.6", lw=0.8)
+    ax_pole.set_aspect("equal")
+    ax_pole.set_xlabel("Re z")
+    ax_pole.set_ylabel("Im z")
+    ax_pole.set_title("Closed-loop poles (stable inside the unit circle)", fontsize=10)
+    for ax in (ax_mag, ax_ph, ax_nyq, ax_pole):
+        ax.grid(True, which="major", alpha=0.3)
+    return fig
+
+
+def _num(value: float | None, spec: str) -> str:
+    if value is None or not np.isfinite(value):
+        return "inf" if value is not None and value > 0 else "n/a"
+    return format(value, spec)

@@ -1,10 +1,11 @@
-"""HTML assembly from Jinja2 templates: escaped tables, embedded PNG images, sections, the page.
+"""HTML assembly from Jinja2 templates: escaped tables, heatmap tables, embedded images,
+sections, the page.
 
 The templates live in ``scenarios/report/templates`` and are rendered with
 autoescaping on, so every value passed in is escaped unless it is
 :class:`markupsafe.Markup` (HTML this module built). The page is one
-self-contained file: inline CSS, images as base64 ``data:`` URIs, no script
-and no external address.
+self-contained file: inline CSS, images as base64 ``data:`` URIs (SVG figures, the
+PNG of the rendered grasp) or inline SVG charts, no script and no external address.
 """
 
 from __future__ import annotations
@@ -37,6 +38,12 @@ figure { margin: .5em 0; } figcaption { font-size: .85em; color: #444; }
 div.choices details { border: 1px solid #ddd; border-radius: 3px; padding: .2em .5em; }
 div.choices summary { cursor: pointer; } div.choices details[open] summary { font-weight: bold; }
 td.lo { color: #666; font-size: .9em; }
+p.finding { font-size: 1.15em; line-height: 1.4; border-left: 4px solid #1f77b4;
+  padding: .3em .8em; background: #f4f8fc; }
+div.row img.half { max-width: 49%; }
+svg.chart { max-width: 100%; height: auto; display: block; }
+table.heat td { text-align: center; min-width: 3.2em; }
+table.heat th { font-weight: normal; }
 """
 
 _ENV = jinja2.Environment(
@@ -100,10 +107,34 @@ def img(png: bytes, alt: str) -> str:
     return str(Markup('<img src="data:image/png;base64,{}" alt="{}">').format(data, alt))
 
 
-def figure(png: bytes, alt: str, caption: str = "") -> str:
-    """An embedded PNG in a ``<figure>`` with an optional caption."""
-    return render("figure.html.j2", data=base64.b64encode(png).decode("ascii"), alt=alt,
-                  caption=caption)
+def svg_img(svg: bytes, alt: str, css_class: str = "") -> str:
+    """An ``<img>`` with an SVG document embedded as a base64 data URI (kept apart from the
+    page: its ids and styles cannot clash with another figure's)."""
+    data = base64.b64encode(svg).decode("ascii")
+    return str(Markup('<img{} src="data:image/svg+xml;base64,{}" alt="{}">').format(
+        Markup(f' class="{css_class}"') if css_class else "", data, alt))
+
+
+def figure(chart: str, caption: str = "") -> str:
+    """A chart (HTML already built, e.g. an inline SVG) in a ``<figure>`` with a caption."""
+    return render("figure.html.j2", chart=Markup(chart), caption=caption)
+
+
+@dataclass(frozen=True)
+class HeatCell:
+    """One cell of :func:`heat_table`: its text, the episodes behind it, its colours."""
+
+    text: str
+    n: int
+    background: str
+    color: str
+
+
+def heat_table(corner: str, columns: Sequence[str], rows: Sequence[tuple[str, Sequence[HeatCell]]],
+               caption: str = "") -> str:
+    """A small table whose cells are coloured by value (a heatmap that stays text)."""
+    return render("heatmap.html.j2", corner=corner, columns=columns, caption=caption,
+                  rows=[{"label": label, "cells": cells} for label, cells in rows])
 
 
 def choices(items: Sequence[tuple[str, str]], open_first: bool = True) -> str:

@@ -6,8 +6,8 @@ their traces, swept factors and loop designs) returning one
 :class:`~scenarios.report.html.Section` (a section without data returns one
 with ``omitted=True`` and a one-line note). The report shows the registered
 sections in ascending ``order``; the built-in ones (:mod:`scenarios.report.build`)
-use 10, 20, ..., 100, provenance last. A new section is a module with such a
-function plus one call::
+use 5 (what the sweep found, first), 10, 20, ..., 100, provenance last. A new
+section is a module with such a function plus one call::
 
     register_section("energy", "mypackage.energy:energy_section", order=95)
 """
@@ -62,7 +62,10 @@ class ReportContext:
     created : datetime
         Creation time of the report (UTC).
     options : dict
-        Build options: ``render_frame``, ``max_designs``, ``max_traces``.
+        Build options: ``render_frame``, ``max_designs``, ``max_traces``,
+        ``recheck_margins``, and ``frame`` (the grasp frame being rendered, or None).
+    reproduction_data : dict or None
+        The reproduction JSON as read (once), if given.
     """
 
     results: Path
@@ -78,6 +81,7 @@ class ReportContext:
     json_config: Mapping[str, Any]
     created: _dt.datetime
     options: Mapping[str, Any] = field(default_factory=dict)
+    reproduction_data: Mapping[str, Any] | None = None
 
 
 SectionBuilder = Callable[[ReportContext], Section]

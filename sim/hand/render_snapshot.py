@@ -38,11 +38,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--object", default="ball")
     parser.add_argument("--grip", type=float, default=10.0, help="grip force, N")
     args = parser.parse_args(argv)
-    import matplotlib.image
+    from PIL import Image  # Pillow (matplotlib's dependency): no matplotlib import to save a PNG
 
     frame = render_grasp(args.object, args.grip)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    matplotlib.image.imsave(args.out, frame)
+    Image.fromarray(frame).save(args.out)
     print(f"wrote {args.out} ({frame.shape[1]}x{frame.shape[0]})")
     return 0
 

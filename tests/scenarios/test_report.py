@@ -19,6 +19,7 @@ import textwrap
 import time
 from html import unescape
 from pathlib import Path
+from xml.etree import ElementTree
 
 import control
 import matplotlib.image
@@ -336,29 +337,44 @@ def test_episode_row_missing_a_field_is_rejected(tmp_path):
 def test_report_has_every_section_with_real_content(report):
     result, html = report
     assert [s.anchor for s in result.sections] == [
-        "summary", "compare", "paper", "traces", "loops", "outcomes", "margins", "frame",
-        "feedback", "failed", "provenance"]
+        "summary", "combinations", "compare", "paper", "traces", "loops", "outcomes", "margins",
+        "frame", "feedback", "failed", "provenance"]
     # the store holds episodes, no feedback benchmark (tests/scenarios/test_feedback_tasks.py
     # reports one)
     assert not any(s.omitted for s in result.sections if s.anchor != "feedback"), \
         [s.title for s in result.sections]
-    # 2 bar charts + one trace per episode + 3 designs x 3 loop figures + 4 outcome maps
-    # (not lifted, dropped, crushed, slip) + frame
+    # 2 bar charts + the summary's forest plot and held-rate figure + one trace chart per
+    # episode + one loop figure (the designs overlaid) + frame; the outcome maps are tables
     n_episodes = 4 * len(MASSES_KG) * len(FRICTIONS) * len(SEEDS)
-    assert result.n_images == 2 + n_episodes + 9 + 4 + 1
+    assert result.n_images == 2 + 2 + n_episodes + 1 + 1
+    assert html.count('<table class="heat">') > 0
 
 
 def test_page_is_self_contained(report):
     _, html = report
     assert "<script" not in html.lower()
-    assert not re.search(r"""(src|href)\s*=\s*["'](?!data:image/png;base64,|#)""", html)
+    assert not re.search(r"""(src|href)\s*=\s*["'](?!data:image/(png|svg\+xml);base64,|#)""",
+                         html)
     assert "http://" not in html and "https://" not in html
-    images = re.findall(r'<img src="data:image/png;base64,([^"]+)" alt="[^"]+">', html)
+    images = re.findall(r'<img (?:class="[^"]*" )?src="data:image/(png|svg\+xml);base64,'
+                        r'([^"]+)" alt="[^"]+">', html)
     assert len(images) == html.count("<img ")
-    for data in images:
-        pixels = matplotlib.image.imread(io.BytesIO(base64.b64decode(data)), format="png")
-        assert pixels.shape[0] > 50 and pixels.shape[1] > 50
-        assert pixels[..., :3].std() > 0.01  # not a blank canvas
+    assert {kind for kind, _ in images} == {"png", "svg+xml"}  # the frame, the figures
+    for kind, data in images:
+        raw = base64.b64decode(data)
+        if kind == "png":
+            pixels = matplotlib.image.imread(io.BytesIO(raw), format="png")
+            assert pixels.shape[0] > 50 and pixels.shape[1] > 50
+            assert pixels[..., :3].std() > 0.01  # not a blank canvas
+        else:  # a well-formed SVG document with drawn paths and text
+            root = ElementTree.fromstring(raw)
+            assert root.tag == "{http://www.w3.org/2000/svg}svg"
+            assert float(root.get("width").removesuffix("pt")) > 50
+            assert len(root.findall(".//{http://www.w3.org/2000/svg}path")) > 5
+            assert root.findall(".//{http://www.w3.org/2000/svg}text")
+    for chart in re.findall(r"<svg .*?</svg>", html, re.S):  # the inline trace charts
+        ElementTree.fromstring(chart)
+        assert chart.count("<path ") >= 4  # grid + intent, reference, grip force
 
 
 def test_paper_values_sit_only_beside_one_step(report, store_path):
@@ -383,9 +399,10 @@ def test_paper_values_sit_only_beside_one_step(report, store_path):
     assert v2[per_subject[1].index("paper ss_kf R²")] == f"{TABLE2['V2']['ss_kf'][0]:.4g}"
 
 
-def test_margin_table_equals_recomputed_margins(report, store_path):
+def test_margin_table_equals_recomputed_margins(report, store_path, tmp_path):
     _, html = report
     ((caption, headers, rows),) = tables(section(html, "margins"))
+    assert caption.startswith("Stored by the episode runner")
     assert [r[0] for r in rows] == ["D1 pid", "D2 lead_lag", "D3 mpc"]
     loops = designed_loops()
     for row, name in zip(rows, ("pid", "lead_lag", "mpc"), strict=True):
@@ -394,9 +411,22 @@ def test_margin_table_equals_recomputed_margins(report, store_path):
         assert row[headers.index("PM (deg)")] == f"{m.phase_margin_deg:.4g}"
         assert row[headers.index("delay margin (s)")] == f"{m.delay_margin_s:.4g}"
         assert row[headers.index("Ms")] == f"{m.ms:.4g}"
+        more = len(m.crossover_rad_s) - 1
+        assert row[headers.index("gain crossovers (rad/s)")] == \
+            f"{m.crossover_rad_s[0]:.4g}" + (f" (+{more} more)" if more else "")
+        assert row[headers.index("stable")] == "yes"
+    # asked to, the report re-analyses every loop and checks the stored margins against it
+    out = build_report(store_path, tmp_path, sweep="episodes", render_frame=False,
+                       recheck_margins=True)
+    ((caption, headers, rows),) = tables(section(out.path.read_text(), "margins"))
+    assert caption.startswith("Recomputed from each loop's state space")
+    for row, name in zip(rows, ("pid", "lead_lag", "mpc"), strict=True):
+        m = loop_margins(loops[name])
         assert row[headers.index("gain crossovers (rad/s)")] == \
             ", ".join(f"{w:.4g}" for w in m.crossover_rad_s)
-        assert row[headers.index("stable")] == "yes"
+        assert row[headers.index("phase crossovers (rad/s)")] == \
+            (", ".join(f"{w:.4g}" for w in m.phase_crossover_rad_s) or "none")
+        assert row[headers.index("row agrees")] == "yes"
 
 
 def test_failed_rows_are_listed_with_their_error(report, store_path):
@@ -438,10 +468,16 @@ def test_same_inputs_give_identical_html(store_path, tmp_path):
 def test_sections_without_data_become_a_note(store_path, tmp_path):
     result = build_report(store_path, tmp_path, sweep="tiny_paper", render_frame=False)
     omitted = {s.anchor for s in result.sections if s.omitted}
-    assert omitted == {"summary", "compare", "traces", "loops", "outcomes", "margins", "frame",
-                       "feedback"}
+    assert omitted == {"summary", "combinations", "compare", "traces", "loops", "outcomes",
+                       "margins", "frame", "feedback"}
     html = result.path.read_text()
     assert "No episode rows: section omitted." in section(html, "traces")
+    with ResultStore(store_path) as store:
+        rows = store.rows(sweep="tiny_paper")
+    failed = sum(r["status"] == "failed" for r in rows)
+    assert (f"Sweep tiny_paper holds no episode rows ({len(rows) - failed} reproduction, 0 "
+            f"other, {failed} failed): there is no grasp outcome to summarize.") \
+        in unescape(section(html, "summary"))
     assert result.n_images == 1  # the bar chart
 
 
@@ -456,7 +492,7 @@ def test_cli_writes_the_report(store_path, tmp_path, capsys):
     out, err = capsys.readouterr()
     assert code == 0 and err == ""
     assert out.startswith(f"wrote {tmp_path / 'out' / 'index.html'} (")
-    assert "no data: 3. Paper tables" in out
+    assert "no data: 4. Paper tables" in out
     assert (tmp_path / "out" / "index.html").stat().st_size > 10_000
     print(f"report of {4 * 8} episode rows: {elapsed_s:.1f} s")
 
@@ -496,7 +532,10 @@ def test_swept_factors_come_from_the_configs(store_path):
 
 def test_summary_has_one_row_per_factor_combination(report, store_path):
     _, html = report
-    ((caption, headers, rows),) = tables(section(html, "summary"))
+    body = section(html, "combinations")
+    assert re.search(r"<details><summary>Table of the 16 combinations</summary>\s*"
+                     r'<div class="scroll"><table>', body)  # collapsed below the findings
+    ((caption, headers, rows),) = tables(body)
     names = ["object", "mass (kg)", "friction", "controller", "estimator", "mode"]
     assert headers[:7] == [*names, "n"]
     with ResultStore(store_path) as store:
@@ -516,7 +555,7 @@ def test_summary_has_one_row_per_factor_combination(report, store_path):
         dropped = sum(D.episode_outcome(r) == "dropped" for r in cell)
         low, high = D.wilson_interval(dropped, len(cell))
         assert row[headers.index("dropped %")] == \
-            f"{100 * dropped / len(cell):.0f} ({100 * low:.0f}–{100 * high:.0f})"
+            f"{100 * dropped / len(cell):.0f} % ({100 * low:.0f}–{100 * high:.0f} %)"
         rmse = np.mean([r["tracking_rmse_n"] for r in cell])
         assert row[headers.index("tracking RMSE (N)")] == f"{rmse:.4g}"
 
@@ -638,7 +677,7 @@ def test_traces_are_one_selectable_figure_per_scenario(report, store_path):
         episodes = D.split_rows(store.rows()).episodes
     summaries = re.findall(r"<summary>(.*?)</summary>", body)
     captions = [unescape(c) for c in re.findall(r"<figcaption>(.*?)</figcaption>", body)]
-    assert len(summaries) == len(captions) == body.count("<img ") == len(episodes)
+    assert len(summaries) == len(captions) == body.count('<svg class="chart"') == len(episodes)
     assert body.count("<details open>") == 1
     for row, caption in zip(episodes, captions, strict=True):
         assert f"seed {row['result']['seed']}," in caption
@@ -667,7 +706,7 @@ def test_hostile_text_is_escaped(tmp_path):
     html = build_report(path, tmp_path / "out", render_frame=False).path.read_text()
     assert "<script" not in html.lower()
     assert "&lt;script&gt;alert(&#34;x&#34;)&lt;/script&gt;&amp;amp;" in html
-    ((_, headers, rows),) = tables(section(html, "summary"))
+    ((_, headers, rows),) = tables(section(html, "combinations"))
     assert headers[0] == "object" and {r[0] for r in rows} == {hostile, "can"}
 
 

@@ -26,9 +26,11 @@ from typing import Any
 
 import matplotlib.image
 import pytest
+from scipy import stats
 from test_report import CREATED, reproduction_json, store_path  # noqa: F401 (fixtures)
 
 from scenarios.report import build_report
+from scenarios.store import ResultStore
 
 CHROMIUM = Path("/usr/bin/chromium")
 FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -164,9 +166,20 @@ _IMAGES = """JSON.stringify({
   n: document.images.length,
   broken: Array.from(document.images).filter(i => !i.complete || i.naturalWidth === 0).length,
   widths: Array.from(document.images).map(i => i.naturalWidth),
+  charts: document.querySelectorAll('svg.chart').length,
   scripts: document.scripts.length,
   sections: document.querySelectorAll('section h2').length,
-  height: document.documentElement.scrollHeight
+  height: document.documentElement.scrollHeight,
+  first: (document.querySelector('section') || {}).id || null,
+  summary: (() => {
+    const s = document.querySelector('section#summary');
+    if (!s) return null;
+    const r = s.getBoundingClientRect();
+    const images = Array.from(s.querySelectorAll('img'));
+    return {top: r.top, bottom: r.bottom, width: r.width,
+            images: images.length, loaded: images.every(i => i.complete && i.naturalWidth > 0),
+            finding: s.querySelector('p.finding').innerText};
+  })()
 })"""
 
 
@@ -182,8 +195,9 @@ def inspect_page(path: Path) -> tuple[dict[str, Any], list[str], bytes]:
     Returns
     -------
     found : dict
-        The page's image count, broken images, natural widths, scripts,
-        section headings and scroll height, read after the load event.
+        The page's image count, broken images, natural widths, inline charts, scripts,
+        section headings, scroll height, first section and the summary section's box,
+        images and finding sentence (None without one), read after the load event.
     errors : list of str
         :func:`page_errors` of every event received.
     screenshot : bytes
@@ -213,11 +227,13 @@ def inspect_page(path: Path) -> tuple[dict[str, Any], list[str], bytes]:
 def test_report_renders_in_headless_chromium(report_path):
     source = report_path.read_text()
     expected_images = source.count("<img ")
+    expected_charts = source.count('<svg class="chart"')
     # every top-level section of the page source has a heading the browser lays out
     expected_sections = len(re.findall(r"<section[^>]*>\s*<h2", source))
     found, errors, shot = inspect_page(report_path)
     assert errors == []
-    assert found["n"] == expected_images >= 10
+    assert found["n"] == expected_images >= 5  # SVG figures and the PNG of the grasp
+    assert found["charts"] == expected_charts >= 10  # one inline force-trace chart per episode
     assert found["broken"] == 0, found["widths"]
     assert min(found["widths"]) >= 200
     assert found["scripts"] == 0
@@ -226,6 +242,101 @@ def test_report_renders_in_headless_chromium(report_path):
     pixels = matplotlib.image.imread(io.BytesIO(shot), format="png")
     assert pixels.shape[:2] == (1600, 1280)
     assert pixels[..., :3].std() > 0.05  # text and figures, not a blank page
+
+
+#: The fixture's swept factors as the report names them, and the result field of each.
+FACTOR_FIELDS = {"object": "object_name", "mass (kg)": "object_mass_kg",
+                 "friction": "object_friction", "controller": "controller",
+                 "estimator": "estimator", "mode": "mode"}
+OUTCOME_NAMES = ("held", "not lifted", "dropped", "crushed")
+Z95 = 1.959963984540054
+
+
+def outcome_of(result: dict) -> str:
+    """The episode's one outcome, from the flags the fixture's rows carry."""
+    if result.get("crushed"):
+        return "crushed"
+    if not result.get("lifted", True):
+        return "not lifted"
+    return "dropped" if result.get("dropped") else "held"
+
+
+def percent(k: int, n: int) -> str:
+    """``"50 % (31–69 %)"``: the rate with its 95 % Wilson interval, computed here."""
+    p = k / n
+    centre = (p + Z95**2 / (2 * n)) / (1 + Z95**2 / n)
+    half = Z95 * (p * (1 - p) / n + Z95**2 / (4 * n * n)) ** 0.5 / (1 + Z95**2 / n)
+    return (f"{100 * p:.0f} % ({100 * max(0.0, centre - half):.0f}–"
+            f"{100 * min(1.0, centre + half):.0f} %)")
+
+
+def level_text(value: object) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def test_first_screen_holds_the_summary_and_its_sentence_matches_the_store(report_path,
+                                                                           store_path):  # noqa: F811
+    found, errors, _ = inspect_page(report_path)
+    assert errors == []
+    summary = found["summary"]
+    assert found["first"] == "summary"
+    # the whole section, sentence, rates and both figures, within the 1280 x 1600 viewport
+    assert 0 <= summary["top"] < summary["bottom"] <= 1600, summary
+    assert summary["images"] == 2 and summary["loaded"]
+    sentence = summary["finding"]
+
+    # recompute the finding from the store's rows
+    with ResultStore(store_path, read_only=True) as store:
+        results = [r["result"] for r in store.rows(status="ok") if r["kind"] == "episode"]
+    outcomes = [outcome_of(r) for r in results]
+    effects = {}
+    for name, field in FACTOR_FIELDS.items():
+        levels = list(dict.fromkeys(r[field] for r in results))
+        if all(isinstance(v, float) for v in levels):
+            levels.sort()
+        table = [[sum(r[field] == lv and o == kind for r, o in zip(results, outcomes,
+                                                                     strict=True))
+                  for kind in OUTCOME_NAMES] for lv in levels]
+        table = [[row[j] for j in range(4) if any(t[j] for t in table)] for row in table]
+        chi2, p, _, _ = stats.chi2_contingency(table, correction=False)
+        v = (chi2 / (len(results) * (min(len(table), len(table[0])) - 1))) ** 0.5
+        first_seen = {v: i for i, v in enumerate(dict.fromkeys(r[field] for r in results))}
+        split = tuple(first_seen[r[field]] for r in results)  # the partition of the episodes
+        effects[name] = (v, p, levels, split)
+    top_v = max(v for v, _, _, _ in effects.values())
+    match = re.match(r"Of the swept factors, (.+?) (?:\(same split as (.+?)\) )?changes the "
+                     r"outcome most \(Cramér's V ([0-9.]+), chi-square (p [<=] [0-9.e-]+)\): "
+                     r"(held|not lifted|dropped|crushed) in (.+?) of the (\d+) episodes at "
+                     r"\1 = (.+?) and in (.+?) of the (\d+) at \1 = (.+?)(?:; next comes (.+?) "
+                     r"\(V ([0-9.]+)\))?\.$", sentence)
+    assert match, sentence
+    name, alias, v_text, p_text, outcome, high_rate, high_n, high_level, low_rate, low_n, \
+        low_level, next_name, next_v = match.groups()
+    v, p, levels, split = effects[name]
+    assert v == pytest.approx(top_v, abs=1e-12)  # the strongest association of all factors
+    assert v_text == f"{top_v:.2f}"
+    assert p_text == ("p < 0.001" if p < 1e-3 else f"p = {p:.2g}")
+    for other in alias.split(", ") if alias else ():  # factors splitting the episodes alike
+        assert effects[other][3] == split
+    # the outcome whose rate differs most between the levels, at its highest and lowest level
+    counts = {lv: [outcomes[i] for i, r in enumerate(results)
+                   if r[FACTOR_FIELDS[name]] == lv] for lv in levels}
+    spread = {kind: max(c.count(kind) / len(c) for c in counts.values())
+              - min(c.count(kind) / len(c) for c in counts.values()) for kind in OUTCOME_NAMES}
+    assert spread[outcome] == max(spread.values())
+    by_text = {level_text(lv): c for lv, c in counts.items()}
+    high, low = by_text[high_level], by_text[low_level]
+    assert high.count(outcome) / len(high) == max(c.count(outcome) / len(c)
+                                                  for c in counts.values())
+    assert low.count(outcome) / len(low) == min(c.count(outcome) / len(c)
+                                                for c in counts.values())
+    assert (high_rate, int(high_n)) == (percent(high.count(outcome), len(high)), len(high))
+    assert (low_rate, int(low_n)) == (percent(low.count(outcome), len(low)), len(low))
+    # next: the strongest of the factors that split the episodes differently
+    others = [e[0] for e in effects.values() if e[3] != split]
+    if next_name is not None:
+        assert next_v == f"{max(others):.2f}"
+        assert effects[next_name.split(" (same split as ")[0]][0] == pytest.approx(max(others))
 
 
 def test_inspection_catches_broken_images_and_errors(tmp_path):

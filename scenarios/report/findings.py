@@ -1,0 +1,365 @@
+"""What a sweep found: the swept factor that changes the grasp outcome most, from the numbers.
+
+Every episode has one of four outcomes (:data:`scenarios.report.data.OUTCOMES`). For each
+swept factor, :func:`factor_effects` counts the outcomes at each of its levels (over every
+other factor) and measures how strongly the level and the outcome are associated with
+Cramér's V of that levels x outcomes table:
+
+    V = sqrt(chi2 / (n (min(r, c) - 1)))
+
+with ``chi2`` Pearson's statistic of independence, ``n`` episodes, ``r`` levels and ``c``
+outcomes that occur. V is 0 when every level has the same outcome rates and 1 when the
+level decides the outcome; unlike the spread of one rate it uses all four outcomes, and
+unlike chi2 itself it compares factors with different numbers of levels. Factors are
+ranked by V (ties: the larger spread of one outcome's rate, then the sweep's order). The
+chi-square p-value is given as a guide only: it is approximate with few episodes per
+level. In a full grid the factors are balanced, so each one's rates average over the same
+mix of the others; in an unbalanced set of episodes they are marginal rates.
+
+:func:`findings_sentence` turns the ranking into one sentence; :func:`summary_section`
+is the report's first section.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from scenarios.report import data as D
+from scenarios.report import figures as F
+from scenarios.report.html import Section, esc, note, side_by_side, svg_img, table
+from scenarios.report.sections import ReportContext
+from scenarios.stats import chi2_sf, wilson_interval
+
+TITLE = "1. What the sweep found"
+#: Outcome names as words.
+OUTCOME_WORDS = {"held": "held", "not_lifted": "not lifted", "dropped": "dropped",
+                 "crushed": "crushed"}
+
+
+@dataclass(frozen=True)
+class LevelOutcomes:
+    """Outcome counts of the episodes at one level of a factor.
+
+    Attributes
+    ----------
+    level : Any
+        The factor's value.
+    n : int
+        Episodes at this level.
+    counts : dict of str to int
+        Episodes per outcome of :data:`scenarios.report.data.OUTCOMES`.
+    """
+
+    level: Any
+    n: int
+    counts: dict[str, int]
+
+    def rate(self, outcome: str) -> float:
+        """Fraction of the level's episodes with ``outcome``."""
+        return self.counts[outcome] / self.n
+
+    def interval(self, outcome: str) -> tuple[float, float]:
+        """95 % Wilson interval of :meth:`rate`."""
+        return wilson_interval(self.counts[outcome], self.n)
+
+
+@dataclass(frozen=True)
+class FactorEffect:
+    """How much one swept factor changes the outcome.
+
+    Attributes
+    ----------
+    factor : str
+        Config path of the factor.
+    levels : list of LevelOutcomes
+        Its levels in the report's order (numbers ascending, names in store order).
+    chi2 : float
+        Pearson's chi-square of the levels x outcomes table (outcomes that occur only).
+    dof : int
+        Its degrees of freedom, ``(r - 1)(c - 1)``.
+    cramers_v : float
+        Cramér's V, 0..1.
+    p_value : float
+        Chi-square p-value (``nan`` when ``dof`` is 0).
+    outcome : str
+        The outcome whose rate differs most between levels.
+    high, low : LevelOutcomes
+        The levels with the highest and the lowest rate of ``outcome`` (first on ties).
+    aliases : tuple of str
+        Other swept factors that split the episodes exactly as this one does (their
+        effects cannot be told apart from this one's).
+    """
+
+    factor: str
+    levels: list[LevelOutcomes]
+    chi2: float
+    dof: int
+    cramers_v: float
+    p_value: float
+    outcome: str
+    high: LevelOutcomes
+    low: LevelOutcomes
+    aliases: tuple[str, ...] = ()
+
+    @property
+    def spread(self) -> float:
+        """``high.rate(outcome) - low.rate(outcome)``."""
+        return self.high.rate(self.outcome) - self.low.rate(self.outcome)
+
+    @property
+    def name(self) -> str:
+        """Short name of the factor, with its aliases: ``"object (same split as mass (kg))"``."""
+        name = D.factor_name(self.factor)
+        if self.aliases:
+            name += f" (same split as {', '.join(D.factor_name(a) for a in self.aliases)})"
+        return name
+
+
+def level_outcomes(episodes: Sequence[Mapping[str, Any]], factor: str) -> list[LevelOutcomes]:
+    """Outcome counts at each level of ``factor`` (levels in :func:`data.levels` order)."""
+    by_level: dict[Any, dict[str, int]] = {}
+    for e in episodes:
+        counts = by_level.setdefault(D.level_key(e, factor), dict.fromkeys(D.OUTCOMES, 0))
+        counts[D.episode_outcome(e["result"])] += 1
+    return [LevelOutcomes(level, sum(by_level[level].values()), by_level[level])
+            for level in D.levels(episodes, factor)]
+
+
+def cramers_v(counts: np.ndarray) -> tuple[float, float, int]:
+    """Cramér's V, chi-square and degrees of freedom of a contingency table.
+
+    Rows and columns that sum to zero are dropped first; a table left with fewer than two
+    rows or two columns shows no association: ``(0.0, 0.0, 0)``.
+
+    Parameters
+    ----------
+    counts : ndarray of int, shape (n_levels, n_outcomes)
+    """
+    table = np.asarray(counts, dtype=float)
+    table = table[table.sum(axis=1) > 0][:, table.sum(axis=0) > 0]
+    r, c = table.shape
+    if r < 2 or c < 2:
+        return 0.0, 0.0, 0
+    n = table.sum()
+    expected = np.outer(table.sum(axis=1), table.sum(axis=0)) / n
+    chi2 = float(((table - expected) ** 2 / expected).sum())
+    chi2 = 0.0 if chi2 < 1e-9 else chi2  # equal proportions up to round-off: no association
+    return float(np.sqrt(chi2 / (n * (min(r, c) - 1)))), chi2, (r - 1) * (c - 1)
+
+
+def _widest_outcome(levels: Sequence[LevelOutcomes]
+                    ) -> tuple[str, LevelOutcomes, LevelOutcomes]:
+    """The outcome whose rate spreads most over ``levels`` and its highest and lowest level."""
+    best = None
+    for outcome in D.OUTCOMES:
+        rates = [lv.rate(outcome) for lv in levels]
+        high, low = int(np.argmax(rates)), int(np.argmin(rates))
+        spread = rates[high] - rates[low]
+        if best is None or spread > best[0]:
+            best = (spread, outcome, levels[high], levels[low])
+    return best[1], best[2], best[3]
+
+
+def factor_effects(episodes: Sequence[Mapping[str, Any]],
+                   factors: Sequence[str]) -> list[FactorEffect]:
+    """The swept factors ranked by how much they change the outcome (Cramér's V, descending).
+
+    Parameters
+    ----------
+    episodes : sequence of dict
+        ``ok`` episode rows.
+    factors : sequence of str
+        Swept factors (:func:`scenarios.report.data.swept_factors`); a factor with one
+        level among ``episodes`` is skipped.
+
+    Returns
+    -------
+    list of FactorEffect
+        One per factor that splits the episodes differently from every factor ranked
+        before it (a factor splitting them identically is an alias of that one).
+    """
+    partitions: dict[tuple, str] = {}
+    aliases: dict[str, list[str]] = {}
+    effects = []
+    for factor in factors:
+        keys = [D.level_key(e, factor) for e in episodes]
+        index = {k: i for i, k in enumerate(dict.fromkeys(keys))}
+        if len(index) < 2:
+            continue
+        partition = tuple(index[k] for k in keys)
+        if partition in partitions:
+            aliases[partitions[partition]].append(factor)
+            continue
+        partitions[partition] = factor
+        aliases[factor] = []
+        levels = level_outcomes(episodes, factor)
+        v, chi2, dof = cramers_v(np.array([[lv.counts[o] for o in D.OUTCOMES]
+                                           for lv in levels]))
+        outcome, high, low = _widest_outcome(levels)
+        effects.append(FactorEffect(factor, levels, chi2, dof, v,
+                                    chi2_sf(chi2, dof) if dof else float("nan"),
+                                    outcome, high, low))
+    effects = [replace(e, aliases=tuple(aliases[e.factor])) for e in effects]
+    order = {f: i for i, f in enumerate(factors)}
+    return sorted(effects, key=lambda e: (-round(e.cramers_v, 12), -round(e.spread, 12),
+                                          order[e.factor]))
+
+
+def held_counts(episodes: Sequence[Mapping[str, Any]], x: str, series: str | None
+                ) -> list[tuple[str, list[tuple[int, int]]]]:
+    """``(held, episodes)`` at each level of ``x``, per level of ``series`` (one unlabelled
+    series when None): the data of :func:`scenarios.report.figures.held_rate_figure`."""
+    x_levels = D.levels(episodes, x)
+    s_levels = D.levels(episodes, series) if series else [None]
+    cells: dict[tuple[Any, Any], list[int]] = {}
+    for e in episodes:
+        key = (D.level_key(e, x), D.level_key(e, series) if series else None)
+        cell = cells.setdefault(key, [0, 0])
+        cell[0] += D.episode_outcome(e["result"]) == "held"
+        cell[1] += 1
+    return [(D.level_text(s) if series else "",
+             [tuple(cells.get((xv, s), (0, 0))) for xv in x_levels]) for s in s_levels]
+
+
+def percent(level: LevelOutcomes, outcome: str) -> str:
+    """``"94 % (74–99 %)"``: the rate of ``outcome`` at ``level`` with its Wilson interval."""
+    low, high = level.interval(outcome)
+    return f"{100 * level.rate(outcome):.0f} % ({100 * low:.0f}–{100 * high:.0f} %)"
+
+
+def level_phrase(factor: str, level: Any) -> str:
+    """``"mass (kg) = 0.2"``."""
+    return f"{D.factor_name(factor)} = {D.level_text(level)}"
+
+
+def overall_counts(episodes: Sequence[Mapping[str, Any]]) -> str:
+    """``"54 episodes: 30 held, 20 dropped, 4 crushed (none not lifted)"``."""
+    outcomes = [D.episode_outcome(e["result"]) for e in episodes]
+    seen = [f"{outcomes.count(o)} {OUTCOME_WORDS[o]}" for o in D.OUTCOMES if o in outcomes]
+    none = [OUTCOME_WORDS[o] for o in D.OUTCOMES if o not in outcomes]
+    missing = " or ".join([", ".join(none[:-1]), none[-1]] if len(none) > 1 else none)
+    return (f"{len(outcomes)} episode{'s' if len(outcomes) != 1 else ''}: {', '.join(seen)}"
+            + (f" (none {missing})" if none else ""))
+
+
+def findings_sentence(episodes: Sequence[Mapping[str, Any]],
+                      effects: Sequence[FactorEffect]) -> str:
+    """One sentence: the factor that changes the outcome most and by how much.
+
+    Parameters
+    ----------
+    episodes : sequence of dict
+        ``ok`` episode rows (at least one).
+    effects : sequence of FactorEffect
+        :func:`factor_effects` of the episodes.
+    """
+    n = len(episodes)
+    if not effects:
+        whole = LevelOutcomes(None, n, {o: sum(D.episode_outcome(e["result"]) == o
+                                               for e in episodes) for o in D.OUTCOMES})
+        outcome = max(D.OUTCOMES, key=lambda o: whole.counts[o])
+        if n == 1:
+            return (f"The store holds one episode ({OUTCOME_WORDS[outcome]}) and nothing "
+                    "varies: there is no factor to compare.")
+        return (f"Nothing varies between these {n} episodes but the seed (every factor has "
+                f"one level): {OUTCOME_WORDS[outcome]} in {whole.counts[outcome]} of {n}, "
+                f"{percent(whole, outcome)}; there is no factor to compare.")
+    top = effects[0]
+    if top.cramers_v == 0.0:
+        names = ", ".join(e.name for e in effects)
+        return (f"No swept factor changes the outcome: every level of {names} has the same "
+                f"outcome rates ({overall_counts(episodes)}).")
+    p = "p < 0.001" if top.p_value < 1e-3 else f"p = {top.p_value:.2g}"
+    sentence = (f"Of the swept factors, {top.name} changes the outcome most (Cramér's V "
+                f"{top.cramers_v:.2f}, chi-square {p}): {OUTCOME_WORDS[top.outcome]} in "
+                f"{percent(top.high, top.outcome)} of the {top.high.n} episodes at "
+                f"{level_phrase(top.factor, top.high.level)} and in "
+                f"{percent(top.low, top.outcome)} of the {top.low.n} at "
+                f"{level_phrase(top.factor, top.low.level)}")
+    if len(effects) > 1 and effects[1].cramers_v > 0.0:
+        sentence += f"; next comes {effects[1].name} (V {effects[1].cramers_v:.2f})"
+    return sentence + "."
+
+
+def rate_cells(level: LevelOutcomes, outcomes: Sequence[str]) -> list[str]:
+    """Table cells of ``outcomes`` at one level: rates with intervals, or for one episode
+    its outcome in its column and a dash elsewhere (a rate of one episode says nothing more)."""
+    if level.n == 1:
+        return [OUTCOME_WORDS[o] if level.counts[o] else "–" for o in outcomes]
+    return [percent(level, o) for o in outcomes]
+
+
+def _rates_table(effects: Sequence[FactorEffect], outcomes: Sequence[str]) -> str:
+    rows = []
+    for e in effects:
+        if e.cramers_v == 0.0:
+            continue
+        for i, lv in enumerate(e.levels):
+            rows.append([f"{e.name}, V {e.cramers_v:.2f}" if i == 0 else "",
+                         D.level_text(lv.level), lv.n, *rate_cells(lv, outcomes)])
+    return table(["factor", "level", "n", *(f"{OUTCOME_WORDS[o]} % (95 % CI)" for o in outcomes)],
+                 rows, "Outcome rates at each level of each factor that changes them "
+                 "(strongest first)", text_columns=2)
+
+
+def _no_episode_sentence(context: ReportContext) -> str:
+    rows, split = context.rows, context.split
+    where = f"sweep {context.sweep}" if context.sweep else "the store"
+    if not rows:
+        return (f"{where[0].upper()}{where[1:]} holds no rows: nothing has run, so there is "
+                "nothing to summarize.")
+    if len(split.failed) == len(rows):
+        return (f"All {len(rows)} rows of {where} failed, so there is no outcome to "
+                "summarize: their errors are listed under Failed scenarios.")
+    return (f"{where[0].upper()}{where[1:]} holds no episode rows ({len(split.reproduction)} "
+            f"reproduction, {len(split.other)} other, {len(split.failed)} failed): there is "
+            "no grasp outcome to summarize.")
+
+
+def summary_section(context: ReportContext) -> Section:
+    """The report's first section: the finding in one sentence, the outcome rates by factor,
+    the paired controller differences (forest plot) and the held rate by the strongest
+    factors (the paper figure)."""
+    episodes = context.split.episodes
+    if not episodes:
+        return Section("summary", TITLE,
+                       f'<p class="finding">{esc(_no_episode_sentence(context))}</p>', True)
+    factors = list(context.factors)
+    effects = factor_effects(episodes, factors)
+    parts = [f'<p class="finding">{esc(findings_sentence(episodes, effects))}</p>']
+    if not effects:
+        return Section("summary", TITLE, "\n".join(parts))
+    outcomes = [o for o in D.OUTCOMES
+                if any(lv.counts[o] for e in effects for lv in e.levels)]
+    unchanged = [e.name for e in effects if e.cramers_v == 0.0]
+    parts.append(note(
+        f"{overall_counts(episodes)}. Factors ranked by Cramér's V of their levels x "
+        "outcomes table (0: the same outcome rates at every level; 1: the level decides the "
+        "outcome); rates with 95 % Wilson intervals, over every other factor."
+        + (f" Same rates at every level: {', '.join(unchanged)}." if unchanged else "")))
+    parts.append(_rates_table(effects, outcomes))
+    figures = []
+    if D.CONTROLLER_FACTOR in factors:
+        diffs = [d for d in D.paired_differences(episodes, factors) if d.n_pairs]
+        if diffs:
+            figures.append(svg_img(F.svg_bytes(F.forest_figure(diffs)),
+                                   "forest plot of paired controller differences"))
+    ranked = [e.factor for e in effects]
+    x = ranked[0]
+    series = (D.CONTROLLER_FACTOR if D.CONTROLLER_FACTOR in ranked and x != D.CONTROLLER_FACTOR
+              else ranked[1] if len(ranked) > 1 else None)
+    fig = F.held_rate_figure(D.factor_name(x), [D.level_text(v) for v in D.levels(episodes, x)],
+                             held_counts(episodes, x, series),
+                             D.factor_name(series) if series else "")
+    figures.append(svg_img(F.svg_bytes(fig), f"held rate by {D.factor_name(x)}"))
+    parts.append(side_by_side(figures))
+    if D.CONTROLLER_FACTOR in factors:
+        parts.append(note("Forest plot: each controller against each other on the same "
+                          "scenarios (every other factor and the seed equal), mean paired "
+                          "difference B − A with its 95 % t interval; the numbers are in "
+                          "section 3."))
+    return Section("summary", TITLE, "\n".join(parts))
