@@ -34,9 +34,14 @@ import numpy as np
 
 from estimation.paper import TABLE2, TABLE3
 from estimation.registry import paper_estimators
+from scenarios.outcomes import OUTCOMES, row_outcome
 from scenarios.report import data as D
+from scenarios.report import factors as FA
 from scenarios.report import figures as F
 from scenarios.report import findings
+from scenarios.report import loops as LP
+from scenarios.report import reproduction_data as RD
+from scenarios.report import summaries as SU
 from scenarios.report import svg as S
 from scenarios.report.html import (
     HeatCell,
@@ -140,8 +145,8 @@ def build_report(
         raise FileNotFoundError(
             f"{results}: no such results store (expected a file written by griploop sweep)"
         )
-    repro_data = D.read_reproduction_json(reproduction) if reproduction is not None else None
-    json_scores = (D.reproduction_scores(repro_data, reproduction)
+    repro_data = RD.read_reproduction_json(reproduction) if reproduction is not None else None
+    json_scores = (RD.reproduction_scores(repro_data, reproduction)
                    if repro_data is not None else None)
     json_config = repro_data.get("config", {}) if repro_data is not None else {}
     json_config = json_config if isinstance(json_config, dict) else {}
@@ -151,10 +156,10 @@ def build_report(
              if render_frame else None)
     try:
         sources = _score_sources(split, json_scores, reproduction)
-        factors = D.swept_factors(split.episodes)
-        conditions = [f for f in factors if f != D.CONTROLLER_FACTOR]
-        designs = (D.loop_designs(split.episodes, traces,
-                                  label=lambda row: D.scenario_title(row, conditions),
+        factors = FA.swept_factors(split.episodes)
+        conditions = [f for f in factors if f != FA.CONTROLLER_FACTOR]
+        designs = (LP.loop_designs(split.episodes, traces,
+                                  label=lambda row: FA.scenario_title(row, conditions),
                                   recheck=recheck_margins)
                    if split.episodes else [])
         context = ReportContext(
@@ -205,13 +210,13 @@ def _read_store(results: Path, sweep: str | None
     return rows, split, traces, members
 
 
-def _score_sources(split: D.StoreRows, json_scores: D.ScoreTable | None,
-                   reproduction: str | Path | None) -> list[tuple[str, D.ScoreTable]]:
+def _score_sources(split: D.StoreRows, json_scores: RD.ScoreTable | None,
+                   reproduction: str | Path | None) -> list[tuple[str, RD.ScoreTable]]:
     """The estimator scores to tabulate: the store's reproduction rows, then the JSON's."""
-    sources: list[tuple[str, D.ScoreTable]] = []
+    sources: list[tuple[str, RD.ScoreTable]] = []
     if split.reproduction:
         sources.append((f"results store ({len(split.reproduction)} reproduction rows)",
-                        D.scores_from_rows(split.reproduction)))
+                        RD.scores_from_rows(split.reproduction)))
     if json_scores:
         sources.append((f"{Path(reproduction).name} (griploop reproduce --json)", json_scores))
     return sources
@@ -230,7 +235,7 @@ def _subtitle(results: Path, sweep: str | None, rows: Sequence[dict], split: D.S
 # ---------------------------------------------------------------- 4. paper tables
 
 
-def _paper_section(sources: Sequence[tuple[str, D.ScoreTable]],
+def _paper_section(sources: Sequence[tuple[str, RD.ScoreTable]],
                    reproduction: Path | None = None,
                    reproduction_data: Mapping[str, Any] | None = None) -> Section:
     title = "4. Paper tables: ours next to the paper's"
@@ -259,7 +264,7 @@ def _paper_section(sources: Sequence[tuple[str, D.ScoreTable]],
     return Section("paper", title, "\n".join(parts))
 
 
-def _summary_table(scores: Mapping[str, D.EstimatorScores], mode: str) -> str:
+def _summary_table(scores: Mapping[str, RD.EstimatorScores], mode: str) -> str:
     with_paper = mode == "one_step"
     headers = ["estimator", "n", "R² mean ± SD", "NRMSE mean ± SD", "worst subject R²"]
     if with_paper:
@@ -275,7 +280,7 @@ def _summary_table(scores: Mapping[str, D.EstimatorScores], mode: str) -> str:
     return table(headers, rows, f"Summary, mode {mode}")
 
 
-def _deployment_sentence(scores: D.ScoreTable, channels: Any = None) -> str:
+def _deployment_sentence(scores: RD.ScoreTable, channels: Any = None) -> str:
     """Which estimator a deployed prosthesis (no force sensor) should use, from the numbers.
 
     The same rule and sentence as ``griploop reproduce`` (:func:`estimation.recommendation.
@@ -319,7 +324,7 @@ def _transfer_table(tr: Any) -> str:
                      "virtual − real"], rows, "Estimation verdicts, virtual and real"))
 
 
-def _per_subject_table(scores: Mapping[str, D.EstimatorScores], mode: str) -> str:
+def _per_subject_table(scores: Mapping[str, RD.EstimatorScores], mode: str) -> str:
     subjects = sorted({s for e in scores.values() for s in e.per_subject})
     names = list(scores)
     headers = ["subject"]
@@ -338,7 +343,7 @@ def _per_subject_table(scores: Mapping[str, D.EstimatorScores], mode: str) -> st
     return table(headers, rows, f"Per subject (Table 2 layout), mode {mode}")
 
 
-def _timing_table(scores: D.ScoreTable) -> str:
+def _timing_table(scores: RD.ScoreTable) -> str:
     names = list(dict.fromkeys(n for m in scores.values() for n in m))
     rows = []
     for name in names:
@@ -379,8 +384,8 @@ def _traces_section(episodes: Sequence[dict], traces: Mapping[str, Mapping[str, 
         D.check_traces(row, traces[row["hash"]], D.EPISODE_TRACES)
         res = row["result"]
         seed = res.get("seed", row["config"].get("seed"))
-        name = D.scenario_title(row, factors)
-        outcome = D.episode_outcome(res).replace("_", " ")
+        name = FA.scenario_title(row, factors)
+        outcome = row_outcome(res).replace("_", " ")
         caption = (f"{name}: {outcome}; seed {seed}, subject {res.get('subject_id', '?')}, "
                    f"scenario {row['hash'][:12]}.")
         items.append((f"{name} ({outcome})",
@@ -400,22 +405,22 @@ def _combinations_section(episodes: Sequence[dict], factors: Sequence[str]) -> S
     title = "2. Outcomes per combination of the swept factors"
     if not episodes:
         return Section("combinations", title, note("No episode rows: section omitted."), True)
-    summary = D.outcome_summary(episodes, factors)
+    summary = SU.outcome_summary(episodes, factors)
     single = all(r.n == 1 for r in summary)
-    names = [D.factor_name(f) for f in factors] or ["episodes"]
+    names = [FA.factor_name(f) for f in factors] or ["episodes"]
     outcome_headers = (["outcome"] if single
-                       else [*(f"{findings.OUTCOME_WORDS[o]} %" for o in D.OUTCOMES)])
+                       else [*(f"{findings.OUTCOME_WORDS[o]} %" for o in OUTCOMES)])
     headers = [*names, "n", *outcome_headers, "tracking RMSE (N)", "contact peak ratio",
                "slip distance (m)", "PM at held force (deg)", "worst visited PM (deg)"]
     rows = []
     for r in summary:
-        levels = [D.level_text(v) for v in r.levels] or ["all"]
+        levels = [FA.level_text(v) for v in r.levels] or ["all"]
         level = findings.LevelOutcomes(r.levels, r.n, r.counts)
-        cells = ([findings.OUTCOME_WORDS[D.OUTCOMES[[r.counts[o] for o in D.OUTCOMES].index(1)]]]
-                 if single else findings.rate_cells(level, D.OUTCOMES))
+        cells = ([findings.OUTCOME_WORDS[OUTCOMES[[r.counts[o] for o in OUTCOMES].index(1)]]]
+                 if single else findings.rate_cells(level, OUTCOMES))
         rows.append([*levels, r.n, *cells, r.tracking_rmse_n, r.contact_peak_ratio,
                      r.slip_distance_m, r.phase_margin_deg, r.worst_phase_margin_deg])
-    swept = ", ".join(f"{D.factor_name(f)} ({f})" for f in factors) or "nothing"
+    swept = ", ".join(f"{FA.factor_name(f)} ({f})" for f in factors) or "nothing"
     rates = ("Each combination ran once, so each row shows its episode's outcome (a rate of "
              "one episode would say nothing more)." if single else
              "Rates are the percentage of the row's episodes with its 95 % Wilson interval; "
@@ -435,12 +440,12 @@ def _compare_section(episodes: Sequence[dict], factors: Sequence[str]) -> Sectio
     title = "3. Controllers side by side on the same scenarios"
     if not episodes:
         return Section("compare", title, note("No episode rows: section omitted."), True)
-    if D.CONTROLLER_FACTOR not in factors:
+    if FA.CONTROLLER_FACTOR not in factors:
         return Section("compare", title, note("The controller does not vary in these "
                                               "episodes: nothing to compare."), True)
-    diffs = D.paired_differences(episodes, factors)
-    others = [D.factor_name(f) for f in factors if f != D.CONTROLLER_FACTOR]
-    rows = [[d.baseline, d.other, D.PAIRED_METRICS[d.metric][0], d.n_pairs, d.baseline_mean,
+    diffs = SU.paired_differences(episodes, factors)
+    others = [FA.factor_name(f) for f in factors if f != FA.CONTROLLER_FACTOR]
+    rows = [[d.baseline, d.other, SU.PAIRED_METRICS[d.metric][0], d.n_pairs, d.baseline_mean,
              d.other_mean, d.mean_diff,
              "n/a" if not np.isfinite(d.ci_low) else f"{fmt(d.ci_low)} to {fmt(d.ci_high)}"]
             for d in diffs]
@@ -457,13 +462,13 @@ def _compare_section(episodes: Sequence[dict], factors: Sequence[str]) -> Sectio
 # ---------------------------------------------------------------- 6 + 8. loops
 
 
-def drawn_designs(designs: Sequence[D.LoopDesign], limit: int) -> list[D.LoopDesign]:
+def drawn_designs(designs: Sequence[LP.LoopDesign], limit: int) -> list[LP.LoopDesign]:
     """At most ``limit`` designs, taken in turn from each controller family (first seen
     first), in their original order: every family is drawn before any has two."""
-    queues: dict[str, list[D.LoopDesign]] = {}
+    queues: dict[str, list[LP.LoopDesign]] = {}
     for d in designs:
         queues.setdefault(d.controller, []).append(d)
-    chosen: list[D.LoopDesign] = []
+    chosen: list[LP.LoopDesign] = []
     while len(chosen) < min(limit, len(designs)):
         for queue in queues.values():
             if queue and len(chosen) < limit:
@@ -471,11 +476,11 @@ def drawn_designs(designs: Sequence[D.LoopDesign], limit: int) -> list[D.LoopDes
     return sorted(chosen, key=lambda d: designs.index(d))
 
 
-def _conditions(d: D.LoopDesign, n: int = 3) -> str:
+def _conditions(d: LP.LoopDesign, n: int = 3) -> str:
     return "; ".join(d.conditions[:n]) + (" ..." if len(d.conditions) > n else "")
 
 
-def _loop_section(designs: Sequence[D.LoopDesign], limit: int) -> Section:
+def _loop_section(designs: Sequence[LP.LoopDesign], limit: int) -> Section:
     title = "6. Loop analysis: Bode, Nyquist and pole maps"
     if not designs:
         return Section("loops", title, note("No episode rows with an analysed loop: "
@@ -503,7 +508,7 @@ def _crossovers(stored: Mapping[str, Any]) -> str:
     return fmt(w) + (f" (+{more} more)" if more > 0 else "")
 
 
-def _margin_section(designs: Sequence[D.LoopDesign], episodes: Sequence[dict] = ()) -> Section:
+def _margin_section(designs: Sequence[LP.LoopDesign], episodes: Sequence[dict] = ()) -> Section:
     title = "8. Margins per controller design"
     if not designs:
         return Section("margins", title, note("No episode rows with an analysed loop: "
@@ -566,7 +571,7 @@ def _heat_rows(grid: D.OutcomeGrid, attr: str, limits: tuple[float, float], cmap
             background, color = F.heat_colors(values[i, j], *limits, cmap) if n else ("#fff",
                                                                                      "#000")
             cells.append(HeatCell(f"{values[i, j]:.2g}" if n else "", n, background, color))
-        rows.append((D.level_text(level), cells))
+        rows.append((FA.level_text(level), cells))
     return rows
 
 
@@ -574,17 +579,17 @@ def _outcome_section(episodes: Sequence[dict], factors: Sequence[str] = ()) -> S
     title = "7. Not lifted, slip, drop and crush maps"
     if not episodes:
         return Section("outcomes", title, note("No episode rows: section omitted."), True)
-    rows_f, cols_f, grids = D.faceted_grids(episodes, factors)
-    facets = [D.factor_name(f) for f in factors if f not in (rows_f, cols_f)]
-    corner = f"{D.factor_name(rows_f)} \\ {D.factor_name(cols_f)}"
-    parts = [note(f"{D.factor_name(rows_f)} (rows) x {D.factor_name(cols_f)} (columns); one "
+    rows_f, cols_f, grids = FA.faceted_grids(episodes, factors)
+    facets = [FA.factor_name(f) for f in factors if f not in (rows_f, cols_f)]
+    corner = f"{FA.factor_name(rows_f)} \\ {FA.factor_name(cols_f)}"
+    parts = [note(f"{FA.factor_name(rows_f)} (rows) x {FA.factor_name(cols_f)} (columns); one "
                   "table per combination of the other swept factors "
                   f"({', '.join(facets) or 'none'}), so no cell averages different objects or "
                   "designs. Each cell averages its episodes (seeds), n below the value; darker "
                   "is more. Each episode has "
                   "one outcome: held, not lifted, dropped or crushed.")]
     for metric, (attr, label, limits) in F.OUTCOME_METRICS.items():
-        if metric in D.OUTCOMES and not any(np.nansum(getattr(g, attr)) for g in grids):
+        if metric in OUTCOMES and not any(np.nansum(getattr(g, attr)) for g in grids):
             parts.append(note(f"No episode was {findings.OUTCOME_WORDS[metric]}: its map "
                               "would be all zeros."))
             continue
@@ -593,7 +598,7 @@ def _outcome_section(episodes: Sequence[dict], factors: Sequence[str] = ()) -> S
                                      for g in grids])
             limits = (0.0, max(1.0, float(finite.max(initial=0.0))))
         cmap = "Blues" if limits != (0.0, 1.0) else "Reds"
-        tables = [heat_table(corner, [D.level_text(c) for c in g.col_levels],
+        tables = [heat_table(corner, [FA.level_text(c) for c in g.col_levels],
                              _heat_rows(g, attr, limits, cmap), g.label or str(g.key))
                   for g in grids]
         parts.append(f"<h3>{esc(label)}</h3>")

@@ -18,7 +18,10 @@ from matplotlib.text import Text
 
 from controllers.response import closed_loop_poles, state_space_response
 from estimation.paper import SECTION_4_2, TABLE2_SUMMARY
-from scenarios.report.data import MODES, PAIRED_METRICS, LoopDesign, PairedDifference, ScoreTable
+from estimation.registry import MODES
+from scenarios.report.loops import LoopDesign
+from scenarios.report.reproduction_data import ScoreTable
+from scenarios.report.summaries import PAIRED_METRICS, PairedDifference
 
 #: Smallest font size of any text in a report figure, pt.
 MIN_FONT_PT = 9.0

@@ -28,8 +28,10 @@ from typing import Any
 
 import numpy as np
 
-from scenarios.report import data as D
+from scenarios.outcomes import OUTCOMES, row_outcome
+from scenarios.report import factors as FA
 from scenarios.report import figures as F
+from scenarios.report import summaries as SU
 from scenarios.report.html import Section, esc, note, side_by_side, svg_img, table
 from scenarios.report.sections import ReportContext
 from scenarios.stats import chi2_sf, wilson_interval
@@ -113,9 +115,9 @@ class FactorEffect:
     @property
     def name(self) -> str:
         """Short name of the factor, with its aliases: ``"object (same split as mass (kg))"``."""
-        name = D.factor_name(self.factor)
+        name = FA.factor_name(self.factor)
         if self.aliases:
-            name += f" (same split as {', '.join(D.factor_name(a) for a in self.aliases)})"
+            name += f" (same split as {', '.join(FA.factor_name(a) for a in self.aliases)})"
         return name
 
 
@@ -123,10 +125,10 @@ def level_outcomes(episodes: Sequence[Mapping[str, Any]], factor: str) -> list[L
     """Outcome counts at each level of ``factor`` (levels in :func:`data.levels` order)."""
     by_level: dict[Any, dict[str, int]] = {}
     for e in episodes:
-        counts = by_level.setdefault(D.level_key(e, factor), dict.fromkeys(D.OUTCOMES, 0))
-        counts[D.episode_outcome(e["result"])] += 1
+        counts = by_level.setdefault(FA.level_key(e, factor), dict.fromkeys(OUTCOMES, 0))
+        counts[row_outcome(e["result"])] += 1
     return [LevelOutcomes(level, sum(by_level[level].values()), by_level[level])
-            for level in D.levels(episodes, factor)]
+            for level in FA.levels(episodes, factor)]
 
 
 def cramers_v(counts: np.ndarray) -> tuple[float, float, int]:
@@ -155,7 +157,7 @@ def _widest_outcome(levels: Sequence[LevelOutcomes]
                     ) -> tuple[str, LevelOutcomes, LevelOutcomes]:
     """The outcome whose rate spreads most over ``levels`` and its highest and lowest level."""
     best = None
-    for outcome in D.OUTCOMES:
+    for outcome in OUTCOMES:
         rates = [lv.rate(outcome) for lv in levels]
         high, low = int(np.argmax(rates)), int(np.argmin(rates))
         spread = rates[high] - rates[low]
@@ -186,7 +188,7 @@ def factor_effects(episodes: Sequence[Mapping[str, Any]],
     aliases: dict[str, list[str]] = {}
     effects = []
     for factor in factors:
-        keys = [D.level_key(e, factor) for e in episodes]
+        keys = [FA.level_key(e, factor) for e in episodes]
         index = {k: i for i, k in enumerate(dict.fromkeys(keys))}
         if len(index) < 2:
             continue
@@ -197,7 +199,7 @@ def factor_effects(episodes: Sequence[Mapping[str, Any]],
         partitions[partition] = factor
         aliases[factor] = []
         levels = level_outcomes(episodes, factor)
-        v, chi2, dof = cramers_v(np.array([[lv.counts[o] for o in D.OUTCOMES]
+        v, chi2, dof = cramers_v(np.array([[lv.counts[o] for o in OUTCOMES]
                                            for lv in levels]))
         outcome, high, low = _widest_outcome(levels)
         effects.append(FactorEffect(factor, levels, chi2, dof, v,
@@ -213,15 +215,15 @@ def held_counts(episodes: Sequence[Mapping[str, Any]], x: str, series: str | Non
                 ) -> list[tuple[str, list[tuple[int, int]]]]:
     """``(held, episodes)`` at each level of ``x``, per level of ``series`` (one unlabelled
     series when None): the data of :func:`scenarios.report.figures.held_rate_figure`."""
-    x_levels = D.levels(episodes, x)
-    s_levels = D.levels(episodes, series) if series else [None]
+    x_levels = FA.levels(episodes, x)
+    s_levels = FA.levels(episodes, series) if series else [None]
     cells: dict[tuple[Any, Any], list[int]] = {}
     for e in episodes:
-        key = (D.level_key(e, x), D.level_key(e, series) if series else None)
+        key = (FA.level_key(e, x), FA.level_key(e, series) if series else None)
         cell = cells.setdefault(key, [0, 0])
-        cell[0] += D.episode_outcome(e["result"]) == "held"
+        cell[0] += row_outcome(e["result"]) == "held"
         cell[1] += 1
-    return [(D.level_text(s) if series else "",
+    return [(FA.level_text(s) if series else "",
              [tuple(cells.get((xv, s), (0, 0))) for xv in x_levels]) for s in s_levels]
 
 
@@ -233,14 +235,14 @@ def percent(level: LevelOutcomes, outcome: str) -> str:
 
 def level_phrase(factor: str, level: Any) -> str:
     """``"mass (kg) = 0.2"``."""
-    return f"{D.factor_name(factor)} = {D.level_text(level)}"
+    return f"{FA.factor_name(factor)} = {FA.level_text(level)}"
 
 
 def overall_counts(episodes: Sequence[Mapping[str, Any]]) -> str:
     """``"54 episodes: 30 held, 20 dropped, 4 crushed (none not lifted)"``."""
-    outcomes = [D.episode_outcome(e["result"]) for e in episodes]
-    seen = [f"{outcomes.count(o)} {OUTCOME_WORDS[o]}" for o in D.OUTCOMES if o in outcomes]
-    none = [OUTCOME_WORDS[o] for o in D.OUTCOMES if o not in outcomes]
+    outcomes = [row_outcome(e["result"]) for e in episodes]
+    seen = [f"{outcomes.count(o)} {OUTCOME_WORDS[o]}" for o in OUTCOMES if o in outcomes]
+    none = [OUTCOME_WORDS[o] for o in OUTCOMES if o not in outcomes]
     missing = " or ".join([", ".join(none[:-1]), none[-1]] if len(none) > 1 else none)
     return (f"{len(outcomes)} episode{'s' if len(outcomes) != 1 else ''}: {', '.join(seen)}"
             + (f" (none {missing})" if none else ""))
@@ -259,9 +261,9 @@ def findings_sentence(episodes: Sequence[Mapping[str, Any]],
     """
     n = len(episodes)
     if not effects:
-        whole = LevelOutcomes(None, n, {o: sum(D.episode_outcome(e["result"]) == o
-                                               for e in episodes) for o in D.OUTCOMES})
-        outcome = max(D.OUTCOMES, key=lambda o: whole.counts[o])
+        whole = LevelOutcomes(None, n, {o: sum(row_outcome(e["result"]) == o
+                                               for e in episodes) for o in OUTCOMES})
+        outcome = max(OUTCOMES, key=lambda o: whole.counts[o])
         if n == 1:
             return (f"The store holds one episode ({OUTCOME_WORDS[outcome]}) and nothing "
                     "varies: there is no factor to compare.")
@@ -300,7 +302,7 @@ def _rates_table(effects: Sequence[FactorEffect], outcomes: Sequence[str]) -> st
             continue
         for i, lv in enumerate(e.levels):
             rows.append([f"{e.name}, V {e.cramers_v:.2f}" if i == 0 else "",
-                         D.level_text(lv.level), lv.n, *rate_cells(lv, outcomes)])
+                         FA.level_text(lv.level), lv.n, *rate_cells(lv, outcomes)])
     return table(["factor", "level", "n", *(f"{OUTCOME_WORDS[o]} % (95 % CI)" for o in outcomes)],
                  rows, "Outcome rates at each level of each factor that changes them "
                  "(strongest first)", text_columns=2)
@@ -333,7 +335,7 @@ def summary_section(context: ReportContext) -> Section:
     parts = [f'<p class="finding">{esc(findings_sentence(episodes, effects))}</p>']
     if not effects:
         return Section("summary", TITLE, "\n".join(parts))
-    outcomes = [o for o in D.OUTCOMES
+    outcomes = [o for o in OUTCOMES
                 if any(lv.counts[o] for e in effects for lv in e.levels)]
     unchanged = [e.name for e in effects if e.cramers_v == 0.0]
     parts.append(note(
@@ -343,21 +345,21 @@ def summary_section(context: ReportContext) -> Section:
         + (f" Same rates at every level: {', '.join(unchanged)}." if unchanged else "")))
     parts.append(_rates_table(effects, outcomes))
     figures = []
-    if D.CONTROLLER_FACTOR in factors:
-        diffs = [d for d in D.paired_differences(episodes, factors) if d.n_pairs]
+    if FA.CONTROLLER_FACTOR in factors:
+        diffs = [d for d in SU.paired_differences(episodes, factors) if d.n_pairs]
         if diffs:
             figures.append(svg_img(F.svg_bytes(F.forest_figure(diffs)),
                                    "forest plot of paired controller differences"))
     ranked = [e.factor for e in effects]
     x = ranked[0]
-    series = (D.CONTROLLER_FACTOR if D.CONTROLLER_FACTOR in ranked and x != D.CONTROLLER_FACTOR
+    series = (FA.CONTROLLER_FACTOR if FA.CONTROLLER_FACTOR in ranked and x != FA.CONTROLLER_FACTOR
               else ranked[1] if len(ranked) > 1 else None)
-    fig = F.held_rate_figure(D.factor_name(x), [D.level_text(v) for v in D.levels(episodes, x)],
+    fig = F.held_rate_figure(FA.factor_name(x), [FA.level_text(v) for v in FA.levels(episodes, x)],
                              held_counts(episodes, x, series),
-                             D.factor_name(series) if series else "")
-    figures.append(svg_img(F.svg_bytes(fig), f"held rate by {D.factor_name(x)}"))
+                             FA.factor_name(series) if series else "")
+    figures.append(svg_img(F.svg_bytes(fig), f"held rate by {FA.factor_name(x)}"))
     parts.append(side_by_side(figures))
-    if D.CONTROLLER_FACTOR in factors:
+    if FA.CONTROLLER_FACTOR in factors:
         parts.append(note("Forest plot: each controller against each other on the same "
                           "scenarios (every other factor and the seed equal), mean paired "
                           "difference B − A with its 95 % t interval; the numbers are in "

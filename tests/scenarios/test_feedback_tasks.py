@@ -14,6 +14,7 @@ import pytest
 
 from scenarios.cli import main
 from scenarios.feedback_summary import aggregate
+from scenarios.report import factors as FA
 from scenarios.runners.dispatch import run_scenario
 from scenarios.schema import ScenarioError, load_sweep, parse_scenario
 from scenarios.stats import wilson_interval
@@ -224,11 +225,10 @@ def test_force_matching_cv_at_the_middle_target_is_3_to_8_percent(force_results)
 
 
 def test_user_kind_and_feedback_are_report_factors() -> None:
-    from scenarios.report import data as D
 
     episodes = [{"config": {"user": {"kind": "reacting", "feedback": mode}, "seed": i},
                  "result": {"user": "reacting", "feedback": mode}}
                 for i, mode in enumerate(("none", "slip_vibration"))]
-    assert D.swept_factors(episodes) == ["user.feedback"]
-    assert D.factor_name("user.feedback") == "feedback" and D.factor_name("user.kind") == "user"
-    assert D.factor_value(episodes[1], "user.feedback") == "slip_vibration"
+    assert FA.swept_factors(episodes) == ["user.feedback"]
+    assert FA.factor_name("user.feedback") == "feedback" and FA.factor_name("user.kind") == "user"
+    assert FA.factor_value(episodes[1], "user.feedback") == "slip_vibration"

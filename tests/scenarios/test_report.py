@@ -32,10 +32,16 @@ from controllers.registry import design_controller
 from estimation.paper import TABLE2, TABLE2_SUMMARY
 from scenarios.cli import main
 from scenarios.execution.sweep import plan, run_sweep
+from scenarios.outcomes import row_outcome
 from scenarios.report import ReportInputError, build_report
 from scenarios.report import data as D
+from scenarios.report import factors as FA
+from scenarios.report import loops as LP
+from scenarios.report import reproduction_data as RD
+from scenarios.report import summaries as SU
 from scenarios.runners.reproduction import run_reproduction
 from scenarios.schema import Scenario, expand_sweep, load_sweep
+from scenarios.stats import wilson_interval
 from scenarios.store import Outcome, ResultStore, content_hash, encode_traces, package_version
 
 CREATED = dt.datetime(2026, 1, 2, 3, 4, 5, tzinfo=dt.timezone.utc)
@@ -258,7 +264,7 @@ def test_loop_designs_dedupe_and_match_the_designs(store_path):
     with ResultStore(store_path) as store:
         episodes = D.split_rows(store.rows()).episodes
         traces = {e["hash"]: store.traces(e["hash"]) for e in episodes}
-    designs = D.loop_designs(episodes, traces)
+    designs = LP.loop_designs(episodes, traces)
     # one loop per controller family: the oracle PID shares the ss_kf PID's loop
     assert [d.controller for d in designs] == ["pid", "lead_lag", "mpc"]
     per_combo = len(MASSES_KG) * len(FRICTIONS) * len(SEEDS)
@@ -281,7 +287,7 @@ def test_loop_designs_dedupe_and_match_the_designs(store_path):
 def test_scores_from_rows_match_numpy(store_path):
     with ResultStore(store_path) as store:
         rows = D.split_rows(store.rows()).reproduction
-    table = D.scores_from_rows(rows)
+    table = RD.scores_from_rows(rows)
     assert list(table) == ["one_step", "free_run"]
     assert "persistence" in table["one_step"] and "persistence" not in table["free_run"]
     for mode, by_name in table.items():
@@ -301,7 +307,7 @@ def test_scores_from_rows_match_numpy(store_path):
 
 def test_reproduction_json_is_read_per_mode(reproduction_json):
     raw = json.loads(reproduction_json.read_text())
-    table = D.load_reproduction_json(reproduction_json)
+    table = RD.load_reproduction_json(reproduction_json)
     assert list(table) == ["one_step", "free_run"]
     got = table["free_run"]["ss_kf"]
     want = raw["estimators"]["ss_kf"]["free_run"]
@@ -321,7 +327,7 @@ def test_bad_reproduction_json_says_what_was_expected(tmp_path, text, expected):
     path = tmp_path / "bad.json"
     path.write_text(text)
     with pytest.raises(ReportInputError, match=re.escape(expected)):
-        D.load_reproduction_json(path)
+        RD.load_reproduction_json(path)
 
 
 def test_episode_row_missing_a_field_is_rejected(tmp_path):
@@ -526,7 +532,7 @@ def test_swept_factors_come_from_the_configs(store_path):
         episodes = D.split_rows(store.rows()).episodes
     # the seed varies too but is never a factor; the MPC's horizon (filled in by the schema
     # for the MPC only) is a consequence of the controller, not a factor
-    assert D.swept_factors(episodes) == FIXTURE_FACTORS
+    assert FA.swept_factors(episodes) == FIXTURE_FACTORS
     assert len({e["config"]["seed"] for e in episodes}) == len(SEEDS)
 
 
@@ -552,8 +558,8 @@ def test_summary_has_one_row_per_factor_combination(report, store_path):
                 if tuple(f"{r[f]:g}" if isinstance(r[f], float) else str(r[f])
                          for f in fields) == tuple(row[:6])]
         assert int(row[6]) == len(cell) == len(SEEDS)
-        dropped = sum(D.episode_outcome(r) == "dropped" for r in cell)
-        low, high = D.wilson_interval(dropped, len(cell))
+        dropped = sum(row_outcome(r) == "dropped" for r in cell)
+        low, high = wilson_interval(dropped, len(cell))
         assert row[headers.index("dropped %")] == \
             f"{100 * dropped / len(cell):.0f} % ({100 * low:.0f}–{100 * high:.0f} %)"
         rmse = np.mean([r["tracking_rmse_n"] for r in cell])
@@ -566,8 +572,8 @@ def test_summary_has_one_row_per_factor_combination(report, store_path):
     (8, 10, 0.4901625, 0.9433178),  # textbook value (Newcombe 1998, method 3)
 ])
 def test_wilson_interval_closed_form(k, n, low, high):
-    assert D.wilson_interval(k, n) == pytest.approx((low, high), abs=1e-6)
-    assert all(np.isnan(D.wilson_interval(0, 0)))
+    assert wilson_interval(k, n) == pytest.approx((low, high), abs=1e-6)
+    assert all(np.isnan(wilson_interval(0, 0)))
 
 
 def hand_row(i: int, controller: str, mass_kg: float, seed: int, *, held: bool = True,
@@ -599,9 +605,9 @@ def test_paired_differences_closed_form():
         rows.append(hand_row(2 * i + 1, "mpc", mass, 1, rmse=5.0, held=mass < 0.3,
                              slip_m=0.01 * (1 + i)))
     rows.append(hand_row(99, "mpc", 0.1, 9, rmse=100.0, held=False))
-    factors = D.swept_factors(rows)
+    factors = FA.swept_factors(rows)
     assert factors == ["object.mass_kg", "controller.kind"]  # horizon follows the controller
-    diffs = {d.metric: d for d in D.paired_differences(rows, factors)}
+    diffs = {d.metric: d for d in SU.paired_differences(rows, factors)}
     t_975_2 = 4.302652729911275  # Student t, 97.5 % quantile, 2 degrees of freedom
     rmse = diffs["tracking_rmse_n"]
     assert (rmse.baseline, rmse.other, rmse.n_pairs) == ("pid", "mpc", 3)
@@ -618,10 +624,10 @@ def test_paired_differences_closed_form():
     assert slip.mean_diff == pytest.approx(0.01)  # 0, 0.01, 0.02
     # a row differing in another factor is not a pair
     shifted = [hand_row(0, "pid", 0.1, 1), hand_row(1, "mpc", 0.1, 1, reflex=True)]
-    factors = D.swept_factors(shifted)
+    factors = FA.swept_factors(shifted)
     assert factors == ["controller.kind", "controller.slip_reflex.enabled"]
-    assert all(d.n_pairs == 0 for d in D.paired_differences(shifted, factors))
-    assert D.paired_differences(rows, ["object.mass_kg"]) == []  # controller not swept
+    assert all(d.n_pairs == 0 for d in SU.paired_differences(shifted, factors))
+    assert SU.paired_differences(rows, ["object.mass_kg"]) == []  # controller not swept
 
 
 def test_comparison_section_matches_a_recount(report, store_path):
@@ -650,10 +656,10 @@ def test_heatmaps_are_faceted_by_the_factors_they_do_not_plot():
     rows = [hand_row(i, c, 0.06, 1, held=b > 1.0, reflex=r, break_n=b)
             for i, (b, c, r) in enumerate((b, c, r) for b in (0.4, 1.0, 4.0)
                                           for c in ("pid", "mpc") for r in (False, True))]
-    factors = D.swept_factors(rows)
+    factors = FA.swept_factors(rows)
     assert factors == ["object.break_force_n", "controller.kind",
                        "controller.slip_reflex.enabled"]
-    rows_f, cols_f, grids = D.faceted_grids(rows, factors)
+    rows_f, cols_f, grids = FA.faceted_grids(rows, factors)
     assert (rows_f, cols_f) == ("object.break_force_n", "controller.kind")
     assert [g.label for g in grids] == ["reflex no", "reflex yes"]
     for g in grids:
@@ -665,7 +671,7 @@ def test_heatmaps_are_faceted_by_the_factors_they_do_not_plot():
         (m, c) for m in (0.1, 0.2) for c in ("pid", "mpc"))]
     for i, row in enumerate(demo):
         row["config"]["object"]["friction"] = row["result"]["object_friction"] = 0.3 + 0.1 * i
-    rows_f, cols_f, grids = D.faceted_grids(demo, D.swept_factors(demo))
+    rows_f, cols_f, grids = FA.faceted_grids(demo, FA.swept_factors(demo))
     assert (rows_f, cols_f) == ("object.mass_kg", "object.friction")
     assert [g.label for g in grids] == ["pid", "mpc"]
 
@@ -718,12 +724,12 @@ def test_episodes_that_held_no_force_have_no_loop(store_path):
     crushed["result"] = {**crushed["result"], "held_force_n": None, "outcome": "crushed"}
     for name in D.LOOP_TRACES:
         del traces[crushed["hash"]][name]
-    designs = D.loop_designs(episodes, traces)
+    designs = LP.loop_designs(episodes, traces)
     assert sum(len(d.hashes) for d in designs) == 2
     assert crushed["hash"] not in designs[0].hashes
     del traces[episodes[1]["hash"]]["loop_A"]  # held a force but lost a matrix: an error
     with pytest.raises(ReportInputError, match="missing trace"):
-        D.loop_designs(episodes, traces)
+        LP.loop_designs(episodes, traces)
 
 
 def test_report_sets_virtual_next_to_real_and_says_the_reproduction_recommendation(

@@ -22,6 +22,7 @@ from test_report import designed_loops, section, simulate_episode, tables
 from scenarios.cli import main
 from scenarios.report import build_report
 from scenarios.report import data as D
+from scenarios.report import factors as FA
 from scenarios.report.findings import factor_effects, findings_sentence
 from scenarios.store import Outcome, ResultStore, content_hash, encode_traces, package_version
 
@@ -96,7 +97,7 @@ def test_the_factor_that_decides_the_outcome_is_found(tmp_path):
                  "dropped"} for m, c, s in itertools.product((0.1, 0.4), ("pid", "mpc"),
                                                             (1, 2, 3))]
     rows = rows_of(write_store(tmp_path / "r.sqlite", episodes))
-    factors = D.swept_factors(rows)
+    factors = FA.swept_factors(rows)
     assert factors == ["object.mass_kg", "controller.kind"]
     effects = factor_effects(rows, factors)
     assert [e.factor for e in effects] == ["object.mass_kg", "controller.kind"]
@@ -122,7 +123,7 @@ def test_a_partial_effect_is_ranked_by_cramers_v(tmp_path):
     episodes = [{"mass": m, "controller": c, "seed": seed, "outcome": "held" if ok else "dropped"}
                 for (c, m), flags in held.items() for seed, ok in enumerate(flags, start=1)]
     rows = rows_of(write_store(tmp_path / "r.sqlite", episodes))
-    effects = {e.factor: e for e in factor_effects(rows, D.swept_factors(rows))}
+    effects = {e.factor: e for e in factor_effects(rows, FA.swept_factors(rows))}
     for factor, field in (("controller.kind", "controller"), ("object.mass_kg",
                                                                "object_mass_kg")):
         levels = sorted({r["result"][field] for r in rows}, key=str)
@@ -135,7 +136,7 @@ def test_a_partial_effect_is_ranked_by_cramers_v(tmp_path):
         assert effects[factor].dof == dof
         assert effects[factor].p_value == pytest.approx(p, rel=1e-9)
         assert effects[factor].cramers_v == pytest.approx(v, rel=1e-9)
-    ranked = factor_effects(rows, D.swept_factors(rows))
+    ranked = factor_effects(rows, FA.swept_factors(rows))
     assert ranked[0].factor == "controller.kind"
     assert ranked[0].cramers_v > ranked[1].cramers_v > 0
     # the held rate is what the controller changes: 5 of 6 with mpc, 1 of 6 with pid
@@ -155,7 +156,7 @@ def test_factors_that_split_the_episodes_alike_are_one_effect():
                      "config": {"seed": 1, "object": {"name": result["object_name"],
                                                       "mass_kg": m},
                                 "controller": {"kind": c}}})
-    effects = factor_effects(rows, D.swept_factors(rows))
+    effects = factor_effects(rows, FA.swept_factors(rows))
     assert [(e.factor, e.aliases) for e in effects] == [
         ("object.name", ("object.mass_kg",)), ("controller.kind", ())]
     assert effects[0].name == "object (same split as mass (kg))"
