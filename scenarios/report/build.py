@@ -19,10 +19,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import platform
-import re
-import subprocess
-import sys
-import tempfile
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -32,8 +28,6 @@ from typing import Any
 
 import numpy as np
 
-from estimation.paper import TABLE2, TABLE3
-from estimation.registry import paper_estimators
 from scenarios.outcomes import OUTCOMES, row_outcome
 from scenarios.report import data as D
 from scenarios.report import factors as FA
@@ -43,6 +37,7 @@ from scenarios.report import loops as LP
 from scenarios.report import reproduction_data as RD
 from scenarios.report import summaries as SU
 from scenarios.report import svg as S
+from scenarios.report.frame import FRAME_GRIP_N, FrameRender, frame_section
 from scenarios.report.html import (
     HeatCell,
     Section,
@@ -51,19 +46,17 @@ from scenarios.report.html import (
     figure,
     fmt,
     heat_table,
-    img,
     note,
     page,
-    pm,
     svg_img,
     table,
 )
+from scenarios.report.paper_section import paper_section
 from scenarios.report.sections import ReportContext, build_sections, register_section
 from scenarios.store import ResultStore, package_version
 
 #: Grip force of the rendered frame, N (``sim.hand.render_snapshot``'s default; below about
 #: 4 N the hand's steady grasp of the block loses thumb contact).
-FRAME_GRIP_N = 10.0
 
 
 @dataclass(frozen=True)
@@ -230,135 +223,6 @@ def _subtitle(results: Path, sweep: str | None, rows: Sequence[dict], split: D.S
             f"({n_ok} ok, {len(split.failed)} failed; {len(split.reproduction)} "
             f"reproduction, {len(split.episodes)} episode, {len(split.other)} other)"
             f"{f'; reproduction JSON {Path(reproduction).name}' if reproduction else ''}.")
-
-
-# ---------------------------------------------------------------- 4. paper tables
-
-
-def _paper_section(sources: Sequence[tuple[str, RD.ScoreTable]],
-                   reproduction: Path | None = None,
-                   reproduction_data: Mapping[str, Any] | None = None) -> Section:
-    title = "4. Paper tables: ours next to the paper's"
-    if not sources:
-        return Section("paper", title, note("No reproduction rows in the store and no "
-                                            "--reproduction JSON: section omitted."), True)
-    parts = [note("The paper evaluates one step ahead (measured force up to k-1 enters the "
-                  "prediction); its numbers appear only next to our one_step figures. "
-                  "free_run (sEMG only) has no counterpart in the paper. Virtual subject Vi is "
-                  "not the paper's subject Vi: per-subject rows are side by side, not paired.")]
-    data = reproduction_data or {}
-    for label, scores in sources:
-        parts.append(f"<h3>From {esc(label)}</h3>")
-        for mode in scores:
-            parts.append(_summary_table(scores[mode], mode))
-            parts.append(_per_subject_table(scores[mode], mode))
-        from_json = reproduction is not None and label.startswith(Path(reproduction).name)
-        config = data.get("config") if isinstance(data.get("config"), dict) else {}
-        channels = config.get("channels") if from_json else None
-        parts.append(note(_deployment_sentence(scores, channels)))
-        if from_json:
-            parts.append(_transfer_table(data.get("transfer")))
-        parts.append(_timing_table(scores))
-        parts.append(svg_img(F.svg_bytes(F.score_bars_figure(scores, f"Scores ({label})")),
-                             f"R2 and NRMSE bars per estimator and mode, {label}"))
-    return Section("paper", title, "\n".join(parts))
-
-
-def _summary_table(scores: Mapping[str, RD.EstimatorScores], mode: str) -> str:
-    with_paper = mode == "one_step"
-    headers = ["estimator", "n", "R² mean ± SD", "NRMSE mean ± SD", "worst subject R²"]
-    if with_paper:
-        headers += ["paper R² mean ± SD", "paper NRMSE mean ± SD"]
-    rows = []
-    for name, s in scores.items():
-        worst = min((r2 for r2, _ in s.per_subject.values()), default=None)
-        row = [name, s.n, pm(s.r2_mean, s.r2_sd), pm(s.nrmse_mean, s.nrmse_sd), fmt(worst, 3)]
-        if with_paper:
-            ref = F.paper_reference(name)
-            row += [pm(ref[0], ref[1]), pm(ref[2], ref[3])] if ref else ["-", "-"]
-        rows.append(row)
-    return table(headers, rows, f"Summary, mode {mode}")
-
-
-def _deployment_sentence(scores: RD.ScoreTable, channels: Any = None) -> str:
-    """Which estimator a deployed prosthesis (no force sensor) should use, from the numbers.
-
-    The same rule and sentence as ``griploop reproduce`` (:func:`estimation.recommendation.
-    recommend`): the worst subject weighs, not only the mean.
-    """
-    from estimation.recommendation import recommend
-
-    free = scores.get("free_run", {})
-    n_subjects = len({s for e in free.values() for s in e.per_subject})
-    summary = {n: {"r2_mean": e.r2_mean if e.per_subject else None,
-                   "r2_min": min((r for r, _ in e.per_subject.values()), default=None),
-                   "n_ok": len(e.per_subject), "n": n_subjects} for n, e in free.items()}
-    ref = scores.get("one_step", {}).get("ss_kf")
-    rec = recommend(summary, channels=channels,
-                    one_step_reference=None if ref is None else ref.r2_mean)
-    return rec["reason"] if rec else ("No estimator ran in free_run on every subject: none "
-                                      "can be recommended.")
-
-
-def _transfer_table(tr: Any) -> str:
-    """Virtual next to real (the ``transfer`` entry of ``griploop reproduce --channels all
-    --json``), or empty."""
-    if not isinstance(tr, dict) or not tr.get("rows"):
-        return ""
-    rows = [[r["estimator"], fmt(r["virtual_mean"], 3), fmt(r["virtual_min"], 2),
-             fmt(r["real_mean"], 3), fmt(r["real_min"], 2),
-             "-" if r["real_mean"] is None or r["virtual_mean"] is None
-             else f"{r['virtual_mean'] - r['real_mean']:+.3f}"] for r in tr["rows"]]
-    a = tr["agreement"]
-    if a.get("spearman") is None:
-        verdict = "Too few estimators reach R² 0.5 on either side to compare."
-    else:
-        verdict = (f"Over the {a['n']} estimators reaching R² {a['floor']} on either side: "
-                   f"Spearman {a['spearman']:.2f} (goal ≥ {a['thresholds']['spearman']}), mean "
-                   f"|virtual − real| {a['mean_abs_diff']:.3f} (≤ "
-                   f"{a['thresholds']['mean_abs_diff']}), largest {a['max_abs_diff']:.3f} "
-                   f"({a['worst']}; ≤ {a['thresholds']['max_abs_diff']}).")
-    return ("<h3>Virtual subjects next to real people (free_run, all 8 channels)</h3>"
-            + note(f"{verdict} Real: {tr['source']}.")
-            + table(["estimator", "virtual mean", "virtual worst", "real mean", "real worst",
-                     "virtual − real"], rows, "Estimation verdicts, virtual and real"))
-
-
-def _per_subject_table(scores: Mapping[str, RD.EstimatorScores], mode: str) -> str:
-    subjects = sorted({s for e in scores.values() for s in e.per_subject})
-    names = list(scores)
-    headers = ["subject"]
-    for name in names:
-        headers += [f"{name} R²", f"{name} NRMSE"]
-        if mode == "one_step" and name in paper_estimators():
-            headers += [f"paper {name} R²", f"paper {name} NRMSE"]
-    rows = []
-    for sid in subjects:
-        row: list[Any] = [f"V{sid}"]
-        for name in names:
-            row += list(scores[name].per_subject.get(sid, (None, None)))
-            if mode == "one_step" and name in paper_estimators():
-                row += list(TABLE2.get(f"V{sid}", {}).get(name, (None, None)))
-        rows.append(row)
-    return table(headers, rows, f"Per subject (Table 2 layout), mode {mode}")
-
-
-def _timing_table(scores: RD.ScoreTable) -> str:
-    names = list(dict.fromkeys(n for m in scores.values() for n in m))
-    rows = []
-    for name in names:
-        entries = [m[name] for m in scores.values() if name in m]
-        train = next((e.train_ms for e in entries if e.train_ms is not None), None)
-        step = next((e.step_us_median for e in entries if e.step_us_median is not None), None)
-        paper = TABLE3.get(name)
-        rows.append([
-            name, pm(*train, digits=3) if train else "n/a",
-            fmt(None if step is None else step / 1e3, 3),
-            pm(*paper["train_ms"], digits=3) if paper else "-",
-            pm(*paper["loop_ms"], digits=3) if paper else "-",
-        ])
-    return table(["estimator", "train ms (ours)", "loop ms median (ours)", "train ms (paper)",
-                  "loop ms (paper)"], rows, "Timing (Table 3 layout)")
 
 
 # ---------------------------------------------------------------- 5. traces
@@ -606,106 +470,6 @@ def _outcome_section(episodes: Sequence[dict], factors: Sequence[str] = ()) -> S
     return Section("outcomes", title, "\n".join(parts))
 
 
-# ---------------------------------------------------------------- 9. frame
-
-
-class FrameRender:
-    """A PNG of the hand holding an object (``sim.hand.render_snapshot``), rendered in a
-    child process started at construction, so the report builds its sections meanwhile.
-
-    MuJoCo picks its OpenGL backend when first imported, and the child, importing
-    :mod:`sim` first, gets a headless one when there is no display (whatever this
-    process loaded); the child also keeps a GL crash out of the report.
-
-    Parameters
-    ----------
-    name : str
-        Object name.
-    grip_force_n : float
-        Grip force held, N.
-    timeout_s : float
-        Longest wait in :meth:`result`, s.
-    """
-
-    def __init__(self, name: str, grip_force_n: float, timeout_s: float = 120.0) -> None:
-        self.name = name
-        self.timeout_s = timeout_s
-        self._tmp = tempfile.TemporaryDirectory(prefix="griploop-frame-")
-        self._out = Path(self._tmp.name) / "grasp.png"
-        cmd = [sys.executable, "-m", "sim.hand.render_snapshot", str(self._out), "--object",
-               name, "--grip", f"{grip_force_n:.6g}"]
-        self._proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                      stdin=subprocess.DEVNULL, text=True)
-        self._outcome: bytes | RuntimeError | None = None
-
-    def result(self) -> bytes:
-        """The PNG bytes (waits for the child).
-
-        Raises
-        ------
-        RuntimeError
-            The renderer exited with an error or timed out (message: its last line).
-        """
-        if self._outcome is None:
-            self._outcome = self._collect()
-            self.cancel()
-        if isinstance(self._outcome, RuntimeError):
-            raise self._outcome
-        return self._outcome
-
-    def _collect(self) -> bytes | RuntimeError:
-        try:
-            stdout, stderr = self._proc.communicate(timeout=self.timeout_s)
-        except subprocess.TimeoutExpired:
-            return RuntimeError(f"renderer timed out after {self.timeout_s:g} s")
-        if self._proc.returncode != 0 or not self._out.is_file():
-            lines = (stderr or stdout).strip().splitlines()
-            errors = [ln for ln in lines if re.match(r"[\w.]+(Error|Exception)\b", ln)]
-            last = errors[-1] if errors else lines[-1] if lines else ""
-            return RuntimeError(last or f"renderer exit status {self._proc.returncode}")
-        return self._out.read_bytes()
-
-    def cancel(self) -> None:
-        """Stop the child if it still runs, reap it and remove its files (no effect when
-        done)."""
-        if self._proc.poll() is None:
-            self._proc.kill()
-        self._proc.communicate()  # closes its pipes
-        self._tmp.cleanup()
-
-
-def render_frame_png(name: str, grip_force_n: float, timeout_s: float = 120.0) -> bytes:
-    """PNG of the hand holding ``name`` at ``grip_force_n`` N (:class:`FrameRender`, waited for).
-
-    Raises
-    ------
-    RuntimeError
-        The renderer exited with an error or timed out (message: its last line).
-    """
-    job = FrameRender(name, grip_force_n, timeout_s)
-    try:
-        return job.result()
-    finally:
-        job.cancel()
-
-
-def _frame_section(episodes: Sequence[dict], render: bool, job: FrameRender | None = None
-                   ) -> Section:
-    title = "9. Rendered grasp"
-    if not render:
-        return Section("frame", title, note("Rendering switched off (--no-render)."), True)
-    name = job.name if job is not None else D.most_common_object(episodes)
-    try:
-        png = job.result() if job is not None else render_frame_png(name, FRAME_GRIP_N)
-    except RuntimeError as exc:
-        return Section("frame", title, note(f"Rendering {name} failed: {exc}"), True)
-    source = "most common object of the episodes" if episodes else "no episodes: default object"
-    body = (note(f"{name} ({source}), lifted and held at {FRAME_GRIP_N:g} N, front camera; "
-                 "the frame shows the object and hand, not a particular episode.")
-            + img(png, f"rendered grasp of {name}"))
-    return Section("frame", title, body)
-
-
 # ---------------------------------------------------------------- 10. failures
 
 
@@ -768,7 +532,7 @@ register_section("summary", "scenarios.report.findings:summary_section", order=5
 register_section("combinations", lambda c: _combinations_section(c.split.episodes, c.factors),
                  order=10)
 register_section("compare", lambda c: _compare_section(c.split.episodes, c.factors), order=20)
-register_section("paper", lambda c: _paper_section(c.sources, c.reproduction,
+register_section("paper", lambda c: paper_section(c.sources, c.reproduction,
                                                    c.reproduction_data), order=30)
 register_section("traces", lambda c: _traces_section(c.split.episodes, c.traces,
                                                      c.options["max_traces"], c.factors),
@@ -776,7 +540,7 @@ register_section("traces", lambda c: _traces_section(c.split.episodes, c.traces,
 register_section("loops", lambda c: _loop_section(c.designs, c.options["max_designs"]), order=50)
 register_section("outcomes", lambda c: _outcome_section(c.split.episodes, c.factors), order=60)
 register_section("margins", lambda c: _margin_section(c.designs, c.split.episodes), order=70)
-register_section("frame", lambda c: _frame_section(c.split.episodes, c.options["render_frame"],
+register_section("frame", lambda c: frame_section(c.split.episodes, c.options["render_frame"],
                                                    c.options.get("frame")), order=80)
 register_section("feedback", "scenarios.report.feedback:feedback_section", order=85)
 register_section("failed", lambda c: _failed_section(c.split.failed), order=90)

@@ -171,10 +171,9 @@ def run_episode(
         User kind (:mod:`sim.user.operators`: ``reacting``, the default, sees
         the hand and corrects; ``scripted`` follows the intent profile) and a
         reacting user's feedback (``none``, ``force_vibration``, ``slip_vibration``).
-    operator_params : OperatorParams, optional
-        The reacting user's parameters (default :class:`OperatorParams`).
-    estimator_options : mapping, optional
-        The estimator's own hyperparameters (a scenario's ``estimator.options``).
+    operator_params, estimator_options : optional
+        The reacting user's parameters (default :class:`OperatorParams`); the
+        estimator's own hyperparameters (a scenario's ``estimator.options``).
 
     Returns
     -------
