@@ -146,10 +146,8 @@ def run_episode(
 
     Parameters
     ----------
-    subject : VirtualSubject
-        The user (with any electrode shift, noise or fatigue already applied).
-    obj : ObjectSpec
-        The object.
+    subject, obj : VirtualSubject, ObjectSpec
+        The user (with any electrode shift, noise or fatigue applied) and the object.
     estimator : str
         Estimator name (:func:`estimation.registry.estimator_names`) or ``"oracle"``.
     mode : {"free_run", "one_step"}
