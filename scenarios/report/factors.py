@@ -1,15 +1,11 @@
-"""What a sweep varied: its factors, their levels, and grids faceted over them.
-"""
+"""What a sweep varied: its factors, their levels, and grids faceted over them."""
 
 from __future__ import annotations
 
 import json
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:  # python-control is imported only to re-analyse loops (recheck)
-
-    pass
 from scenarios.report.data import OutcomeGrid, outcome_grids
 from scenarios.report.loops import condition_label
 

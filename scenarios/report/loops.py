@@ -1,5 +1,4 @@
-"""Loop designs the episodes ran, read from the store (margins stored; matrices in the traces).
-"""
+"""Loop designs the episodes ran, read from the store (margins stored; matrices in the traces)."""
 
 from __future__ import annotations
 
@@ -10,11 +9,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from scenarios.report.data import LOOP_TRACES, check_traces
+
 if TYPE_CHECKING:  # python-control is imported only to re-analyse loops (recheck)
     import control
 
     from controllers.analysis import LoopMargins
-from scenarios.report.data import LOOP_TRACES, check_traces
+
 
 # ---------------------------------------------------------------- loop designs
 

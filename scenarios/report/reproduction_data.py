@@ -1,5 +1,4 @@
-"""The reproduction's scores as the report reads them: from a reproduction JSON or store rows.
-"""
+"""The reproduction's scores as the report reads them: from a reproduction JSON or store rows."""
 
 from __future__ import annotations
 
@@ -7,13 +6,10 @@ import json
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-if TYPE_CHECKING:  # python-control is imported only to re-analyse loops (recheck)
-
-    pass
 from estimation.registry import MODES
 from scenarios.report.data import ReportInputError
 

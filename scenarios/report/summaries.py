@@ -1,21 +1,16 @@
-"""Outcome rates by combination of factors, and paired differences between controllers.
-"""
+"""Outcome rates by combination of factors, and paired differences between controllers."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from scenarios.stats import t_quantile, wilson_interval
-
-if TYPE_CHECKING:  # python-control is imported only to re-analyse loops (recheck)
-
-    pass
 from scenarios.outcomes import OUTCOMES, row_outcome
 from scenarios.report.factors import CONTROLLER_FACTOR, _hashable, factor_value, levels
+from scenarios.stats import t_quantile, wilson_interval
 
 
 @dataclass(frozen=True)
