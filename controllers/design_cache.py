@@ -53,7 +53,7 @@ import numpy as np
 from controllers import plant_cache
 from controllers.registry import design_modules
 from sim import cache as sim_cache
-from sim.cache import write_atomic
+from sim.cache import build_lock, write_atomic
 from sim.codec import CodecError, decode, encode
 from sim.hand.objects import ObjectSpec
 
@@ -157,6 +157,12 @@ def loads(data: bytes, key: str, kind: str | None = None) -> Any:
         raise ValueError(str(exc)) from None
 
 
+def _read_design(path: Path, key: str, kind: str) -> Any:
+    """The design stored at ``path`` for ``kind``, or None (a miss)."""
+    design = _read(path, key, kind)
+    return design if design is not None and getattr(design, "kind", None) == kind else None
+
+
 def _read(path: Path, key: str, kind: str | None = None) -> Any:
     """The value stored at ``path``, or None when missing, corrupted or foreign."""
     try:
@@ -213,18 +219,19 @@ def cached_design(obj: ObjectSpec, kind: str, control_dt_s: float, spec: Mapping
     key = design_key(obj, kind, control_dt_s, spec, forces_n)
     stem = root / f"{obj.name}-{kind}-{key}"
     design_path, analyses_path = stem.with_suffix(".design"), stem.with_suffix(".analyses")
-    design = _read(design_path, key, kind)
-    if design is not None and getattr(design, "kind", None) == kind:
-        source = "disk"
-    else:
-        design = build()
-        try:
-            write_atomic(design_path, dumps(design, key, kind))
-            source = "built"
-        except OSError:
-            source = "built (cache not writable)"
-        except CodecError:  # e.g. a plugin's controller holding a function
-            source = "built (not storable)"
+    design, source = _read_design(design_path, key, kind), "disk"
+    if design is None:
+        with build_lock(design_path):  # another worker building it: wait, then read it
+            design = _read_design(design_path, key, kind)
+            if design is None:
+                design = build()
+                try:
+                    write_atomic(design_path, dumps(design, key, kind))
+                    source = "built"
+                except OSError:
+                    source = "built (cache not writable)"
+                except CodecError:  # e.g. a plugin's controller holding a function
+                    source = "built (not storable)"
     stored = _read(analyses_path, key, kind)
     analyses = {**(stored if isinstance(stored, dict) else {}), **design._cache}
     design._cache = _WrittenThrough(analyses, analyses_path, key, kind)

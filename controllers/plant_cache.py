@@ -32,7 +32,7 @@ import numpy as np
 from controllers.design_plant import DesignPlant, OperatingPoint, PlantFamily
 from controllers.errors import PlantError
 from sim import cache as sim_cache
-from sim.cache import cache_subdir, write_atomic
+from sim.cache import build_lock, cache_subdir, write_atomic
 from sim.hand.objects import ObjectSpec
 
 FORMAT = 1
@@ -125,14 +125,26 @@ def cached_family(obj: ObjectSpec, control_dt_s: float, forces_n: tuple[float, .
     if root is None:
         return build(), "built (cache off)"
     path = root / f"{obj.name}-{family_key(obj, control_dt_s, forces_n)}.npz"
-    if path.is_file():
+    family = _load(path, obj)
+    if family is not None:
+        return family, "disk"
+    with build_lock(path):  # another worker building it: wait, then read its file
+        family = _load(path, obj)
+        if family is not None:
+            return family, "disk"
+        family = build()
         try:
-            return load_family(path, obj), "disk"
-        except (OSError, ValueError, KeyError, json.JSONDecodeError):
-            pass  # a corrupted or foreign file is a miss: rebuilt and replaced below
-    family = build()
-    try:
-        save_family(family, path)
-    except OSError:
-        return family, "built (cache not writable)"
+            save_family(family, path)
+        except OSError:
+            return family, "built (cache not writable)"
     return family, "built"
+
+
+def _load(path: Path, obj: ObjectSpec) -> PlantFamily | None:
+    """The family stored at ``path``; None when missing, corrupted or foreign (a miss)."""
+    if not path.is_file():
+        return None
+    try:
+        return load_family(path, obj)
+    except (OSError, ValueError, KeyError, json.JSONDecodeError):
+        return None

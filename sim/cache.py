@@ -7,12 +7,14 @@ Every disk cache (plant families, controller designs, pretrained estimators) liv
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import importlib.util
 import os
 import sys
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from importlib import metadata
 from pathlib import Path
 
@@ -93,3 +95,27 @@ def source_digest(packages: Iterable[str], modules: Iterable[str] = (),
         except metadata.PackageNotFoundError:  # running from a source tree
             h.update(f"{dist} source\n".encode())
     return h.hexdigest()
+
+
+@contextlib.contextmanager
+def build_lock(path: Path) -> Iterator[None]:
+    """Hold an exclusive lock on ``path``'s build while the ``with`` block runs.
+
+    Processes that share a cache (sweep workers) and miss the same entry at
+    once take turns: the first builds and writes it, the others wait, then
+    find it on disk, so no two build the same thing. The lock is
+    ``PATH.lock`` beside the entry (``flock``, released when the holder exits
+    or dies); a directory where it cannot be created is not locked.
+    """
+    lock_path = path.with_name(path.name + ".lock")
+    try:
+        lock_path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o600)
+    except OSError:
+        yield
+        return
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # closing releases the lock

@@ -89,7 +89,8 @@ def local_outcomes(
     """
     from multiprocessing.connection import wait
 
-    boxes = [Sandbox() for _ in range(workers)]
+    # several workers: one BLAS thread each, so they do not oversubscribe the cores
+    boxes = [Sandbox(blas_threads=1 if workers > 1 else None) for _ in range(workers)]
     last: list[str | None] = [None] * workers
     running: dict[int, tuple[PlannedScenario, list[str], float]] = {}
     queue = _Lookahead(iter(todo), max(lookahead * workers, 1), group)

@@ -62,3 +62,38 @@ def test_cache_off_and_not_writable(tmp_path, monkeypatch):
     monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(blocker))  # its "plants" cannot be made
     family, source = plant_cache.cached_family(CAN, 0.01, GRID, _build())
     assert source == "built (cache not writable)" and family.points[0].ok
+
+
+def _race(cache_root: str, marks: str, go, out) -> None:
+    """One sweep worker: miss the family, build it (slowly, leaving a mark), report the source."""
+    import os
+    import time
+
+    os.environ["GRIPLOOP_CACHE_DIR"] = cache_root
+    build = _build()
+
+    def slow_build():
+        with open(marks, "a") as f:
+            f.write(f"{os.getpid()}\n")
+        time.sleep(0.5)  # the other worker misses meanwhile
+        return build()
+
+    go.wait()
+    out.put(plant_cache.cached_family(CAN, 0.01, GRID, slow_build)[1])
+
+
+def test_two_workers_missing_one_family_build_it_once(tmp_path):
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("fork")
+    go, out, marks = ctx.Event(), ctx.Queue(), tmp_path / "builds.txt"
+    workers = [ctx.Process(target=_race, args=(str(tmp_path / "c"), str(marks), go, out))
+               for _ in range(2)]
+    for w in workers:
+        w.start()
+    go.set()
+    sources = sorted(out.get(timeout=60) for _ in workers)
+    for w in workers:
+        w.join(timeout=60)
+    assert sources == ["built", "disk"]  # the second waited for the first's file
+    assert len(marks.read_text().split()) == 1
