@@ -23,10 +23,11 @@ Importing this module imports neither python-control nor any controller module.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from controllers.errors import UnknownControllerError
-from sim.registry import RegistrationError, Registry
+from sim.registry import Capabilities, RegistrationError, Registry
 
 if TYPE_CHECKING:
     import control
@@ -36,7 +37,45 @@ if TYPE_CHECKING:
 #: Options of a loop-shaping specification (every ``shaping=True`` kind accepts them).
 LOOP_SHAPING_OPTIONS = ("phase_margin_deg", "crossover_rad_s", "bandwidth_rad_s")
 
-_REGISTRY = Registry("controller", UnknownControllerError)
+@dataclass(frozen=True)
+class ControllerKind(Capabilities):
+    """What a controller kind declares when it registers (:func:`register_controller`).
+
+    Attributes
+    ----------
+    shaping : bool
+        Specified by loop shaping (:data:`LOOP_SHAPING_OPTIONS`) besides ``options``.
+    options : tuple of str
+        Its own specification options (``lag_ratio``, ``horizon``, ...).
+    accepted : tuple of str
+        Every option a specification may set (loop shaping and ``options``).
+    defaults, fixed : mapping
+        Default specification; keyword arguments always passed to the design.
+    bank_design : callable, str or None
+        What builds each design of a scheduled bank, if not the design function.
+    blend : {"switch", "interpolate"}
+        How the bank's designs are scheduled over grip force.
+    warm : {"neighbours", "all", "none"}
+        Which inactive designs track the applied command.
+    slip_sensing : bool
+        The design takes ``slip_sensing`` and ``force_max_n``.
+    specified_by : str
+        How the kind is specified, for messages.
+    """
+
+    shaping: bool
+    options: tuple[str, ...]
+    accepted: tuple[str, ...]
+    defaults: Mapping[str, Any]
+    fixed: Mapping[str, Any]
+    bank_design: Any
+    blend: str
+    warm: str
+    slip_sensing: bool
+    specified_by: str
+
+
+_REGISTRY = Registry("controller", UnknownControllerError, capabilities=ControllerKind)
 
 
 def register_controller(

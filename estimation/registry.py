@@ -35,10 +35,11 @@ CLI's choices) imports neither scikit-learn nor any estimator module.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from sim.errors import GriploopError
-from sim.registry import Registry
+from sim.registry import Capabilities, Registry
 
 if TYPE_CHECKING:
     from estimation.protocols import Estimator
@@ -50,7 +51,38 @@ class UnknownEstimatorError(GriploopError, LookupError):
     """An estimator name is not in the registry."""
 
 
-_REGISTRY = Registry("estimator", UnknownEstimatorError)
+@dataclass(frozen=True)
+class EstimatorKind(Capabilities):
+    """What an estimator declares when it registers (:func:`register_estimator`).
+
+    Attributes
+    ----------
+    modes : tuple of str
+        Prediction modes it supports (a subset of :data:`MODES`).
+    params : mapping
+        Keyword arguments always passed to its factory.
+    order_params : tuple of str
+        Hyperparameters that take the model order of an evaluation.
+    takes_seed, takes_dt, neural : bool
+        It takes ``random_state``; the feature period ``dt_s``; the network options.
+    paper, deployable : bool
+        A column of the paper's tables; built to be deployed (no force sensor).
+    label : str
+        Short upper-case label of printed tables.
+    """
+
+    modes: tuple[str, ...]
+    params: Mapping[str, Any]
+    order_params: tuple[str, ...]
+    takes_seed: bool
+    takes_dt: bool
+    neural: bool
+    paper: bool
+    deployable: bool
+    label: str
+
+
+_REGISTRY = Registry("estimator", UnknownEstimatorError, capabilities=EstimatorKind)
 
 
 def register_estimator(

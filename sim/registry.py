@@ -4,8 +4,11 @@ A :class:`Registry` maps a name to an entry: an object (a class, a factory
 function, a value) or its ``"package.module:attribute"`` reference, imported
 the first time the entry is used. Registering by reference keeps listing the
 names light: a registry of estimators does not import scikit-learn until one
-is built. Each registration also carries free metadata (keyword arguments of
-:meth:`Registry.register`) that callers read with :meth:`Registry.info`.
+is built. Each registration also carries metadata (keyword arguments of
+:meth:`Registry.register`) that callers read with :meth:`Registry.info`: for
+the main families a typed record of the capabilities the family declares
+(:class:`Capabilities`: controllers' ``ControllerKind``, estimators'
+``EstimatorKind``, scenario kinds' ``ScenarioKind``).
 
 The registries of griploop: sEMG generators (:mod:`sim.user.generators`),
 objects (:mod:`sim.hand.objects`), estimators (:mod:`estimation.registry`),
@@ -18,7 +21,7 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from types import MappingProxyType
 from typing import Any
 
@@ -31,6 +34,32 @@ class RegistrationError(GriploopError, ValueError):
 
 class UnresolvableEntryError(GriploopError, LookupError):
     """A registered ``"module:attribute"`` reference cannot be imported."""
+
+
+class Capabilities(Mapping[str, Any]):
+    """Base of a registry's typed capability record (a frozen dataclass of its own).
+
+    A registry made with ``capabilities=Kind`` stores each registration's
+    metadata as a ``Kind`` instance: its fields are the capabilities the family
+    declares, typed and documented in one place, and a registration with a
+    field the family does not have is refused. The record also reads as a
+    mapping of its fields (``info["modes"]``).
+    """
+
+    def __getitem__(self, key: str) -> Any:
+        if key not in self._names():
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._names())
+
+    def __len__(self) -> int:
+        return len(self._names())
+
+    @classmethod
+    def _names(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in fields(cls))
 
 
 @dataclass
@@ -113,15 +142,21 @@ class Registry:
     unknown_error : type of Exception
         Raised by :meth:`entry` / :meth:`get` for an unknown name; the message
         lists the registered names.
+    capabilities : type, optional
+        A :class:`Capabilities` dataclass: each registration's metadata is made
+        into one (typed fields; an unknown one is refused). Default: a
+        read-only mapping of whatever was given.
     """
 
     #: Registrations made so far in this process, over every registry (a plugin
     #: that imports without raising this registered nothing).
     registrations: int = 0
 
-    def __init__(self, what: str, unknown_error: type[Exception] = LookupError) -> None:
+    def __init__(self, what: str, unknown_error: type[Exception] = LookupError, *,
+                 capabilities: type[Capabilities] | None = None) -> None:
         self.what = what
         self.unknown_error = unknown_error
+        self.capabilities = capabilities
         self._entries: dict[str, Entry] = {}
 
     def register(self, name: str, target: Any, *, replace: bool = False, **info: Any) -> Entry:
@@ -156,7 +191,16 @@ class Registry:
         if name in self._entries and not replace:
             raise RegistrationError(f"{self.what} {name!r} is already registered "
                                     f"({self._entries[name].target!r}); pass replace=True")
-        entry = Entry(name, target, MappingProxyType(dict(info)))
+        if self.capabilities is None:
+            record: Mapping[str, Any] = MappingProxyType(dict(info))
+        else:
+            unknown = sorted(set(info) - set(self.capabilities._names()))
+            if unknown:
+                raise RegistrationError(
+                    f"{self.what} {name}: no capabilities {unknown} (a {self.what} declares "
+                    f"{', '.join(self.capabilities._names())})")
+            record = self.capabilities(**info)
+        entry = Entry(name, target, record)
         self._entries[name] = entry
         Registry.registrations += 1
         return entry

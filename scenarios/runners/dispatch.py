@@ -26,10 +26,17 @@ simulation nor the estimators: ``reproduction`` (:mod:`scenarios.runners.reprodu
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from sim.errors import GriploopError
-from sim.registry import RegistrationError, Registry, UnresolvableEntryError, import_reference
+from sim.registry import (
+    Capabilities,
+    RegistrationError,
+    Registry,
+    UnresolvableEntryError,
+    import_reference,
+)
 
 if TYPE_CHECKING:
     from scenarios.schema import Scenario
@@ -52,7 +59,20 @@ class DivergedError(GriploopError, RuntimeError):
     """A scenario ran but its result diverged (e.g. an unstable identified model)."""
 
 
-_KINDS = Registry("scenario kind", RunnerUnavailableError)
+@dataclass(frozen=True)
+class ScenarioKind(Capabilities):
+    """What a scenario kind declares when it registers (:func:`register_kind`).
+
+    Attributes
+    ----------
+    protocols : tuple of str
+        The ``protocol.name`` values the kind runs; empty: any.
+    """
+
+    protocols: tuple[str, ...]
+
+
+_KINDS = Registry("scenario kind", RunnerUnavailableError, capabilities=ScenarioKind)
 _REGISTRY: dict[str, Runner | str] = {}
 
 
