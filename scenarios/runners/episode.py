@@ -49,12 +49,9 @@ from controllers.base import controller_stats
 from controllers.bounds import slip_threshold_n
 from controllers.design import ControllerDesign, OperatingAnalysis, design_for_object, worst_case
 from controllers.drive import HandLoop
-from estimation.evaluation import split_index
 from estimation.features import PAPER_CHANNELS, FeatureSet, align_to_windows, extract_features
-from estimation.metrics import r2_score, total_variation_rate
+from estimation.metrics import total_variation_rate
 from estimation.paper import PAPER_ORDER
-from estimation.registry import make_estimator
-from estimation.reproduce import estimator_params
 from estimation.threads import one_blas_thread
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.operator_loop import LiveUser, scene_from_info
@@ -156,6 +153,12 @@ def fit_on_features(features: FeatureSet, estimator: str, mode: str, *,
     DivergedError
         The identified model is unstable and ``mode`` would run it open loop.
     """
+    # the estimators (scikit-learn's models) load here: the oracle reference fits nothing
+    from estimation.evaluation import split_index
+    from estimation.metrics import r2_score
+    from estimation.registry import make_estimator
+    from estimation.reproduce import estimator_params
+
     split = split_index(features.n_windows, identification_fraction)
     params = estimator_params([estimator], rng, order, dt_s=features.dt_s)[estimator]
     start = time.perf_counter()
