@@ -152,6 +152,7 @@ def run_reproduction(
     orders: Sequence[int] = tuple(range(1, 13)),
     nn_params: dict | None = None,
     channels: str | Sequence[int | str] | None = PAPER_CHANNELS,
+    workers: int = 1,
 ) -> dict:
     """Run the paper's protocol on ``n_subjects`` virtual subjects.
 
@@ -174,6 +175,10 @@ def run_reproduction(
         Overrides for the MLP/NARX hyperparameters (e.g. ``{"max_epochs": 50}``).
     channels : "all", sequence of int (1-based) or str
         sEMG channels whose MAV, RMS and WL are the inputs (paper: 6, 7, 8).
+    workers : int
+        Subjects evaluated at once, each in a process forked from this one (default 1:
+        in this process). Every subject has its own seeds, so the figures do not depend
+        on it; only the training times do, when the processes share cores.
 
     Returns
     -------
@@ -184,37 +189,27 @@ def run_reproduction(
 
     channels = parse_channels(channels)
     estimators = estimator_names() if estimators is None else tuple(estimators)
+    if int(workers) < 1:
+        raise EstimationInputError(f"workers: expected at least 1, found {workers}")
 
     with one_blas_thread():
         return _run(make_population, n_subjects, seed, generator, order, estimators, orders,
-                    nn_params, channels)
+                    nn_params, channels, int(workers))
 
 
 def _run(make_population: object, n_subjects: int, seed: int, generator: str, order: int,
          estimators: Sequence[str], orders: Sequence[int], nn_params: dict | None,
-         channels: Sequence[int | str] | None) -> dict:
+         channels: Sequence[int | str] | None, workers: int = 1) -> dict:
     subjects = make_population(n=n_subjects, seed=seed)
     children = np.random.SeedSequence([seed, 0x5EED]).spawn(n_subjects)
-    per_subject, order_curves, features_info = [], [], []
-    model = None
-    for subject, child in zip(subjects, children, strict=True):
-        session_ss, est_ss = child.spawn(2)
-        rec = subject.paper_session(rng=np.random.default_rng(session_ss), generator=generator)
-        fs = extract_features(rec, channels=channels)
-        params = estimator_params(estimators, np.random.default_rng(est_ss), order, nn_params,
-                                  dt_s=fs.dt_s)
-        res = evaluate_subject(fs.X, fs.y, params, dt_s=fs.dt_s)
-        if not per_subject:
-            training = training_settings(params, _pipelines(res))
-        per_subject.append(res)
-        n_id = split_index(fs.n_windows)
-        features_info.append({"subject_id": subject.subject_id, "n_windows": fs.n_windows,
-                              "n_identification": n_id, "duration_s": rec.duration_s})
-        if "ss_kf" in res and "_pipeline" in res["ss_kf"]:
-            if model is None:
-                model = model_summary(res["ss_kf"]["_pipeline"].estimator)
-            order_curves.append(_order_curve(subject.subject_id, res["ss_kf"]["_pipeline"],
-                                             fs, n_id, orders))
+    jobs = [(subject, child, generator, channels, estimators, order, nn_params, orders)
+            for subject, child in zip(subjects, children, strict=True)]
+    done = _map_subjects(jobs, workers)
+    per_subject = [d["result"] for d in done]
+    features_info = [d["features"] for d in done]
+    order_curves = [d["order_curve"] for d in done if d["order_curve"] is not None]
+    model = next((d["model"] for d in done if d["model"] is not None), None)
+    training = done[0]["training"] if done else {}
     result = aggregate(per_subject)
     result["model"] = model
     result["order_selection"] = {
@@ -235,6 +230,62 @@ def _run(make_population: object, n_subjects: int, seed: int, generator: str, or
     result["recommendation"] = recommendation(result)
     result["transfer"] = transfer_table(result)
     return to_jsonable(result)
+
+
+def _evaluate_one(job: tuple) -> dict:
+    """One subject of :func:`run_reproduction`: session, features, every estimator, AIC curve.
+
+    Returns plain data (no fitted pipeline), so that a worker process can send it back.
+    """
+    subject, child, generator, channels, estimators, order, nn_params, orders = job
+    session_ss, est_ss = child.spawn(2)
+    rec = subject.paper_session(rng=np.random.default_rng(session_ss), generator=generator)
+    fs = extract_features(rec, channels=channels)
+    params = estimator_params(estimators, np.random.default_rng(est_ss), order, nn_params,
+                              dt_s=fs.dt_s)
+    res = evaluate_subject(fs.X, fs.y, params, dt_s=fs.dt_s)
+    n_id = split_index(fs.n_windows)
+    ss_kf = res.get("ss_kf", {}).get("_pipeline")
+    return {
+        "result": {name: {k: v for k, v in r.items() if k != "_pipeline"}
+                   for name, r in res.items()},
+        "training": training_settings(params, _pipelines(res)),
+        "features": {"subject_id": subject.subject_id, "n_windows": fs.n_windows,
+                     "n_identification": n_id, "duration_s": rec.duration_s},
+        "model": None if ss_kf is None else model_summary(ss_kf.estimator),
+        "order_curve": None if ss_kf is None else _order_curve(subject.subject_id, ss_kf, fs,
+                                                                n_id, orders),
+    }
+
+
+def _evaluate_in_worker(job: tuple) -> dict:
+    """:func:`_evaluate_one` in a forked worker: one thread for BLAS and OpenMP alike.
+
+    The workers already use the cores. And an OpenMP thread pool the parent started (say,
+    for scikit-learn's gradient boosting) does not survive ``fork``: a child that asked it
+    for threads would wait for them forever; with one thread it never does.
+    """
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):
+        return _evaluate_one(job)
+
+
+def _map_subjects(jobs: list[tuple], workers: int) -> list[dict]:
+    """:func:`_evaluate_one` of every job, in order: here, or on ``workers`` forked processes.
+
+    Forked workers inherit the registries (plugins, pretraining corpora) and the pretrained
+    networks already in memory; where processes cannot be forked, the jobs run here.
+    """
+    import multiprocessing
+
+    workers = min(workers, len(jobs))
+    if workers <= 1 or "fork" not in multiprocessing.get_all_start_methods():
+        return [_evaluate_one(job) for job in jobs]
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
+        return list(pool.map(_evaluate_in_worker, jobs))
 
 
 def _pipelines(evaluated: dict) -> dict:
