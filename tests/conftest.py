@@ -15,6 +15,21 @@ if "GRIPLOOP_CACHE_DIR" not in os.environ:
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 
+# ------------------------------------------------------------ parallel workers: one thread
+def pytest_configure(config):
+    """On a parallel run (``-n N``), each worker computes on one thread.
+
+    A worker per core already fills the cores: BLAS and OpenMP threads of their own
+    (OpenBLAS starts one per core, scikit-learn's gradient boosting too) would only
+    oversubscribe them. Set before the workers start, so their numpy reads it on import;
+    a value the user exported wins.
+    """
+    workers = getattr(config.option, "numprocesses", None)
+    if workers and not hasattr(config, "workerinput"):
+        for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+            os.environ.setdefault(var, "1")
+
+
 # ---------------------------------------------------------------- order of the test files
 # ``make test`` runs the files on pytest-xdist workers, whole (``--dist loadfile``), in
 # collection order as workers free up. A long file started last keeps one worker busy while
@@ -26,7 +41,8 @@ _UNKNOWN_SLOW_S = 60.0  # a module marked slow and not timed yet
 
 
 def pytest_collection_modifyitems(config, items):
-    known = config.cache.get(_DURATIONS_KEY, {}) if config.cache is not None else {}
+    cache = getattr(config, "cache", None)  # None under -p no:cacheprovider
+    known = cache.get(_DURATIONS_KEY, {}) if cache is not None else {}
 
     def expected_s(item) -> float:
         path = item.nodeid.split("::")[0]
@@ -58,7 +74,7 @@ def pytest_runtest_logreport(report):
 
 def pytest_sessionfinish(session):
     config = session.config
-    if config.cache is None or hasattr(config, "workerinput") or not _spent:
+    if getattr(config, "cache", None) is None or hasattr(config, "workerinput") or not _spent:
         return  # xdist workers report to the controller, which keeps the figures
     known = dict(config.cache.get(_DURATIONS_KEY, {}))
     known.update({path: round(s, 2) for path, s in _spent.items()})
