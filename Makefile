@@ -18,9 +18,12 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(VENV)/bin/griploop demo --out demo_out
 
+# the suite on one worker process per core (pytest-xdist); each test file stays on one
+# worker, so its module fixtures are built once. TEST_WORKERS=0 runs it in this process.
+TEST_WORKERS ?= auto
 test: $(STAMP)
 	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile
 
 # every benchmarks/bench_*.py in its own process, then the table of their GOAL lines
 BENCH_ARGS ?= --markdown bench_results.md

@@ -10,7 +10,6 @@ import warnings
 
 import numpy as np
 import scipy.sparse
-from sklearn.exceptions import DataConversionWarning
 
 from estimation.registry import MODES, UnknownEstimatorError  # noqa: F401  (defined there)
 from sim.errors import GriploopError
@@ -138,6 +137,8 @@ def check_target(y: np.ndarray, n_samples: int, *, name: str = "y") -> np.ndarra
         raise EstimationInputError(f"Complex data not supported; {name} must be real")
     arr = np.asarray(arr, dtype=np.float64)
     if arr.ndim == 2 and arr.shape[1] == 1:
+        from sklearn.exceptions import DataConversionWarning  # only for this warning
+
         warnings.warn(
             f"A column-vector {name} was passed when a 1d array was expected; "
             "use y.ravel() (shape (n_samples,))", DataConversionWarning, stacklevel=3)

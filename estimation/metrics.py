@@ -14,13 +14,13 @@ are identical in newtons and in normalized units.
 ``root_mean_squared_error``) after this module's input checks; ``nrmse_fit`` (the
 paper's fit, not in scikit-learn), ``r2_score(..., y_mean=...)`` (R^2 about a
 given mean, which scikit-learn does not offer) and ``total_variation_rate`` are
-computed here.
+computed here. scikit-learn is imported by the first score that needs it: an episode
+that scores nothing (the oracle reference) does not load it.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import sklearn.metrics
 
 from estimation.errors import EstimationInputError
 
@@ -60,6 +60,8 @@ def r2_score(y: np.ndarray, y_hat: np.ndarray, *, y_mean: float | None = None) -
     y, y_hat = _pair(y, y_hat)
     sse, sst = _sse_sst(y, y_hat, y_mean)  # also refuses a constant y (R^2 undefined)
     if y_mean is None:
+        import sklearn.metrics
+
         return float(sklearn.metrics.r2_score(y, y_hat))
     return 1.0 - sse / sst
 
@@ -72,6 +74,8 @@ def nrmse_fit(y: np.ndarray, y_hat: np.ndarray, *, y_mean: float | None = None) 
 
 def rmse(y: np.ndarray, y_hat: np.ndarray) -> float:
     """Root-mean-square error in the unit of ``y`` (newtons for forces)."""
+    import sklearn.metrics
+
     y, y_hat = _pair(y, y_hat)
     return float(sklearn.metrics.root_mean_squared_error(y, y_hat))
 

@@ -52,7 +52,7 @@ from estimation.errors import EstimationInputError, check_features, check_mode, 
 from estimation.metrics import r2_score
 from estimation.normalize import MinMaxScaling
 from estimation.streaming import scaled
-from sim.cache import cache_subdir, write_atomic
+from sim.cache import build_lock, cache_subdir, write_atomic
 from sim.registry import Registry
 
 #: Version of the cache format (weights NPZ + JSON); another version is rebuilt.
@@ -375,23 +375,35 @@ def pretrained(n_inputs: int, *, corpus: str = "virtual", n_subjects: int = 40,
     if key in _MEMO:
         return _MEMO[key]
     folder = cache_subdir("pretrained")
-    path = None if folder is None else folder / f"transfer_mlp-{key}"
-    status = "built"
-    if path is not None and (path.with_suffix(".json").exists()
-                             or path.with_suffix(".npz").exists()):
-        try:
-            model = _load(path, settings)
-            model.info["cache"] = "disk"
-            _MEMO[key] = model
-            return model
-        except (OSError, ValueError, KeyError, TypeError, json.JSONDecodeError) as exc:
-            status = f"rebuilt: {type(exc).__name__}: {exc}"
-    model = build_pretrained(settings)
-    model.info["cache"] = status
-    if path is not None:
-        _save(path, model)
+    if folder is None:
+        model = build_pretrained(settings)
+        model.info["cache"] = "built"
+    else:
+        path = folder / f"transfer_mlp-{key}"
+        model, status = _from_disk(path, settings)
+        if model is None:
+            # another process may be building the same network: wait for it, then read it
+            with build_lock(path):
+                model, status = _from_disk(path, settings, status)
+                if model is None:
+                    model = build_pretrained(settings)
+                    model.info["cache"] = status
+                    _save(path, model)
     _MEMO[key] = model
     return model
+
+
+def _from_disk(path: Path, settings: dict, status: str = "built"
+               ) -> tuple[Pretrained | None, str]:
+    """The cached model at ``path`` (``info["cache"] = "disk"``), or None and why it was not."""
+    if not (path.with_suffix(".json").exists() or path.with_suffix(".npz").exists()):
+        return None, status
+    try:
+        model = _load(path, settings)
+    except (OSError, ValueError, KeyError, TypeError, json.JSONDecodeError) as exc:
+        return None, f"rebuilt: {type(exc).__name__}: {exc}"
+    model.info["cache"] = "disk"
+    return model, "disk"
 
 
 def clear_memory() -> None:

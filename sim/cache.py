@@ -3,12 +3,13 @@
 Every disk cache (plant families, controller designs, pretrained estimators) lives under
 ``$GRIPLOOP_CACHE_DIR`` (default ``~/.cache/griploop``), one subdirectory each;
 ``GRIPLOOP_CACHE_DIR=off`` disables them all. Caches hold arrays (NPZ) and JSON.
+Writes are atomic (:func:`write_atomic`); :func:`build_lock` lets one process build an entry
+while the others that want the same one wait and then read it, instead of building it too.
 """
 
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import hashlib
 import importlib.util
 import os
@@ -98,24 +99,31 @@ def source_digest(packages: Iterable[str], modules: Iterable[str] = (),
 
 
 @contextlib.contextmanager
-def build_lock(path: Path) -> Iterator[None]:
-    """Hold an exclusive lock on ``path``'s build while the ``with`` block runs.
+def build_lock(path: Path) -> Iterator[bool]:
+    """Hold an exclusive lock on ``path`` + ``.lock`` while the entry ``path`` is built.
 
-    Processes that share a cache (sweep workers) and miss the same entry at
-    once take turns: the first builds and writes it, the others wait, then
-    find it on disk, so no two build the same thing. The lock is
-    ``PATH.lock`` beside the entry (``flock``, released when the holder exits
-    or dies); a directory where it cannot be created is not locked.
+    Processes that want the same entry (sweep workers, parallel test workers) call this
+    around check-then-build: the first builds, the others block until it is done and then
+    find the entry on disk, so no two build the same thing. The lock is an advisory
+    ``flock`` on a small file beside the entry, released when the block ends or the
+    process dies (never left stale). Yields whether the lock is held: False where the
+    directory cannot be written or the platform has no ``fcntl`` (the caller then builds
+    unlocked).
     """
+    try:
+        import fcntl
+    except ImportError:  # not POSIX: no lock, each process builds
+        yield False
+        return
     lock_path = path.with_name(path.name + ".lock")
     try:
         lock_path.parent.mkdir(parents=True, exist_ok=True)
         fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o600)
     except OSError:
-        yield
+        yield False
         return
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
-        yield
+        yield True
     finally:
-        os.close(fd)  # closing releases the lock
+        os.close(fd)  # closing the descriptor releases the lock

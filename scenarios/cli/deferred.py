@@ -1,9 +1,10 @@
 """Deferred imports: a module that is imported only when one of its attributes is used.
 
-python-control imports ``matplotlib.pyplot`` when it is imported (its plotting
-modules do ``import matplotlib.pyplot as plt`` at the top), which costs a
-quarter of a second and tens of MB in every process that designs or analyses
-a controller, although only reports and ``plot`` commands draw figures.
+python-control imports ``matplotlib`` and ``matplotlib.pyplot`` when it is
+imported (its plotting modules do ``import matplotlib.pyplot as plt`` at the
+top), which costs a quarter of a second and tens of MB in every process that
+designs or analyses a controller, although only reports and ``plot`` commands
+draw figures.
 :func:`defer_module` puts a stand-in in ``sys.modules``: ``import
 matplotlib.pyplot as plt`` then binds the stand-in, and the real module is
 imported on the first attribute looked up through it (``plt.figure``), after
@@ -27,22 +28,37 @@ from typing import Any
 
 
 class DeferredModule(types.ModuleType):
-    """Stand-in for a module not imported yet; imports it on first attribute use."""
+    """Stand-in for a module not imported yet; imports it on first attribute use.
+
+    A stand-in for a package has the package's ``__path__``, so that ``import
+    package.sub`` finds the submodule (itself deferred, or imported for real).
+    """
 
     def __init__(self, name: str, spec: Any, functions: frozenset[str] = frozenset()) -> None:
         super().__init__(name)
         self.__spec__ = spec
         self.__deferred_real__: types.ModuleType | None = None
         self.__deferred_functions__ = functions
+        if spec.submodule_search_locations is not None:
+            self.__path__ = list(spec.submodule_search_locations)
 
     def _real(self) -> types.ModuleType:
         real = self.__dict__.get("__deferred_real__")
         if real is None:
             name = self.__name__
+            parent_name, _, child = name.rpartition(".")
+            parent = sys.modules.get(parent_name) if parent_name else None
+            if isinstance(parent, DeferredModule):
+                parent = parent._real()  # the real package first: it runs its __init__
             if sys.modules.get(name) is self:
                 del sys.modules[name]
             real = importlib.import_module(name)
             self.__dict__["__deferred_real__"] = real
+            if parent is not None and getattr(parent, child, None) is not real:
+                setattr(parent, child, real)
+            for attr, value in list(vars(self).items()):  # submodules bound on the stand-in
+                if isinstance(value, DeferredModule) and not hasattr(real, attr):
+                    setattr(real, attr, value)
         return real
 
     def __getattr__(self, attr: str) -> Any:
@@ -78,6 +94,18 @@ class _StandInLoader(importlib.abc.Loader):
         """Nothing to run: the real module runs on first use."""
 
 
+class _Loaded(importlib.abc.Loader):
+    """Hands out a module that is already in ``sys.modules`` (and keeps its own spec)."""
+
+    def create_module(self, spec: importlib.machinery.ModuleSpec) -> types.ModuleType:
+        module = sys.modules[spec.name]
+        self._spec = module.__spec__
+        return module
+
+    def exec_module(self, module: types.ModuleType) -> None:
+        module.__spec__ = self._spec  # the import system set it to the spec made here
+
+
 class _DeferringFinder(importlib.abc.MetaPathFinder):
     """Answers the first import of each deferred name with a stand-in."""
 
@@ -86,20 +114,38 @@ class _DeferringFinder(importlib.abc.MetaPathFinder):
 
     def find_spec(self, fullname: str, path: Any, target: Any = None
                   ) -> importlib.machinery.ModuleSpec | None:
+        parent = sys.modules.get(fullname.rpartition(".")[0])
+        if isinstance(parent, DeferredModule) and fullname not in self.names:
+            # a submodule that is not deferred (matplotlib.figure): its package runs first,
+            # as in a normal import, and may import the submodule itself on the way
+            parent._real()
+            if fullname in sys.modules:
+                return importlib.machinery.ModuleSpec(fullname, _Loaded())
+            return None
         if fullname not in self.names:
             return None
         functions = self.names.pop(fullname)  # the real import, later, goes to the normal finders
-        return importlib.machinery.ModuleSpec(fullname, _StandInLoader(functions))
+        # where the real module lives (found, not run): a package's stand-in needs its path
+        real = importlib.machinery.PathFinder.find_spec(fullname, path)
+        spec = importlib.machinery.ModuleSpec(fullname, _StandInLoader(functions),
+                                              is_package=real is not None
+                                              and real.submodule_search_locations is not None)
+        if spec.submodule_search_locations is not None:
+            spec.submodule_search_locations[:] = real.submodule_search_locations
+        return spec
 
 
 _FINDER = _DeferringFinder()
 
 
 #: What griploop defers (:func:`defer_plotting`), with the functions other modules take
-#: from them at import time: python-control imports pyplot and its pole-zero grids (which
-#: pull matplotlib's axes and axisartist) for its plots; scipy.signal (which python-control
-#: imports) takes one function of scipy.stats for its peak finder, scikit-learn two.
-PLOTTING = (("matplotlib.pyplot", ()), ("control.grid", ("nogrid", "sgrid", "zgrid")),
+#: from them at import time: python-control imports matplotlib, pyplot and matplotlib's
+#: transforms and its pole-zero grids (which pull matplotlib's axes and axisartist) for its
+#: plots; scipy.signal (which python-control imports) takes one function of scipy.stats for
+#: its peak finder, scikit-learn two. matplotlib itself (its rc parameters, colors and fonts)
+#: costs a tenth of a second: a process that draws nothing does not load it.
+PLOTTING = (("matplotlib", ()), ("matplotlib.pyplot", ()), ("matplotlib.transforms", ()),
+            ("control.grid", ("nogrid", "sgrid", "zgrid")),
             ("scipy.stats", ("scoreatpercentile", "rankdata", "spearmanr")))
 
 

@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 
-from estimation.evaluation import fit_and_score
 from estimation.features import FeatureSet
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
@@ -91,6 +90,9 @@ def fit_one(features: FeatureSet, estimator: str, mode: str, *, rng: np.random.G
     DivergedError
         The identified model is unstable in ``mode``, or its Kalman design failed.
     """
+    # the estimators (scikit-learn's models) load here: an oracle reference fits nothing
+    from estimation.evaluation import fit_and_score
+
     result = fit_and_score(features, [estimator], rng=rng, order=order, fraction=fraction,
                            time_steps=time_steps,
                            options={estimator: dict(options)} if options else None)[0][estimator]

@@ -46,6 +46,7 @@ def run_reproduction(
     orders: Sequence[int] = tuple(range(1, 13)),
     nn_params: Mapping[str, object] | None = None,
     channels: str | Sequence[int | str] | None = PAPER_CHANNELS,
+    workers: int = 1,
 ) -> dict:
     """Run the paper's protocol on ``n_subjects`` virtual subjects.
 
@@ -68,6 +69,10 @@ def run_reproduction(
         Overrides for the MLP/NARX hyperparameters (e.g. ``{"max_epochs": 50}``).
     channels : "all", sequence of int (1-based) or str
         sEMG channels whose MAV, RMS and WL are the inputs (paper: 6, 7, 8).
+    workers : int
+        Subjects evaluated at once, each in a process forked from this one (default 1:
+        in this process). Every subject has its own seeds, so the figures do not depend
+        on it; only the training times do, when the processes share cores.
 
     Returns
     -------
@@ -76,22 +81,59 @@ def run_reproduction(
     """
     channels = parse_channels(channels)
     estimators = estimator_names() if estimators is None else tuple(estimators)
-    scores = []
+    if int(workers) < 1:
+        raise UnsupportedScenarioError(f"workers: expected at least 1, found {workers}")
     with one_blas_thread():
         subjects = make_population(n=n_subjects, seed=seed)
         children = np.random.SeedSequence([seed, SESSION_SALT]).spawn(n_subjects)
-        for subject, child in zip(subjects, children, strict=True):
-            session_ss, est_ss = child.spawn(2)
-            rec = subject.paper_session(rng=np.random.default_rng(session_ss), generator=generator)
-            score, _ = score_recording(rec, estimators, rng=np.random.default_rng(est_ss),
-                                       channels=channels, order=order, nn_params=nn_params,
-                                       orders=orders, subject_id=subject.subject_id)
-            scores.append(score)
+        jobs = [(subject, child, generator, estimators, channels, order, nn_params, orders)
+                for subject, child in zip(subjects, children, strict=True)]
+        scores = _map_subjects(jobs, int(workers))
         config = {"n_subjects": n_subjects, "seed": seed, "generator": generator,
                   "order": order, "channels": channel_label(channels),
                   "identification_fraction": 0.5, "estimators": list(estimators),
                   "nn_params": dict(nn_params or {})}
         return population_result(scores, config=config, order=order)
+
+
+def _score_subject(job: tuple) -> Any:
+    """One subject of :func:`run_reproduction`: its paper session, scored by every estimator."""
+    subject, child, generator, estimators, channels, order, nn_params, orders = job
+    session_ss, est_ss = child.spawn(2)
+    rec = subject.paper_session(rng=np.random.default_rng(session_ss), generator=generator)
+    score, _ = score_recording(rec, estimators, rng=np.random.default_rng(est_ss),
+                               channels=channels, order=order, nn_params=nn_params,
+                               orders=orders, subject_id=subject.subject_id)
+    return score
+
+
+def _score_in_worker(job: tuple) -> Any:
+    """:func:`_score_subject` in a forked worker, on one BLAS and OpenMP thread.
+
+    The workers already use the cores; and an OpenMP pool the parent started does not
+    survive ``fork`` (a child asking it for threads would wait forever).
+    """
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):
+        return _score_subject(job)
+
+
+def _map_subjects(jobs: list[tuple], workers: int) -> list[Any]:
+    """Every subject's score, in order: here, or on ``workers`` forked processes.
+
+    Forked workers inherit the registries (plugins, pretraining corpora) and the pretrained
+    networks in memory; where processes cannot be forked, the subjects run here.
+    """
+    import multiprocessing
+
+    workers = min(workers, len(jobs))
+    if workers <= 1 or "fork" not in multiprocessing.get_all_start_methods():
+        return [_score_subject(job) for job in jobs]
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
+        return list(pool.map(_score_in_worker, jobs))
 
 
 def run_reproduction_scenario(scenario: Scenario) -> ResultRow:

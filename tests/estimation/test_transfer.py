@@ -108,6 +108,30 @@ def test_cache_is_read_back_and_a_corrupt_or_foreign_file_is_rebuilt(tmp_path, m
     assert pretrained(N_INPUTS, **kw).info["cache"].startswith("rebuilt: ValueError")
 
 
+def _pretrain_in_child(kw: dict, queue) -> None:
+    queue.put(pretrained(N_INPUTS, **kw).info["cache"])
+
+
+def test_processes_wanting_the_same_network_build_it_once(tmp_path, monkeypatch):
+    # parallel test workers and sweep workers share one cache: the first builds, the
+    # others wait for it and read its file
+    import multiprocessing
+
+    monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(tmp_path))
+    kw = {"corpus": "synthetic-test", "n_subjects": 6, "epochs": 10, "hidden": (8,),
+          "n_networks": 2, "validation_subjects": 3}
+    ctx = multiprocessing.get_context("fork")  # the children keep the registered corpus
+    queue = ctx.Queue()
+    children = [ctx.Process(target=_pretrain_in_child, args=(kw, queue)) for _ in range(3)]
+    for child in children:
+        child.start()
+    statuses = sorted(queue.get(timeout=120) for _ in children)
+    for child in children:
+        child.join(10)
+    assert statuses == ["built", "disk", "disk"]
+    assert len(list((tmp_path / "pretrained").glob("*.npz"))) == 1
+
+
 def test_cache_can_be_switched_off(monkeypatch):
     monkeypatch.setenv("GRIPLOOP_CACHE_DIR", "off")
     model = pretrained(N_INPUTS, corpus="synthetic-test", n_subjects=4, epochs=5, hidden=(4,),

@@ -11,9 +11,11 @@ CODE = """
 import sys
 from scenarios.cli.deferred import DeferredModule, defer_plotting
 defer_plotting()  # what the griploop process does first
-import control  # imports matplotlib.pyplot at its top
+import control  # imports matplotlib, matplotlib.pyplot and matplotlib.transforms at its top
 assert isinstance(sys.modules["matplotlib.pyplot"], DeferredModule)
+assert isinstance(sys.modules["matplotlib"], DeferredModule)  # the package did not run
 assert "matplotlib.figure" not in sys.modules and "mpl_toolkits.axisartist" not in sys.modules
+assert "matplotlib.rcsetup" not in sys.modules and "matplotlib.colors" not in sys.modules
 assert isinstance(sys.modules["scipy.stats"], DeferredModule)  # imported by scipy.signal
 import numpy as np
 import scipy.signal
@@ -21,12 +23,18 @@ peaks = scipy.signal.find_peaks_cwt(np.sin(np.linspace(0, 20, 400)) + 1.0, np.ar
 assert len(peaks) >= 2  # through the deferred scoreatpercentile
 from scipy import stats
 assert stats.norm.cdf(0.0) == 0.5 and not isinstance(sys.modules["scipy.stats"], DeferredModule)
+from matplotlib.figure import Figure  # a submodule that is not deferred: the package runs
+import matplotlib
+assert not isinstance(sys.modules["matplotlib"], DeferredModule)
+assert matplotlib.__spec__.name == "matplotlib" and callable(Figure().add_subplot)
 import matplotlib.pyplot as plt
 from matplotlib import pyplot
 assert pyplot is plt
 fig = plt.figure()  # first use: the real pyplot loads
 assert not isinstance(sys.modules["matplotlib.pyplot"], DeferredModule)
 assert plt.gcf() is fig and sys.modules["matplotlib.pyplot"].gcf() is fig
+assert sys.modules["matplotlib"].pyplot is sys.modules["matplotlib.pyplot"]
+control.nichols_plot(control.tf([1], [1, 1]))  # through the deferred matplotlib.transforms
 control.bode_plot(control.tf([1], [1, 1]))
 control.pzmap(control.tf([1], [1, 1, 1]), grid=True)  # the deferred grid functions
 assert "mpl_toolkits.axisartist" in sys.modules

@@ -20,6 +20,9 @@ LIBRARY = ([("ball", {}), ("cup", {}), ("block", {}), ("egg", {})]
            + [("can", {"mass_kg": m, "friction": f}) for m in (0.2, 0.4, 1.0)
               for f in (0.3, 0.5, 1.0)])
 
+# the library tests design every object for every controller: started first on a parallel run
+pytestmark = pytest.mark.slow
+
 
 def _run(obj, kind, reference, episode_s, spec=None):
     t = np.arange(reference.size) * DT

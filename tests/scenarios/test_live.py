@@ -12,6 +12,7 @@ import subprocess
 import sys
 import threading
 import time
+import uuid
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +32,9 @@ from sim.recording import load_recording
 CAN = make_object("can")
 CONTROLLER = "mpc"
 SESSION_S = 8.0
+#: Stream names carry this run's id: parallel test workers, and other test runs on the
+#: machine (LSL resolves names across the whole host), never see each other's streams.
+RUN_ID = uuid.uuid4().hex[:8]
 CONTRACT = {"samples": dict, "latency_ms": dict, "deadline_misses": int, "control_steps": int,
             "gaps": list, "metrics": dict}
 
@@ -72,6 +76,10 @@ class Streamer:
         if self.proc.poll() is None:
             self.proc.terminate()
         self.output = self.proc.communicate(timeout=10)[0]
+
+
+def _stream_name(what: str) -> str:
+    return f"griploop.test.{RUN_ID}.{what}"
 
 
 def _live(name: str, files: dict[str, Path], json_path: Path, *extra: str) -> dict:
@@ -237,8 +245,9 @@ def test_live_over_loopback_matches_the_offline_episode(files, offline, tmp_path
                  str(off_json)]) == 0
     episode = json.loads(off_json.read_text())["metrics"]
     assert episode["outcome"] == offline.metrics["outcome"]
-    with Streamer(files["grasp"], "griploop.test.accept"):
-        report = _live("griploop.test.accept", files, tmp_path / "live.json",
+    name = _stream_name("accept")
+    with Streamer(files["grasp"], name):
+        report = _live(name, files, tmp_path / "live.json",
                        "--record", str(tmp_path / "received.npz"),
                        "--feedback", "force_vibration")
     print(capsys.readouterr().out)
@@ -280,8 +289,9 @@ def test_stopping_the_stream_mid_hold_holds_the_grip(files, tmp_path, capsys) ->
     settled (right after the lift the MPC is still raising the grip to its sensed slip
     bound, which a gap must not stop).
     """
-    with Streamer(files["grasp"], "griploop.test.gap", "--dropout", "5.5:1.0"):
-        report = _live("griploop.test.gap", files, tmp_path / "gap.json", "--duration-s", "7")
+    name = _stream_name("gap")
+    with Streamer(files["grasp"], name, "--dropout", "5.5:1.0"):
+        report = _live(name, files, tmp_path / "gap.json", "--duration-s", "7")
     print(capsys.readouterr().out)
     assert len(report["gaps"]) == 1
     gap = report["gaps"][0]
@@ -300,14 +310,15 @@ def test_stopping_the_stream_mid_hold_holds_the_grip(files, tmp_path, capsys) ->
 @pytest.mark.slow
 def test_calibrate_over_lsl_writes_a_file_evaluate_accepts(files, tmp_path, capsys) -> None:
     out = tmp_path / "cal_live.npz"
-    with Streamer(files["cal"], "griploop.test.cal", "--speed", "16", "--loop"):
-        assert main(["calibrate", "--lsl", "griploop.test.cal", "--out", str(out),
+    name = _stream_name("cal")
+    with Streamer(files["cal"], name, "--speed", "16", "--loop"):
+        assert main(["calibrate", "--lsl", name, "--out", str(out),
                      "--resolve-timeout-s", "20"]) == 0
     text = capsys.readouterr().out
     assert "SQUEEZE SMALL" in text and "SQUEEZE STRONG" in text
     rec = load_recording(out)
     assert rec.n_samples == 28 * 200
-    assert rec.metadata["force_source"] == "lsl:griploop.test.cal.force"
+    assert rec.metadata["force_source"] == f"lsl:{name}.force"
     sent = load_recording(files["cal"])
     assert np.array_equal(rec.emg, sent.emg[:rec.n_samples])
     # the force is interpolated at each sEMG time stamp: the two inlets' clock offsets differ
@@ -329,7 +340,7 @@ def _outlet(name: str, n_channels: int, fs_hz: float, fmt: str = "int8"):
 @pytest.mark.parametrize(("n_channels", "fs_hz"), [(4, 200.0), (8, 100.0)])
 def test_a_stream_unlike_the_calibration_is_refused_in_one_line(files, n_channels, fs_hz,
                                                                 capsys) -> None:
-    name = f"griploop.test.mismatch{n_channels}"
+    name = _stream_name(f"mismatch{n_channels}")
     outlet = _outlet(name, n_channels, fs_hz)
     status = main(["live", "--lsl", name, "--calibration", str(files["cal"]), "--controller",
                    CONTROLLER, "--object", "can", "--no-video"])
@@ -340,21 +351,22 @@ def test_a_stream_unlike_the_calibration_is_refused_in_one_line(files, n_channel
 
 
 def test_an_unresolved_name_lists_the_streams_seen(files, capsys) -> None:
-    outlet = _outlet("griploop.test.visible", 8, 200.0)
-    status = main(["live", "--lsl", "griploop.test.nosuch", "--calibration", str(files["cal"]),
+    visible, missing = _stream_name("visible"), _stream_name("nosuch")
+    outlet = _outlet(visible, 8, 200.0)
+    status = main(["live", "--lsl", missing, "--calibration", str(files["cal"]),
                    "--controller", CONTROLLER, "--object", "can", "--no-video",
                    "--resolve-timeout-s", "1"])
     line = _one_error_line(capsys)
     del outlet
     assert status == 2
-    assert "griploop.test.nosuch" in line and "'griploop.test.visible' (EMG, 8 ch, 200 Hz" in line
+    assert missing in line and f"'{visible}' (EMG, 8 ch, 200 Hz" in line
 
 
 @pytest.mark.slow
 def test_bad_samples_are_counted_and_a_lost_stream_ends_the_session_cleanly(
         files, tmp_path, capsys) -> None:
     """A string stream with garbage and out-of-range counts, which then stops for good."""
-    name = "griploop.test.bad"
+    name = _stream_name("bad")
     outlet = _outlet(name, 8, 200.0, "string")
     rec = load_recording(files["grasp"])
     bad = {"non_numeric": 0, "out_of_range": 0}

@@ -25,6 +25,9 @@ from sim.user.difficulty import recording_difficulty
 from sim.user.subjects import make_population
 
 ESTIMATORS = (*FREE_RUN_MEAN, "transfer_mlp")
+# the module's reproduction (10 subjects, every channel, a network pretrained) takes a
+# minute: it starts first on a parallel run (tests/conftest.py)
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")

@@ -40,6 +40,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--channels", default="6,7,8",
                         help="sEMG channels: 'all' or comma-separated 1-based numbers "
                         "(default: 6,7,8, the paper's)")
+    parser.add_argument("--workers", type=_positive_int, default=1,
+                        help="subjects evaluated at once, each in its own process (default: "
+                        "1); the figures do not depend on it")
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     parser.add_argument("--csv", metavar="DIR", help="write the tables as CSV files")
     parser.set_defaults(func=run)
@@ -52,7 +55,8 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     result = run_reproduction(args.subjects, args.seed, generator=args.generator,
                               order=args.order, nn_params={"max_epochs": args.max_epochs},
-                              channels=parse_channels(args.channels))
+                              channels=parse_channels(args.channels),
+                              workers=args.workers)
     result["config"]["wall_time_s"] = time.perf_counter() - t0
     print(format_report(result))
     if args.json:
