@@ -69,9 +69,9 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="bench-setup-") as tmp:
         clone = Path(tmp) / "fresh"
         subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
+        # no GRIPLOOP_CACHE_DIR: the suite makes an empty cache of its own each run
         env = {k: v for k, v in os.environ.items()
                if k not in ("PYTHONPATH", "VIRTUAL_ENV", "GRIPLOOP_CACHE_DIR")}
-        env["GRIPLOOP_CACHE_DIR"] = str(Path(tmp) / "cache-test")
         install = timed(["make", ".venv/.griploop-installed"], clone, env,
                         Path(tmp) / "install.log")
         print(f"fresh clone of {head}: venv and installation {install:.1f} s (untimed)",
