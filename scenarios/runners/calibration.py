@@ -158,6 +158,35 @@ def calibrate(
                            mvc_cal_n=mvc_cal_n, options=options)
 
 
+_CALIBRATIONS: dict[tuple, Calibration] = {}
+_MAX_CALIBRATIONS = 8
+
+
+def shared_calibration(subject: VirtualSubject, estimator: str, mode: str, *,
+                       seed_seq: np.random.SeedSequence, generator: str, order: int,
+                       identification_fraction: float, calibration_s: float | None,
+                       options: Mapping[str, Any] | None = None) -> Calibration:
+    """:func:`calibrate`, memoized in this process on everything it depends on.
+
+    A sweep's scenarios that differ only in what happens after the calibration (the
+    object, the controller, the feedback) calibrate the same subject with the same seed
+    (``seed_by: [subject]``): a worker process fits the estimator once and the next
+    scenarios reuse it, as the trials of one feedback task do. The fit is deterministic
+    given its seeds, so the figures are those of a fresh calibration; ``fit_s`` is the
+    time the one fit took. The last :data:`_MAX_CALIBRATIONS` are kept.
+    """
+    key = (subject, estimator, mode, order, generator, identification_fraction, calibration_s,
+           tuple(seed_seq.generate_state(4)), tuple(sorted((options or {}).items())))
+    if key not in _CALIBRATIONS:
+        if len(_CALIBRATIONS) >= _MAX_CALIBRATIONS:
+            _CALIBRATIONS.pop(next(iter(_CALIBRATIONS)))
+        _CALIBRATIONS[key] = calibrate(
+            subject, estimator, mode, rng=np.random.default_rng(seed_seq), generator=generator,
+            order=order, identification_fraction=identification_fraction,
+            calibration_s=calibration_s, options=options)
+    return _CALIBRATIONS[key]
+
+
 def run_calibration_scenario(scenario: Scenario) -> dict[str, Any]:
     """Runner of scenario kind ``calibration``: fit on a session, score the rest, no grasp."""
     e, p = scenario.estimator, scenario.protocol

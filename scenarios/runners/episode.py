@@ -51,7 +51,7 @@ from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
 from scenarios.outcomes import outcome_of
 from scenarios.rows import WORST_FIELDS, EpisodeRow
-from scenarios.runners.calibration import Calibration, calibrate
+from scenarios.runners.calibration import Calibration, shared_calibration
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.episode_metrics import (
     contact_peak_ratio,
@@ -197,10 +197,10 @@ def run_episode(
     timings = dict.fromkeys(("t_semg_s", "t_features_s", "t_estimator_s", "t_operator_s",
                              "t_controller_s", "t_physics_s"), 0.0)
     with one_blas_thread():
-        cal = calibrate(subject, estimator, mode, rng=np.random.default_rng(cal_seq),
-                        generator=generator, order=order,
-                        identification_fraction=identification_fraction,
-                        calibration_s=calibration_s, options=estimator_options)
+        cal = shared_calibration(subject, estimator, mode, seed_seq=cal_seq,
+                                 generator=generator, order=order,
+                                 identification_fraction=identification_fraction,
+                                 calibration_s=calibration_s, options=estimator_options)
         design = grasp_design(obj, controller, control_dt_s, controller_spec)
         target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
         trial = run_trial(subject, obj, cal, design, operator, goal_n=target_n,

@@ -40,7 +40,7 @@ import numpy as np
 from controllers.design_cache import grasp_design
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
-from scenarios.runners.calibration import Calibration, calibrate
+from scenarios.runners.calibration import Calibration, shared_calibration
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.episode import (
     HAND_FORCE_AT_MVC_N,
@@ -69,27 +69,15 @@ SLIP_ONSET_M_S = 0.005
 """Slip recovery: slip speed at which the object has started to slip (a slip event), m/s."""
 FORCE_MATCH_CONTACT_N = 0.5
 
-_CALIBRATIONS: dict[tuple, Calibration] = {}
-_MAX_CALIBRATIONS = 8
-
-
 def _calibration(scenario: Scenario, subject: Any, rng_seq: np.random.SeedSequence
                  ) -> Calibration:
-    """:func:`calibrate` for the scenario, memoized per process (the trials share it)."""
+    """:func:`~scenarios.runners.calibration.shared_calibration` for the scenario."""
     e, p = scenario.estimator, scenario.protocol
-    key = (subject, e.name, e.mode, e.order, scenario.subject.generator,
-           p.identification_fraction, p.calibration_s, tuple(rng_seq.generate_state(4)),
-           tuple(sorted(e.options.items())))
-    if key not in _CALIBRATIONS:
-        if len(_CALIBRATIONS) >= _MAX_CALIBRATIONS:
-            _CALIBRATIONS.pop(next(iter(_CALIBRATIONS)))
-        _CALIBRATIONS[key] = calibrate(
-            subject, e.name, e.mode, rng=np.random.default_rng(rng_seq),
-            generator=scenario.subject.generator,
-            order=PAPER_ORDER if e.order is None else e.order,
-            identification_fraction=p.identification_fraction, calibration_s=p.calibration_s,
-            options=e.options)
-    return _CALIBRATIONS[key]
+    return shared_calibration(
+        subject, e.name, e.mode, seed_seq=rng_seq, generator=scenario.subject.generator,
+        order=PAPER_ORDER if e.order is None else e.order,
+        identification_fraction=p.identification_fraction, calibration_s=p.calibration_s,
+        options=e.options)
 
 
 class _Setup:
