@@ -164,3 +164,22 @@ def test_compare_references_reports_each_reference() -> None:
     assert summary["features_wl"]["estimation_rmse_n"] > 0.0
     assert all(s["n_ok"] + s["n_failed"] == 1 for s in summary.values())
     assert "features_wl" in format_comparison(result)
+
+
+def test_episodes_of_one_subject_and_seed_share_one_calibration(monkeypatch):
+    """A sweep's conditions after the calibration (controller, object) reuse its fit."""
+    from scenarios.runners import calibration
+
+    fits = []
+    real = calibration.calibrate
+    monkeypatch.setattr(calibration, "_CALIBRATIONS", {})
+    monkeypatch.setattr(calibration, "calibrate",
+                        lambda *a, **k: fits.append(a[1]) or real(*a, **k))
+    subject = VirtualSubject.sample(0, 1)
+    rows = [run_episode(subject, make_object("can"), estimator="ridge", controller=kind,
+                        seed=5, episode_s=4.0, hold_s=1.0).row for kind in ("pid", "lead_lag")]
+    assert fits == ["ridge"]  # fitted once, for the first episode
+    assert rows[0]["cal_r2"] == rows[1]["cal_r2"] is not None
+    other = run_episode(subject, make_object("can"), estimator="ridge", controller="pid",
+                        seed=6, episode_s=4.0, hold_s=1.0).row
+    assert fits == ["ridge", "ridge"] and other["cal_r2"] != rows[0]["cal_r2"]  # a new seed
