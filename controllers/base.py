@@ -214,19 +214,11 @@ class CompletedController(ControllerBase):
 
     def track(self, observation: Observation | Mapping[str, Any], applied_u: float) -> None:
         """``inner.track`` if it has one, else the default (restart from ``applied_u``)."""
-        own = getattr(self.inner, "track", None)
-        if callable(own):
-            own(observation, applied_u)
-        else:
-            super().track(observation, applied_u)
+        (getattr(self.inner, "track", None) or super().track)(observation, applied_u)
 
     def handover(self, observation: Observation | Mapping[str, Any], u: float) -> None:
         """``inner.handover`` if it has one, else the default (restart from ``u``)."""
-        own = getattr(self.inner, "handover", None)
-        if callable(own):
-            own(observation, u)
-        else:
-            super().handover(observation, u)
+        (getattr(self.inner, "handover", None) or super().handover)(observation, u)
 
     def __getattr__(self, name: str) -> Any:
         if name == "inner":  # not set yet (copying, unpickling)

@@ -238,7 +238,7 @@ def cached_design(obj: ObjectSpec, kind: str, control_dt_s: float, spec: Mapping
     return design, source
 
 
-_MEMO: dict[tuple, Any] = {}
+_MEMO: dict[str, Any] = {}
 
 
 def grasp_design(obj: ObjectSpec, kind: str, control_dt_s: float,
@@ -250,7 +250,8 @@ def grasp_design(obj: ObjectSpec, kind: str, control_dt_s: float,
     object. A fragile object's break force is the user's force limit (the
     hand's "fragile" setting, ``force_max_n``), which bounds the MPC and the
     slip reflex. Designs are kept in memory per process and on disk for every
-    process (:func:`cached_design`, with the loop analyses made so far); a
+    process under one key (:func:`design_key`; :func:`cached_design`, with the
+    loop analyses made so far); a
     design is reset at the start of every episode, so episodes in one process
     share it.
 
@@ -276,11 +277,9 @@ def grasp_design(obj: ObjectSpec, kind: str, control_dt_s: float,
     spec = dict(spec or {})
     if obj.break_force_n is not None:
         spec.setdefault("force_max_n", float(obj.break_force_n))
-    key = (obj, kind, float(control_dt_s),
-           tuple(sorted((k, tuple(sorted(v.items())) if isinstance(v, Mapping) else
-                         tuple(v) if isinstance(v, list) else v) for k, v in spec.items())))
+    forces_n = tuple(float(f) for f in spec.get("forces_n", DEFAULT_FORCE_GRID_N))
+    key = design_key(obj, kind, float(control_dt_s), spec, forces_n)  # the disk cache's key
     if key not in _MEMO:
-        forces_n = tuple(float(f) for f in spec.get("forces_n", DEFAULT_FORCE_GRID_N))
         _MEMO[key], _ = cached_design(
             obj, kind, float(control_dt_s), spec, forces_n,
             lambda: design_for_object(obj, kind, control_dt_s=control_dt_s, **spec))

@@ -1,6 +1,6 @@
 """What a sweep found: the swept factor that changes the grasp outcome most, from the numbers.
 
-Every episode has one of four outcomes (:data:`scenarios.report.data.OUTCOMES`). For each
+Every episode has one of four outcomes (:data:`scenarios.outcomes.OUTCOMES`). For each
 swept factor, :func:`factor_effects` counts the outcomes at each of its levels (over every
 other factor) and measures how strongly the level and the outcome are associated with
 Cramér's V of that levels x outcomes table:
@@ -53,7 +53,7 @@ class LevelOutcomes:
     n : int
         Episodes at this level.
     counts : dict of str to int
-        Episodes per outcome of :data:`scenarios.report.data.OUTCOMES`.
+        Episodes per outcome of :data:`scenarios.outcomes.OUTCOMES`.
     """
 
     level: Any

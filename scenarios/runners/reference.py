@@ -153,7 +153,7 @@ def live_user(subject: VirtualSubject, cal: Calibration, operator: Operator, goa
     """A user in the loop for one episode, and their ramp onset, s.
 
     Draws the same profile and the same sEMG noise from ``rng`` as
-    :func:`_reference_stream` does (a scripted operator so gives its very
+    :func:`scripted_reference` does (a scripted operator so gives its very
     references); the operator plans from the profile and aims at ``goal_n``.
 
     Parameters
