@@ -248,7 +248,7 @@ class _Decoder:
             raise CodecError(f"class {reference} is not allowed")
         module = sys.modules.get(module_name)
         if module is None:
-            if module_name in self.modules:  # a plugin's module: only if already imported
+            if module_name.split(".")[0] not in PACKAGES:  # a plugin's: only if imported
                 raise CodecError(f"module {module_name} is not imported")
             module = importlib.import_module(module_name)  # griploop's own
         obj: Any = module

@@ -76,6 +76,36 @@ def test_a_cached_design_equals_a_fresh_one(cache, kind, spec):
     assert scratch.margins.to_dict() == stored.margins.to_dict()
 
 
+@pytest.mark.parametrize("kind,spec", [("pid", SPEC), ("mpc", {"horizon": 10})])
+def test_a_new_process_reads_the_design_another_one_stored(cache, kind, spec):
+    """A process that has not imported the kind's module yet still reads the file.
+
+    (It used to refuse griploop's own classes of modules not yet imported, so every
+    new ``griploop episode`` process designed again.)
+    """
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    _cached(kind=kind, spec=spec)
+    code = ("import sys\n"
+            "from controllers import design_cache\n"
+            "from sim.hand.objects import make_object\n"
+            f"module = {design_cache.design_modules(kind)[0]!r}\n"
+            "before = module in sys.modules\n"
+            "obj = make_object('can', mass_kg=0.3, friction=0.7)\n"
+            f"_, source = design_cache.cached_design(obj, {kind!r}, 0.01, {spec!r}, "
+            f"{GRID!r}, lambda: 1 / 0)\n"
+            "print(before, source)\n")
+    root = Path(__file__).resolve().parents[2]
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=root, timeout=300,
+                         env={**__import__("os").environ, "PYTHONPATH": str(root),
+                              "GRIPLOOP_CACHE_DIR": str(cache.parent)})
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["False", "disk"]
+
+
 def test_the_key_follows_object_kind_period_spec_and_grid():
     key = design_cache.design_key(CAN, "pid", 0.01, SPEC, GRID)
     assert key == design_cache.design_key(CAN, "pid", 0.01, dict(SPEC), GRID)
