@@ -10,18 +10,21 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import control
 import numpy as np
-import scipy.optimize
 
 from controllers.plant import frequency_response
+from sim.codec import StoredSystem, state_space_matrices, stored_systems
+
+if TYPE_CHECKING:
+    import control
 
 _GRID_POINTS = 4000
 _CONFIRM_RTOL = 1e-4
 
 
+@stored_systems("loop")
 @dataclass(frozen=True)
 class LoopMargins:
     """Stability and robustness figures of one open loop.
@@ -84,7 +87,6 @@ class LoopMargins:
         def num(x: float) -> float | None:
             return None if not np.isfinite(x) else float(x)
 
-        ss = self.loop
         return {
             "gain_margin_db": num(self.gain_margin_db),
             "phase_margin_deg": num(self.phase_margin_deg),
@@ -99,16 +101,23 @@ class LoopMargins:
             "closed_loop_poles": [[float(p.real), float(p.imag)] for p in self.closed_loop_poles],
             "stable": bool(self.stable),
             "bandwidth_rad_s": num(self.bandwidth_rad_s),
-            "loop": state_space_dict(ss),
+            "loop": state_space_dict(self, "loop"),
         }
 
 
-def state_space_dict(sys: control.LTI) -> dict[str, Any]:
-    """``{A, B, C, D, dt}`` of ``sys`` as JSON-ready lists (``dt`` None if continuous)."""
-    ss = control.ss(sys)
-    return {"A": np.asarray(ss.A, float).tolist(), "B": np.asarray(ss.B, float).tolist(),
-            "C": np.asarray(ss.C, float).tolist(), "D": np.asarray(ss.D, float).tolist(),
-            "dt": _dt(ss)}
+def state_space_dict(owner: Any, name: str) -> dict[str, Any] | None:
+    """``{A, B, C, D, dt}`` of the system in ``owner.<name>`` as JSON-ready lists.
+
+    ``dt`` is None if continuous; None if there is no system. A system a cache file
+    left as matrices is not built (:func:`sim.codec.state_space_matrices`).
+    """
+    stored = owner.__dict__.get(name)
+    if stored is None:
+        return None
+    dt = stored.dt if isinstance(stored, StoredSystem) else getattr(owner, name).dt
+    A, B, C, D = state_space_matrices(owner, name)
+    return {"A": A.tolist(), "B": B.tolist(), "C": C.tolist(), "D": D.tolist(),
+            "dt": float(dt) if dt not in (None, 0, True) and dt > 0 else None}
 
 
 def _dt(loop: control.LTI) -> float | None:
@@ -146,6 +155,7 @@ def minimal_tf(loop: control.LTI, tol: float = 1e-9) -> control.TransferFunction
     coefficients of order 1e-16 in place of exact zeros; those create spurious
     far-away roots for the polynomial margin method, so they are stripped.
     """
+    import control
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         tf = control.tf(loop)
@@ -171,6 +181,7 @@ def delay_margin(phase_margins_deg: np.ndarray, crossovers_rad_s: np.ndarray) ->
 
 def closed_loop_bandwidth(loop: control.LTI, omega_rad_s: np.ndarray | None = None) -> float:
     """First frequency (rad/s) where ``|L/(1+L)|`` drops 3 dB below its low-frequency value."""
+    import scipy.optimize
     omega = frequency_grid(loop) if omega_rad_s is None else omega_rad_s
     lval = frequency_response(loop, omega)
     t_mag = np.abs(lval / (1.0 + lval))
@@ -206,6 +217,8 @@ def loop_margins(loop: control.LTI) -> LoopMargins:
     -------
     LoopMargins
     """
+    import control
+    import scipy.optimize
     tf = minimal_tf(loop)
     dt = _dt(loop)
     with warnings.catch_warnings(), np.errstate(divide="ignore", invalid="ignore"):
@@ -282,6 +295,7 @@ def _add_grid_crossovers(loop: control.LTI, omega: np.ndarray, w_gc: np.ndarray,
                          pms: np.ndarray, w_pc: np.ndarray, gms: np.ndarray
                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Add the gain and phase crossovers a sign change on ``omega`` shows and the lists lack."""
+    import scipy.optimize
     resp = frequency_response(loop, omega)
 
     def known(w: float, ws: np.ndarray) -> bool:
@@ -314,6 +328,7 @@ def _add_grid_crossovers(loop: control.LTI, omega: np.ndarray, w_gc: np.ndarray,
 def _refine_gain_crossovers(
     loop: control.LTI, w_gc: np.ndarray, pms: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
+    import scipy.optimize
     def excess(w: float) -> float:
         return abs(frequency_response(loop, np.array([w]))[0]) - 1.0
 
@@ -334,6 +349,7 @@ def _refine_gain_crossovers(
 def _refine_phase_crossovers(
     loop: control.LTI, w_pc: np.ndarray, gms: np.ndarray, dt: float | None
 ) -> tuple[np.ndarray, np.ndarray]:
+    import scipy.optimize
     tf = minimal_tf(loop)
     poles = tf.poles()
 
@@ -393,6 +409,7 @@ def sweep_margins(loop: control.LTI, n_points: int = 200_000) -> SweepMargins:
     -------
     SweepMargins
     """
+    import control
     ss = control.ss(loop)
     a, b, c, d = (np.asarray(m, float) for m in (ss.A, ss.B, ss.C, ss.D))
     dt = _dt(loop)

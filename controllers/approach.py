@@ -13,12 +13,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import replace
-from typing import Any
-
-import control
+from typing import TYPE_CHECKING, Any
 
 from controllers.base import Observation, as_observation
 from controllers.errors import SpecificationError
+
+if TYPE_CHECKING:
+    import control
 
 
 class ContactGate:

@@ -19,9 +19,8 @@ from __future__ import annotations
 import dataclasses
 import functools
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import control
 import numpy as np
 
 from controllers.analysis import LoopMargins, loop_margins, state_space_dict
@@ -49,7 +48,11 @@ from controllers.registry import (
     design_controller,
 )
 from controllers.schedule import ScheduledController
+from sim.codec import stored_systems
 from sim.hand.objects import ObjectSpec
+
+if TYPE_CHECKING:
+    import control
 
 #: Crossover used when a specification gives neither crossover nor bandwidth, rad/s.
 DEFAULT_CROSSOVER_RAD_S = 30.0
@@ -71,6 +74,7 @@ def controller_map(controller: Controller) -> control.StateSpace | None:
     that offers neither ``transfer_function`` nor ``feedback_law`` (its loop,
     ``loop(plant)``, still gives the margins).
     """
+    import control
     if hasattr(controller, "transfer_function"):
         c = controller.transfer_function()
     elif hasattr(controller, "feedback_law"):
@@ -81,6 +85,7 @@ def controller_map(controller: Controller) -> control.StateSpace | None:
     return control.ss(c * delay(delay_samples, controller.dt_s))
 
 
+@stored_systems("plant", "controller")
 @dataclass(frozen=True)
 class OperatingAnalysis:
     """The loop at one grip force.
@@ -127,9 +132,9 @@ class OperatingAnalysis:
                         "crossover_rad_s": full["crossover_rad_s"],
                         "ms": full["ms"], "stable": full["stable"],
                         "bandwidth_rad_s": full["bandwidth_rad_s"]},
-            "plant": state_space_dict(self.plant),
-            "controller": None if self.controller is None else state_space_dict(self.controller),
-            "loop": state_space_dict(m.loop),
+            "plant": state_space_dict(self, "plant"),
+            "controller": state_space_dict(self, "controller"),
+            "loop": state_space_dict(m, "loop"),
             "plant_method": self.how,
         }
 

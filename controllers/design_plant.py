@@ -30,17 +30,20 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-import control
 import numpy as np
 
 from controllers.bounds import ForceBounds, force_bounds, slip_threshold_n
 from controllers.errors import IdentificationError, PlantError
 from controllers.identify import identify_low_order
 from controllers.plant import delay, truncate_slow_modes
+from sim.codec import stored_systems
 from sim.hand.linearize import LinearGrasp, linearize_grasp, simulate_step, step_response_fit
 from sim.hand.objects import ObjectSpec, make_object
+
+if TYPE_CHECKING:
+    import control
 
 PLANT_METHODS = ("linearized", "identified")
 #: Grip forces (N) of the design grid: from 1 N to the reference cap of the
@@ -64,6 +67,7 @@ _CREEP_RATE_RAD_S = 0.5
 _N_PRE = 10
 
 
+@stored_systems("model")
 @dataclass(frozen=True)
 class DesignPlant:
     """A design plant and where it came from.
@@ -257,6 +261,7 @@ def _linearized_plant(obj: ObjectSpec, lin: LinearGrasp, y_nonlinear: np.ndarray
     weightless : bool
         Whether the object's weight was cancelled (recorded in ``fit``).
     """
+    import control
     n_steps = y_nonlinear.size
     reduced, removed = truncate_slow_modes(lin.sys, slow_mode_rad_s)
     t = np.arange(n_steps) * control_dt_s
@@ -361,6 +366,7 @@ def operating_point(obj: ObjectSpec, force_n: float, *, control_dt_s: float = 0.
     (NRMSE fit at least 80 %); identify a low-order model from the simulated
     step.
     """
+    import control
     notes: list[str] = []
     try:  # the step that checks the fit lasts 0.4 s: the grasp's modes settle within it
         first = design_plant(obj, grip_force_n=force_n, control_dt_s=control_dt_s,
@@ -407,6 +413,7 @@ def operating_point(obj: ObjectSpec, force_n: float, *, control_dt_s: float = 0.
 
 def _step_fit(plant: DesignPlant, reduced: control.StateSpace, dt_s: float) -> float:
     """NRMSE fit (percent) of ``reduced`` against ``plant``'s simulated nonlinear step."""
+    import control
     lin = linearize_grasp(plant.object, plant.y0_n, lifted=True, control_dt_s=dt_s,
                           weightless=bool(plant.fit.get("weightless", False)))
     du = float(plant.fit.get("step_command", 0.05))

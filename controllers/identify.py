@@ -9,13 +9,14 @@ fit is that of the free-run response, not of a one-step predictor.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import control
 import numpy as np
-import scipy.optimize
-import scipy.signal
 
 from controllers.errors import IdentificationError
+
+if TYPE_CHECKING:
+    import control
 
 _MIN_SAMPLES = 20
 
@@ -111,6 +112,7 @@ def _discrete_coeffs(
 
 
 def _simulate(params: np.ndarray, du: np.ndarray, dt_s: float, delay_samples: int) -> np.ndarray:
+    import scipy.signal
     gain, taus = params[0], np.exp(params[1:])
     num, den = _discrete_coeffs(gain, taus, dt_s)
     shifted = np.concatenate([np.zeros(delay_samples), du[: du.size - delay_samples]])
@@ -152,6 +154,8 @@ def identify_low_order(
     IdentificationError
         On malformed data or a non-excited command.
     """
+    import control
+    import scipy.optimize
     if order not in (1, 2, "auto"):
         raise IdentificationError(f"identify: expected order 1, 2 or 'auto', found {order!r}")
     if order == "auto":

@@ -14,9 +14,8 @@ with ``phi`` the lead per stage (a negative ``phi`` makes the stage a lag) and
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import control
 import numpy as np
 
 from controllers.analysis import loop_margins
@@ -25,8 +24,13 @@ from controllers.errors import SpecificationError
 from controllers.pid import required_controller_phase
 from controllers.plant import check_plant, loop_plant, plant_dt
 from controllers.report import DesignReport
+from sim.codec import stored_systems
+
+if TYPE_CHECKING:
+    import control
 
 
+@stored_systems("_ss")
 class LinearController:
     """A biproper discrete SISO controller ``C(z)`` from error (N) to command, with saturation.
 
@@ -54,6 +58,7 @@ class LinearController:
         computation_delay_samples: int = 1,
         name: str = "lead_lag",
     ) -> None:
+        import control
         if not controller.isdtime(strict=True):
             raise SpecificationError(
                 "LinearController: expected a discrete controller, found continuous")
@@ -175,6 +180,7 @@ class LinearController:
 
     def transfer_function(self) -> control.TransferFunction:
         """``C(z)`` from error (N) to command."""
+        import control
         return control.tf(self._ss)
 
     def loop(self, plant: control.LTI) -> control.TransferFunction:
@@ -234,6 +240,7 @@ def design_lead_lag(
     SpecificationError
         If the lead needed exceeds ``n_lead_stages * max_stage_lead_deg``.
     """
+    import control
     plant_report = check_plant(plant)
     dt = plant_dt(plant, dt_s)
     wc = float(crossover_rad_s)

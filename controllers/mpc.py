@@ -42,9 +42,8 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import control
 import numpy as np
 
 from controllers.analysis import loop_margins
@@ -61,6 +60,9 @@ from controllers.qp import (
     prediction_matrices,
 )
 from controllers.report import DesignReport
+
+if TYPE_CHECKING:
+    import control
 
 #: Selectable QP solvers: DAQP called directly (with the unconstrained fast path), or
 #: osqp / proxqp through ``casadi.conic``. (qrqp was dropped: it failed 672 of 2000
@@ -162,6 +164,7 @@ class MPC:
         slip_sensing: SensedSlipBound | None = None,
         force_max_n: float = float("inf"),
     ) -> None:
+        import control
         if solver not in QP_SOLVERS:
             raise SpecificationError(
                 f"MPC: unknown QP solver {solver!r}; valid: {list(QP_SOLVERS)}"
@@ -408,6 +411,7 @@ class MPC:
         ``u = -C(z) y + (reference terms)``, so ``C(z) P(z)`` is the loop
         transfer with the usual negative-feedback sign.
         """
+        import control
         nx = self.A_.shape[0]
         m = self.filter_gain_.reshape(-1, 1)
         kx = self.gain_state_.reshape(1, -1)

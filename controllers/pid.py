@@ -16,17 +16,18 @@ with ``s = e`` or ``s = -y`` (derivative on measurement, no setpoint kick) and
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-import control
 import numpy as np
-import scipy.optimize
 
 from controllers.analysis import loop_margins
 from controllers.base import COMMAND_LIMITS, Observation, as_observation
 from controllers.errors import SpecificationError
 from controllers.plant import check_plant, frequency_response, loop_plant, plant_dt
 from controllers.report import DesignReport
+
+if TYPE_CHECKING:
+    import control
 
 
 class PID:
@@ -171,6 +172,7 @@ class PID:
 
     def transfer_function(self) -> control.TransferFunction:
         """Linear part ``C(z)`` from error (N) to command, discrete with ``dt``."""
+        import control
         dt, tf = self.dt_s, self.derivative_filter_s
         c = control.tf([self.kp], [1.0], dt)
         if self.ki_per_s:
@@ -380,6 +382,7 @@ def _pid_gains(theta: float, gain: float, wc: float, dt: float, phase_margin_deg
     SpecificationError
         ``theta`` is outside the phases this PID shape reaches at ``wc``.
     """
+    import scipy.optimize
     g = _integrator_at(wc, dt)
     tf = 1.0 / (derivative_filter_ratio * wc)
     zc = np.exp(1j * wc * dt)

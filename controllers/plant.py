@@ -8,12 +8,15 @@ sample-and-hold); the controller's computation delay adds whole samples.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import control
 import numpy as np
 
 from controllers.errors import PlantError, SpecificationError
 from controllers.response import state_space_response
+
+if TYPE_CHECKING:
+    import control
 
 # |z| above 1 + _UNIT_TOL (or Re s above _UNIT_TOL) counts as unstable; on the
 # boundary only integrators (z = 1, s = 0) are accepted.
@@ -116,6 +119,7 @@ def check_plant(plant: control.LTI, *, name: str = "plant") -> PlantReport:
         than integrators), or its realization is not minimal (pole-zero
         cancellation or an uncontrollable/unobservable mode).
     """
+    import control
     if not isinstance(plant, control.LTI):
         raise PlantError(f"{name}: expected a control.LTI, found {type(plant).__name__}")
     if plant.ninputs != 1 or plant.noutputs != 1:
@@ -179,6 +183,7 @@ def delay(n_samples: int, dt_s: float) -> control.TransferFunction:
     dt_s : float
         Sampling period in seconds.
     """
+    import control
     if n_samples < 0:
         raise SpecificationError(f"delay: expected n_samples >= 0, found {n_samples}")
     den = np.zeros(n_samples + 1)
@@ -212,6 +217,7 @@ def loop_plant(
     PlantError
         If the sampling period is missing or disagrees with the plant's.
     """
+    import control
     if _is_discrete(plant):
         if dt_s is not None and not np.isclose(dt_s, plant.dt, rtol=1e-9):
             raise PlantError(
@@ -240,6 +246,7 @@ def frequency_response(sys: control.LTI, omega_rad_s: np.ndarray) -> np.ndarray:
     the MPC's 20-state loops); transfer functions, and a frequency on a pole, go through
     python-control.
     """
+    import control
     omega = np.asarray(omega_rad_s, dtype=float)
     point = np.exp(1j * omega * sys.dt) if _is_discrete(sys) else 1j * omega
     if isinstance(sys, control.StateSpace) and sys.nstates:
@@ -277,6 +284,7 @@ def truncate_slow_modes(
     removed_poles : ndarray of complex
         The poles that were dropped (z- or s-plane).
     """
+    import control
     import scipy.linalg as sla
 
     ss = control.ss(plant)

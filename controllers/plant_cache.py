@@ -25,8 +25,8 @@ import hashlib
 import io
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import control
 import numpy as np
 
 from controllers.design_plant import DesignPlant, OperatingPoint, PlantFamily
@@ -34,6 +34,9 @@ from controllers.errors import PlantError
 from sim import cache as sim_cache
 from sim.cache import build_lock, cache_subdir, write_atomic
 from sim.hand.objects import ObjectSpec
+
+if TYPE_CHECKING:
+    pass
 
 FORMAT = 1
 #: Packages whose every source file a plant family depends on (the hand, its XML,
@@ -93,6 +96,7 @@ def load_family(path: Path, obj: ObjectSpec) -> PlantFamily:
     ValueError
         If the file is not a plant-family cache of this format.
     """
+    import control
     with np.load(path, allow_pickle=False) as data:
         meta = json.loads(str(data["meta"]))
         if meta.get("format") != FORMAT:

@@ -18,12 +18,13 @@ import math
 from collections import deque
 from collections.abc import Mapping
 from dataclasses import replace
-from typing import Any
-
-import control
+from typing import TYPE_CHECKING, Any
 
 from controllers.base import Observation, as_observation
 from sim.errors import GriploopError
+
+if TYPE_CHECKING:
+    import control
 
 
 class ReflexSpecError(GriploopError, ValueError):

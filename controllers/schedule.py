@@ -53,13 +53,15 @@ from __future__ import annotations
 import bisect
 import copy
 from collections.abc import Mapping, Sequence
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-import control
 import numpy as np
 
 from controllers.base import Controller, Observation, as_observation, controller_stats
 from controllers.errors import SpecificationError
+
+if TYPE_CHECKING:
+    import control
 
 #: What the ``"interpolate"`` blend reads and sets on every design.
 _INTERPOLATED = ("kp", "ki_per_s", "kd_s", "set_gains")

@@ -9,7 +9,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-import scipy.sparse
 
 from estimation.registry import MODES, UnknownEstimatorError  # noqa: F401  (defined there)
 from sim.errors import GriploopError
@@ -83,6 +82,7 @@ def check_features(U: np.ndarray, *, name: str = "U", n_inputs: int | None = Non
     EstimationInputError
         Sparse, complex, not 2-D, wrong column count, too few rows, or NaN/inf present.
     """
+    import scipy.sparse
     if scipy.sparse.issparse(U):
         raise EstimationInputError(
             f"{name} is a sparse matrix; sparse input is not supported, pass a dense array")

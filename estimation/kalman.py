@@ -23,13 +23,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import control
 import numpy as np
 import scipy.linalg
 from scipy.linalg.lapack import dgesv, dpotrf
 
 from estimation.errors import RiccatiError
+
+if TYPE_CHECKING:
+    pass
 
 KALMAN_METHODS = ("doubling", "scipy", "control")
 
@@ -208,6 +211,7 @@ def design_kalman(
         No stabilizing solution (e.g. an unstable mode that is unobservable or
         not excited by the noise), ``R`` not positive definite, or bad shapes.
     """
+    import control
     A = np.atleast_2d(np.asarray(A, dtype=np.float64))
     C = np.atleast_2d(np.asarray(C, dtype=np.float64))
     Q = np.atleast_2d(np.asarray(Q, dtype=np.float64))

@@ -22,7 +22,8 @@ All predictions start from a zero state (force at rest).
 
 from __future__ import annotations
 
-import control
+from typing import TYPE_CHECKING
+
 import numpy as np
 from sklearn.exceptions import NotFittedError
 
@@ -40,6 +41,9 @@ from estimation.kalman import design_kalman, process_noise_covariance
 from estimation.normalize import MinMaxScaling
 from estimation.rls import difference_states, difference_transform, rls
 from estimation.streaming import DelayedLTIStream, delayed_response, delayed_response_affine
+
+if TYPE_CHECKING:
+    import control
 
 #: Paper sample time: 125 ms window increment.
 PAPER_DT_S = 0.125
@@ -219,6 +223,7 @@ class SSEstimator(ForceEstimator):
     @property
     def model_(self) -> control.StateSpace:
         """``control.StateSpace(A_, B_, C_, 0, dt_s)`` of the fitted model."""
+        import control
         self._check_fitted()
         return control.ss(self.A_, self.B_, self.C_, np.zeros((1, self.n_features_in_)),
                           self.dt_s)

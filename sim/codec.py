@@ -21,6 +21,12 @@ object and mutable container is written once and referred to by number.
 Bound methods of allowed objects (a design's feed-forward) are kept as
 (object, method name). Arrays are copied: views become separate arrays, as
 with pickle.
+
+A class marks the attributes that hold python-control systems only for analysis
+with :func:`stored_systems` (a design's plants and loops). Decoding leaves such an
+attribute as a :class:`StoredSystem`, its matrices, and the attribute builds the
+system when it is first read: a process that only runs a cached design never
+imports python-control (issue 22).
 """
 
 from __future__ import annotations
@@ -47,6 +53,102 @@ class CodecError(GriploopError, ValueError):
 
 def _allowed_module(module: str, extra: frozenset[str]) -> bool:
     return module.split(".")[0] in PACKAGES or module in extra
+
+
+class StoredSystem:
+    """A python-control system as read from a file: its matrices, built on demand.
+
+    Parameters
+    ----------
+    tag : {"$ss", "$tf"}
+        State space (``parts`` = A, B, C, D) or transfer function (``parts`` =
+        numerator and denominator coefficient arrays, by output and input).
+    parts : tuple
+        The matrices or coefficients, as numpy arrays.
+    dt : float, bool or None
+        Sampling period in seconds (python-control's ``dt``).
+    labels : dict
+        ``inputs``, ``outputs``, ``name`` and, for a state space, ``states``.
+    """
+
+    __slots__ = ("tag", "parts", "dt", "labels")
+
+    def __init__(self, tag: str, parts: tuple, dt: Any, labels: dict[str, Any]) -> None:
+        self.tag, self.parts, self.dt, self.labels = tag, parts, dt, labels
+
+    def __getstate__(self) -> tuple:
+        return self.tag, self.parts, self.dt, self.labels
+
+    def __setstate__(self, state: tuple) -> None:
+        self.tag, self.parts, self.dt, self.labels = state
+
+    def build(self) -> Any:
+        """The python-control system (imports python-control)."""
+        import control
+
+        labels = dict(self.labels)
+        if self.tag == "$ss":
+            return control.ss(*self.parts, self.dt, **labels)
+        labels.pop("states", None)
+        num, den = self.parts
+        return control.tf([list(row) for row in num], [list(row) for row in den], self.dt,
+                          **labels)
+
+
+class _SystemAttribute:
+    """Data descriptor of a :func:`stored_systems` attribute: builds a stored system once."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __get__(self, obj: Any, owner: type | None = None) -> Any:
+        if obj is None:
+            return self
+        try:
+            value = obj.__dict__[self.name]
+        except KeyError:
+            raise AttributeError(self.name) from None
+        if isinstance(value, StoredSystem):
+            value = obj.__dict__[self.name] = value.build()
+        return value
+
+    def __set__(self, obj: Any, value: Any) -> None:
+        obj.__dict__[self.name] = value
+
+
+def stored_systems(*names: str) -> Any:
+    """Class decorator: attributes ``names`` hold systems a file may leave as matrices.
+
+    Place it above ``@dataclass``. The attributes behave as before (a frozen
+    dataclass's constructor still sets them); a decoded instance holds a
+    :class:`StoredSystem` until the attribute is read.
+    """
+    def mark(cls: type) -> type:
+        for name in names:
+            setattr(cls, name, _SystemAttribute(name))
+        return cls
+    return mark
+
+
+def state_space_matrices(owner: Any, name: str) -> tuple[np.ndarray, ...]:
+    """``(A, B, C, D)`` of the system in ``owner.<name>``, as 2-D float arrays.
+
+    A state space still stored as matrices (:func:`stored_systems`) is not built,
+    so python-control is not imported for it.
+    """
+    value = owner.__dict__.get(name)
+    if isinstance(value, StoredSystem) and value.tag == "$ss":
+        mats = value.parts
+    else:
+        import control
+
+        ss = control.ss(getattr(owner, name))
+        mats = (ss.A, ss.B, ss.C, ss.D)
+    return tuple(np.atleast_2d(np.asarray(m, dtype=float)) for m in mats)
+
+
+def _is_stored_system_attribute(cls: type, name: str) -> bool:
+    return any(isinstance(c.__dict__.get(name), _SystemAttribute) for c in cls.__mro__)
 
 
 def encode(value: Any, *, modules: Iterable[str] = ()) -> tuple[Any, list[np.ndarray]]:
@@ -123,6 +225,8 @@ class _Encoder:
         module = type(x).__module__
         if module.split(".")[0] == "control":
             return self._system(x, where)
+        if isinstance(x, StoredSystem):  # decoded and never built: written as it was read
+            return self._stored(x, where)
         n, seen = self._ref(x)
         if seen:
             return {"$ref": n}
@@ -152,6 +256,14 @@ class _Encoder:
             raise CodecError(f"{where}: {cls.__qualname__}.__getstate__ gave no dict")
         return {"$object": f"{module}:{cls.__qualname__}", "id": n,
                 "state": {str(k): self.value(v, f"{where}.{k}") for k, v in state.items()}}
+
+    def _stored(self, x: StoredSystem, where: str) -> Any:
+        if x.tag == "$ss":
+            parts: Any = [self.value(np.asarray(m, float), where) for m in x.parts]
+        else:
+            parts = [[[self.value(np.asarray(c, float), where) for c in row] for row in part]
+                     for part in x.parts]
+        return {x.tag: parts, "dt": self.value(x.dt, where), **x.labels}
 
     def _system(self, x: Any, where: str) -> Any:
         import control
@@ -235,7 +347,9 @@ class _Decoder:
         if tag == "$object":
             cls = self._class(str(body))
             x = self._keep(node, cls.__new__(cls))
-            state = {str(k): self.value(v) for k, v in node.get("state", {}).items()}
+            state = {str(k): self._stored(v) if _is_stored_system_attribute(cls, str(k))
+                     and isinstance(v, dict) and ("$ss" in v or "$tf" in v) else self.value(v)
+                     for k, v in node.get("state", {}).items()}
             x.__dict__.update(state)
             return x
         if tag in ("$ss", "$tf"):
@@ -258,17 +372,28 @@ class _Decoder:
             raise CodecError(f"{reference} is not a class of {module_name}")
         return obj
 
-    def _system(self, tag: str, node: dict) -> Any:
-        import control
-
-        dt = self.value(node.get("dt"))
-        labels = {"inputs": node.get("inputs"), "outputs": node.get("outputs"),
-                  "name": node.get("name")}
+    def _stored(self, node: dict) -> StoredSystem:
+        """A ``$ss`` or ``$tf`` node as a :class:`StoredSystem`, its shapes checked."""
+        tag = "$ss" if "$ss" in node else "$tf"
+        labels = {k: node.get(k) for k in ("inputs", "outputs", "name")}
         if tag == "$ss":
-            A, B, C, D = (self.value(m) for m in node["$ss"])
-            return control.ss(A, B, C, D, dt, states=node.get("states"), **labels)
-        num, den = ([[self.value(c) for c in row] for row in part] for part in node["$tf"])
-        return control.tf(num, den, dt, **labels)
+            parts: tuple = tuple(np.atleast_2d(np.asarray(self.value(m), float))
+                                 for m in node["$ss"])
+            if len(parts) != 4:
+                raise CodecError("malformed tree: a state space needs A, B, C and D")
+            a, b, c, d = (m.shape for m in parts)
+            if a[0] != a[1] or b[0] != a[0] or c[1] != a[0] or d != (c[0], b[1]):
+                raise CodecError(f"malformed tree: state-space shapes {a}, {b}, {c}, {d}")
+            labels["states"] = node.get("states")
+        else:
+            parts = tuple([[np.asarray(self.value(c), float) for c in row] for row in part]
+                          for part in node["$tf"])
+            if len(parts) != 2:
+                raise CodecError("malformed tree: a transfer function needs num and den")
+        return StoredSystem(tag, parts, self.value(node.get("dt")), labels)
+
+    def _system(self, tag: str, node: dict) -> Any:
+        return self._stored(node).build()
 
 
 def _bad(tag: Any) -> Any:

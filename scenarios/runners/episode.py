@@ -73,6 +73,7 @@ from scenarios.runners.reference import (
 )
 from scenarios.runners.subject import subject_for
 from scenarios.schema import Scenario
+from sim.codec import state_space_matrices
 from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.hand.objects import ObjectSpec, make_object
 from sim.user.operator import Operator, OperatorParams, ScriptedOperator
@@ -394,9 +395,7 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
     }).as_dict()
     traces["intent_n"] = stream.oracle_n[:n_run]
     if held is not None and held.ok:
-        A, B, C, D = (np.atleast_2d(np.asarray(M, dtype=float)) for M in
-                      (held.margins.loop.A, held.margins.loop.B, held.margins.loop.C,
-                       held.margins.loop.D))
+        A, B, C, D = state_space_matrices(held.margins, "loop")
         traces.update(loop_A=A, loop_B=B, loop_C=C, loop_D=D)
     return EpisodeResult(row=row, traces=traces, design=design)
 

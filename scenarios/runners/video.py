@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
 
 def write_video(frames: np.ndarray, path: str | Path, *, fps: float = 25.0) -> Path:
@@ -26,6 +25,8 @@ def write_video(frames: np.ndarray, path: str | Path, *, fps: float = 25.0) -> P
                          f"{arr.dtype}")
     if path.suffix.lower() != ".gif":
         raise ValueError(f"{path}: expected a .gif file")
+    from PIL import Image
+
     images = [Image.fromarray(f) for f in arr]
     path.parent.mkdir(parents=True, exist_ok=True)
     images[0].save(path, save_all=True, append_images=images[1:], loop=0,

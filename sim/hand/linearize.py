@@ -32,15 +32,17 @@ deviation variables: input ``u - u0`` (normalized command), output
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import control
 import mujoco
 import numpy as np
 import scipy.linalg as sla
 
 from sim.hand.contact import read_contacts
 from sim.hand.grasp_env import GraspEnv, WristSchedule
+
+if TYPE_CHECKING:
+    import control
 
 
 @dataclass
@@ -276,6 +278,7 @@ def linearize_grasp(object: Any = "ball", grip_force_n: float = 10.0, *,
     LinearGrasp
         ``sys`` maps ``u - u0`` to ``grip - y0`` with ``dt = control_dt_s``.
     """
+    import control
     kwargs = {"schedule": WristSchedule(lift_after_s=np.inf), "episode_s": 1e4,
               **(env_kwargs or {})}
     env = GraspEnv(object, grip_force_n, control_dt_s=control_dt_s,
@@ -332,6 +335,7 @@ def simulate_step(lin: LinearGrasp, du: float, n_steps: int) -> tuple[np.ndarray
     y_nonlinear, y_linear : ndarray, shape (n_steps,)
         Grip-force deviation in N after each control step.
     """
+    import control
     env = lin.env
     m, d = env.model, env.data
     spec = mujoco.mjtState.mjSTATE_INTEGRATION

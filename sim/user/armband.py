@@ -21,7 +21,6 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
-from scipy import signal
 
 from sim.errors import GriploopError
 from sim.user.muscles import slow_fluctuation
@@ -76,13 +75,14 @@ class FrontEnd:
         ArmbandError
             If ``fs_hz`` is not above twice the low-pass corner.
         """
+        import scipy.signal
         if fs_hz <= 2.0 * self.lowpass_hz:
             raise ArmbandError(
                 f"internal rate must exceed 2 x lowpass_hz = {2 * self.lowpass_hz} Hz, "
                 f"found {fs_hz} Hz"
             )
-        hp = signal.butter(self.order, self.highpass_hz, "highpass", fs=fs_hz, output="sos")
-        lp = signal.butter(self.order, self.lowpass_hz, "lowpass", fs=fs_hz, output="sos")
+        hp = scipy.signal.butter(self.order, self.highpass_hz, "highpass", fs=fs_hz, output="sos")
+        lp = scipy.signal.butter(self.order, self.lowpass_hz, "lowpass", fs=fs_hz, output="sos")
         return np.vstack([hp, lp])
 
     def folded_psd(

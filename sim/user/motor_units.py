@@ -35,7 +35,6 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
-from scipy import signal
 
 from sim.errors import GriploopError
 from sim.user.armband import FrontEnd
@@ -227,6 +226,7 @@ class MotorUnitEmgGenerator:
             the front-end-filtered MUAPs), force normalized to the steady
             force at full drive; ``info`` holds spike counts per muscle.
         """
+        import scipy.signal
         q = self.internal_fs_hz / fs_hz
         if abs(q - round(q)) > 1e-9 or round(q) < 1:
             raise MotorUnitError(
@@ -254,7 +254,7 @@ class MotorUnitEmgGenerator:
                 unit, t_spk, n_int, fs_hz, widths[m], gamma[m], freq_factor, amp_factor,
                 sos, anatomy,
             )
-        emg = signal.sosfilt(sos, raw, axis=0)[::q]
+        emg = scipy.signal.sosfilt(sos, raw, axis=0)[::q]
         force = fractional_delay(force, muscles.array("emd_s"), fs_hz)
         return MuscleSignals(emg=emg, force=force, info={"spikes_per_muscle": spikes})
 
@@ -303,6 +303,7 @@ class MotorUnitEmgGenerator:
         self, unit: np.ndarray, t_spk: np.ndarray, isi: np.ndarray, n: int, fs_hz: float
     ) -> np.ndarray:
         """Exact samples at ``k / fs_hz`` of the sum of the spikes' twitches, shape (n,)."""
+        import scipy.signal
         t_c = self.contraction_times_s()
         levels = self.twitch_levels_s()
         level_of_unit = np.argmin(np.abs(t_c[:, None] - levels[None, :]), axis=1)
@@ -323,8 +324,8 @@ class MotorUnitEmgGenerator:
         for i, tl in enumerate(levels):
             r = np.exp(-dt / tl)
             # sum_j a_j (k-j) dt r^(k-j)  and  sum_j b_j r^(k-j)
-            out += signal.lfilter([0.0, dt * r], [1.0, -2.0 * r, r * r], a[i])
-            out += signal.lfilter([1.0], [1.0, -r], b[i])
+            out += scipy.signal.lfilter([0.0, dt * r], [1.0, -2.0 * r, r * r], a[i])
+            out += scipy.signal.lfilter([1.0], [1.0, -r], b[i])
         return out
 
     def _muap_train(
@@ -341,6 +342,7 @@ class MotorUnitEmgGenerator:
         anatomy: np.random.Generator,
     ) -> np.ndarray:
         """Raw (pre-front-end) sEMG of one pool at the internal rate, shape (n_int,)."""
+        import scipy.signal
         nu = self.n_units
         fs = self.internal_fs_hz
         unit_width = width_s * np.exp(self.muap_width_spread * anatomy.standard_normal(nu))
@@ -367,7 +369,7 @@ class MotorUnitEmgGenerator:
         # Normalization: Campbell's theorem on the filtered kernels at full drive.
         padded = np.zeros((2 * _N_BASIS_WIDTHS, kernels.shape[-1] + int(0.5 * fs)))
         padded[:, : kernels.shape[-1]] = kernels.reshape(2 * _N_BASIS_WIDTHS, -1)
-        filt = signal.sosfilt(sos, padded, axis=1)
+        filt = scipy.signal.sosfilt(sos, padded, axis=1)
         gram = filt @ filt.T
         w_lo, w_hi, i_lo = _width_weights(unit_width, basis_w)
         unit_vec = np.zeros((nu, 2, _N_BASIS_WIDTHS))
@@ -392,7 +394,7 @@ class MotorUnitEmgGenerator:
             trains += np.bincount((base + s_i + 1) * n_int + n_idx, spk_c[:, o] * s_hi,
                                   minlength=trains.size)
         trains = trains.reshape(2 * _N_BASIS_WIDTHS, n_int)
-        conv = signal.fftconvolve(trains, kernels.reshape(2 * _N_BASIS_WIDTHS, -1),
+        conv = scipy.signal.fftconvolve(trains, kernels.reshape(2 * _N_BASIS_WIDTHS, -1),
                                   mode="same", axes=1)
         return conv.sum(axis=0)
 

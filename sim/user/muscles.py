@@ -17,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 import numpy as np
-from scipy import signal
 
 from sim.errors import GriploopError
 
@@ -186,6 +185,7 @@ def activation_dynamics(
     ndarray, shape (n_samples, n_muscles)
         Normalized muscle force, starting from rest at the first drive value.
     """
+    import scipy.signal
     x = np.asarray(drive, dtype=float)
     cut = np.broadcast_to(np.asarray(cutoff_hz, dtype=float), (x.shape[1],))
     levels = np.unique(cut)
@@ -197,7 +197,7 @@ def activation_dynamics(
         # direct-form-II-transposed state of a filter resting at the first value x0
         x0 = x[0, cols]
         zi = np.stack([x0 * (2.0 * r - r * r), -r * r * x0], axis=0)
-        y = signal.lfilter(b, a, x[:, cols], axis=0, zi=zi)[0]
+        y = scipy.signal.lfilter(b, a, x[:, cols], axis=0, zi=zi)[0]
         if out is None:
             return y
         out[:, cols] = y
@@ -282,11 +282,12 @@ def slow_fluctuation(
     ndarray, shape (n_samples, n_columns)
         Zero-mean; starts in the stationary distribution.
     """
+    import scipy.signal
     std = np.asarray(std, dtype=float)
     a = np.exp(-1.0 / (time_s * fs_hz))
     w = rng.standard_normal((n_samples, std.size))
     w[0] /= np.sqrt(1.0 - a * a)  # stationary start
-    z = signal.lfilter([np.sqrt(1.0 - a * a)], [1.0, -a], w, axis=0)
+    z = scipy.signal.lfilter([np.sqrt(1.0 - a * a)], [1.0, -a], w, axis=0)
     return z * std[None, :]
 
 
@@ -363,6 +364,7 @@ class CausalActivation:
 
     def step(self, x: np.ndarray) -> np.ndarray:
         """Filter the next chunk, shape (n_chunk, n_columns); returns the same shape."""
+        import scipy.signal
         x = np.asarray(x, dtype=float)
         single = self._levels.size == 1
         out = None if single else np.empty_like(x)
@@ -376,7 +378,7 @@ class CausalActivation:
             if first:
                 x0 = x[0, cols]
                 self._state.append(np.stack([x0 * (2.0 * r - r * r), -r * r * x0], axis=0))
-            y, self._state[i] = signal.lfilter(b, a, x[:, cols], axis=0, zi=self._state[i])
+            y, self._state[i] = scipy.signal.lfilter(b, a, x[:, cols], axis=0, zi=self._state[i])
             if single:
                 return y
             out[:, cols] = y

@@ -12,7 +12,7 @@ import pytest
 
 from controllers.approach import ContactGate
 from controllers.pid import PID
-from sim.codec import CodecError, decode, encode
+from sim.codec import CodecError, StoredSystem, decode, encode, state_space_matrices
 from sim.hand.objects import make_object
 
 
@@ -49,6 +49,46 @@ def test_control_systems_come_back_as_the_same_matrices():
     assert ss2.dt == 0.01 and tf2.dt == 0.01
     np.testing.assert_array_equal(tf2.num[0][0], tf.num[0][0])
     np.testing.assert_array_equal(tf2.den[0][0], tf.den[0][0])
+
+
+def _analysis(plant, controller):
+    from controllers.design import OperatingAnalysis
+
+    return OperatingAnalysis(force_n=5.0, margins=None, plant=plant, controller=controller,
+                             how="linearized")
+
+
+def test_a_marked_attribute_keeps_its_system_as_matrices_until_it_is_read():
+    ss = control.ss([[0.9, 0.1], [0.0, 0.8]], [[0.0], [1.0]], [[1.0, 0.0]], [[0.0]], 0.01,
+                    inputs=["u"], outputs=["y"])
+    tf = control.tf([0.5, 0.1], [1.0, -0.7], 0.01)
+    out = _round_trip(_analysis(ss, tf))
+    assert isinstance(out.__dict__["plant"], StoredSystem)  # nothing built yet
+    assert isinstance(out.__dict__["controller"], StoredSystem)
+    for got, want in zip(state_space_matrices(out, "plant"), (ss.A, ss.B, ss.C, ss.D),
+                         strict=True):
+        np.testing.assert_array_equal(got, want)
+    assert isinstance(out.__dict__["plant"], StoredSystem)  # the matrices built nothing
+    again = _round_trip(out)  # stored again without being built
+    assert isinstance(again.__dict__["plant"], StoredSystem)
+    for result in (out, again):
+        plant = result.plant  # first read: a python-control system, kept
+        assert isinstance(plant, control.StateSpace) and result.plant is plant
+        for name in "ABCD":
+            np.testing.assert_array_equal(getattr(plant, name), getattr(ss, name))
+        assert plant.dt == 0.01 and plant.input_labels == ["u"] and plant.output_labels == ["y"]
+        assert isinstance(result.controller, control.TransferFunction)
+        np.testing.assert_array_equal(result.controller.den[0][0], tf.den[0][0])
+    fresh = _analysis(ss, None)  # constructed: the system as given, nothing stored
+    assert fresh.plant is ss and fresh.controller is None
+
+
+def test_a_stored_system_with_shapes_that_do_not_agree_is_refused():
+    tree, arrays = encode(_analysis(control.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], 0.01), None))
+    arrays = [np.zeros((2, 2)) if a.shape == (1, 1) and i == 0 else a
+              for i, a in enumerate(arrays)]
+    with pytest.raises(CodecError, match="state-space shapes"):
+        decode(tree, arrays)
 
 
 def test_griploop_objects_and_their_bound_methods_come_back_working():
