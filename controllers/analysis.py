@@ -125,14 +125,16 @@ def _dt(loop: control.LTI) -> float | None:
     return float(dt) if dt not in (None, 0, True) and dt > 0 else None
 
 
-def frequency_grid(loop: control.LTI, n_points: int = _GRID_POINTS) -> np.ndarray:
+def frequency_grid(loop: control.LTI, n_points: int = _GRID_POINTS, *,
+                   tf: control.TransferFunction | None = None) -> np.ndarray:
     """Log-spaced frequencies in rad/s covering the loop's dynamics (to Nyquist if discrete).
 
     From a hundredth of the slowest pole/zero rate, but at most five decades
     below the fastest, to Nyquist (discrete) or 100x the fastest (continuous).
+    ``tf`` is the loop's :func:`minimal_tf`, if the caller has it already.
     """
     dt = _dt(loop)
-    tf = minimal_tf(loop)
+    tf = minimal_tf(loop) if tf is None else tf
     roots = np.concatenate([tf.poles(), tf.zeros()])
     if dt is not None:
         roots = roots[np.abs(roots) > 0]
@@ -179,11 +181,15 @@ def delay_margin(phase_margins_deg: np.ndarray, crossovers_rad_s: np.ndarray) ->
     return float(np.min(lag_rad / np.asarray(crossovers_rad_s, dtype=float)))
 
 
-def closed_loop_bandwidth(loop: control.LTI, omega_rad_s: np.ndarray | None = None) -> float:
-    """First frequency (rad/s) where ``|L/(1+L)|`` drops 3 dB below its low-frequency value."""
+def closed_loop_bandwidth(loop: control.LTI, omega_rad_s: np.ndarray | None = None, *,
+                          response: np.ndarray | None = None) -> float:
+    """First frequency (rad/s) where ``|L/(1+L)|`` drops 3 dB below its low-frequency value.
+
+    ``response`` is ``L`` on ``omega_rad_s``, if the caller has it already.
+    """
     import scipy.optimize
     omega = frequency_grid(loop) if omega_rad_s is None else omega_rad_s
-    lval = frequency_response(loop, omega)
+    lval = frequency_response(loop, omega) if response is None else response
     t_mag = np.abs(lval / (1.0 + lval))
     level = t_mag[0] / np.sqrt(2.0)
     below = np.nonzero(t_mag < level)[0]
@@ -219,7 +225,7 @@ def loop_margins(loop: control.LTI) -> LoopMargins:
     """
     import control
     import scipy.optimize
-    tf = minimal_tf(loop)
+    tf = minimal_tf(loop)  # computed once: the grid and the refinement use it too
     dt = _dt(loop)
     with warnings.catch_warnings(), np.errstate(divide="ignore", invalid="ignore"):
         warnings.simplefilter("ignore", UserWarning)  # 'poly' is exact for rational loops
@@ -236,12 +242,13 @@ def loop_margins(loop: control.LTI) -> LoopMargins:
     # confirms: the polynomial method can return spurious roots for
     # ill-conditioned high-order loops
     w_gc, pms = _refine_gain_crossovers(loop, w_gc, pms)
-    w_pc, gms = _refine_phase_crossovers(loop, w_pc, gms, dt)
+    w_pc, gms = _refine_phase_crossovers(loop, w_pc, gms, dt, tf.poles())
     # a near pole-zero cancellation (a slow creep mode of the plant against the
     # controller's integrator) can make the polynomial method miss a crossover
     # altogether; the dense grid of the frequency response finds it
-    omega = frequency_grid(loop)
-    w_gc, pms, w_pc, gms = _add_grid_crossovers(loop, omega, w_gc, pms, w_pc, gms)
+    omega = frequency_grid(loop, tf=tf)
+    resp = frequency_response(loop, omega)  # on the grid once: crossovers, Ms, bandwidth
+    w_gc, pms, w_pc, gms = _add_grid_crossovers(loop, omega, w_gc, pms, w_pc, gms, resp)
     with np.errstate(divide="ignore"):
         gms_db = 20.0 * np.log10(gms)
     order = np.argsort(w_gc)
@@ -256,7 +263,7 @@ def loop_margins(loop: control.LTI) -> LoopMargins:
     if dt is not None and np.isfinite(dm):
         dm_samples = int(np.ceil(dm / dt - 1e-12) - 1)
 
-    s_mag = np.abs(1.0 / (1.0 + frequency_response(loop, omega)))
+    s_mag = np.abs(1.0 / (1.0 + resp))
     i = int(np.argmax(s_mag))
     lo, hi = omega[max(i - 1, 0)], omega[min(i + 1, omega.size - 1)]
     refined = scipy.optimize.minimize_scalar(
@@ -285,18 +292,18 @@ def loop_margins(loop: control.LTI) -> LoopMargins:
         ms_frequency_rad_s=float(w_ms),
         closed_loop_poles=cl_poles,
         stable=stable,
-        bandwidth_rad_s=closed_loop_bandwidth(loop, omega),
+        bandwidth_rad_s=closed_loop_bandwidth(loop, omega, response=resp),
         dt=dt,
         loop=control.ss(loop),
     )
 
 
 def _add_grid_crossovers(loop: control.LTI, omega: np.ndarray, w_gc: np.ndarray,
-                         pms: np.ndarray, w_pc: np.ndarray, gms: np.ndarray
+                         pms: np.ndarray, w_pc: np.ndarray, gms: np.ndarray, resp: np.ndarray
                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Add the gain and phase crossovers a sign change on ``omega`` shows and the lists lack."""
+    """Add the gain and phase crossovers a sign change of ``resp`` (``L`` on ``omega``)
+    shows and the lists lack."""
     import scipy.optimize
-    resp = frequency_response(loop, omega)
 
     def known(w: float, ws: np.ndarray) -> bool:
         return bool(ws.size and np.min(np.abs(ws - w)) <= 1e-3 * w)
@@ -347,11 +354,10 @@ def _refine_gain_crossovers(
 
 
 def _refine_phase_crossovers(
-    loop: control.LTI, w_pc: np.ndarray, gms: np.ndarray, dt: float | None
+    loop: control.LTI, w_pc: np.ndarray, gms: np.ndarray, dt: float | None, poles: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
+    """Refine the phase crossovers on the response; ``poles`` of the loop's minimal form."""
     import scipy.optimize
-    tf = minimal_tf(loop)
-    poles = tf.poles()
 
     def imag(w: float) -> float:
         return frequency_response(loop, np.array([w]))[0].imag

@@ -16,8 +16,10 @@ optionally, a :class:`controllers.reflex.SlipReflex`.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -243,9 +245,15 @@ class ControllerDesign:
         self._cache[force_n] = result
         return result
 
+    def analyse_many(self, forces_n: Iterable[float]) -> list[OperatingAnalysis]:
+        """:meth:`analyse` at every force of ``forces_n``; a disk cache is written once."""
+        deferred = getattr(self._cache, "deferred_writes", contextlib.nullcontext)
+        with deferred():
+            return [self.analyse(f) for f in forces_n]
+
     def analyse_grid(self) -> list[OperatingAnalysis]:
         """The analysis at every grid force of the family (failed points included)."""
-        return [self.analyse(p.force_n) for p in self.family.points]
+        return self.analyse_many(p.force_n for p in self.family.points)
 
     @functools.cached_property
     def _static_map(self) -> tuple[np.ndarray, np.ndarray]:

@@ -37,6 +37,7 @@ directory that cannot be written is skipped.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import hashlib
@@ -44,7 +45,7 @@ import io
 import json
 import os
 import zipfile
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -179,11 +180,29 @@ class _WrittenThrough(dict):
     def __init__(self, initial: Mapping[float, Any], path: Path, key: str, kind: str) -> None:
         super().__init__(initial)
         self._path, self._key, self._kind = path, key, kind
+        self._deferring, self._unwritten = False, False
 
     def __setitem__(self, force_n: float, analysis: Any) -> None:
         super().__setitem__(force_n, analysis)
+        self._unwritten = True
+        if not self._deferring:
+            self._write()
+
+    @contextlib.contextmanager
+    def deferred_writes(self) -> Iterator[None]:
+        """Write the analyses added inside the block once, at its end."""
+        self._deferring = True
+        try:
+            yield
+        finally:
+            self._deferring = False
+            if self._unwritten:
+                self._write()
+
+    def _write(self) -> None:
         stored = _read(self._path, self._key, self._kind)  # another process may have added some
         merged = {**(stored if isinstance(stored, dict) else {}), **self}
+        self._unwritten = False
         try:
             write_atomic(self._path, dumps(merged, self._key, self._kind))
         except (OSError, CodecError):

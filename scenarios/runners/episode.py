@@ -368,8 +368,9 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
     dropped, crushed = bool(info["dropped"]), bool(info["crushed"])
     held_n, visited_n = operating_forces(traces, design, hold_from_s=hold_from_s,
                                          both_sides_s=both_s)
-    held = design.analyse(held_n) if held_n is not None else None
-    worst = worst_case([design.analyse(f) for f in visited_n]) if visited_n else {}
+    analysed = design.analyse_many([*visited_n, *([] if held_n is None else [held_n])])
+    held = analysed[-1] if held_n is not None else None
+    worst = worst_case(analysed[:len(visited_n)]) if visited_n else {}
     simulated = traces["t_s"][-1] + control_dt_s
     loop_time = sum(timings[k] for k in ("t_estimator_s", "t_controller_s", "t_physics_s",
                                          "t_semg_s", "t_features_s", "t_operator_s"))

@@ -106,6 +106,22 @@ def test_a_new_process_reads_the_design_another_one_stored(cache, kind, spec):
     assert out.stdout.split() == ["False", "disk"]
 
 
+def test_analyses_of_many_forces_are_written_once_and_read_back(cache, monkeypatch):
+    design, _ = _cached()
+    writes = []
+    real = design_cache.write_atomic
+    monkeypatch.setattr(design_cache, "write_atomic",
+                        lambda path, data: (writes.append(path), real(path, data)))
+    made = design.analyse_many([4.0, 6.0, 8.0])
+    assert [p.suffix for p in writes] == [".analyses"]  # one write for three analyses
+    design.analyse(9.0)  # one at a time: written through at once
+    assert len(writes) == 2
+    loaded, source = _cached()
+    assert source == "disk" and {4.0, 6.0, 8.0, 9.0} <= set(loaded._cache)
+    for a, f in zip(made, (4.0, 6.0, 8.0), strict=True):
+        assert loaded.analyse(f).margins.to_dict() == a.margins.to_dict()
+
+
 def test_the_key_follows_object_kind_period_spec_and_grid():
     key = design_cache.design_key(CAN, "pid", 0.01, SPEC, GRID)
     assert key == design_cache.design_key(CAN, "pid", 0.01, dict(SPEC), GRID)

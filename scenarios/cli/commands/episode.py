@@ -103,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
     result = episode_from_scenario(scenario, record_frames=args.video is not None)
     row, design = result.row, result.design
     visited = sorted(_visited(row))
-    analyses = [design.analyse(f) for f in visited]
+    analyses = design.analyse_many(visited)
     print(format_table(args.controller, analyses, worst_case(analyses) if analyses else None))
     print(f"episode: {args.estimator} ({args.mode}) -> {args.controller} on {row['object_name']} "
           f"({row['object_mass_kg']:g} kg, mu {row['object_friction']:g}), {args.user} user, "

@@ -134,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
         forces = args.at_force
         for f in forces:
             design.check_force(f)
-    analyses = [design.analyse(f) for f in forces]
+    analyses = design.analyse_many(forces)
     worst = worst_case(analyses)
     fam = design.family
     where = "" if fam.source.startswith("built") else f", read from the {fam.source} cache"
