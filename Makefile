@@ -7,7 +7,7 @@ export MUJOCO_GL ?= egl
 export PYOPENGL_PLATFORM ?= egl
 export MPLBACKEND ?= Agg
 
-.PHONY: demo test bench lint clean
+.PHONY: demo test bench lint clean pretrained
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -29,6 +29,11 @@ test: $(STAMP)
 BENCH_ARGS ?= --markdown bench_results.md
 bench: $(STAMP)
 	$(PY) benchmarks/run_all.py $(BENCH_ARGS)
+
+# the transfer_mlp networks shipped in the package (estimation/pretrained) for the default
+# settings; run after a change to what builds them (a test checks they are this source's)
+pretrained: $(STAMP)
+	$(PY) -c "from estimation.transfer import ship_default_networks as s; print(*s(), sep='\n')"
 
 lint: $(STAMP)
 	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks

@@ -20,10 +20,12 @@ Everything that is not fitted per person is chosen on virtual subjects, never on
 person: the corpus (``pretrain_subjects`` subjects of population ``pretrain_seed``), and the
 fine-tuning length and step size, chosen on ``VALIDATION_SUBJECTS`` other virtual subjects
 (population ``pretrain_seed + 1``) by the mean of their validation R^2 and their worst
-subject's. The pretrained weights and that choice are cached on disk as arrays and JSON
-(``$GRIPLOOP_CACHE_DIR/pretrained``), keyed by the settings, the corpus and the source of
-the modules that make the corpus; a missing, unreadable or mismatched file is rebuilt,
-never trusted. Pretraining is deterministic for a seed (one BLAS thread, seeded networks).
+subject's. The pretrained weights and that choice are stored as arrays and JSON, keyed by
+the settings, the corpus and the source of the modules that make the corpus: the default
+ensembles ship in the package (``make pretrained`` writes them), and every ensemble built
+is cached (``$GRIPLOOP_CACHE_DIR/pretrained``); a missing, unreadable or mismatched file
+is rebuilt, never trusted (:mod:`estimation.pretrained_store`). Pretraining is
+deterministic for a seed (one BLAS thread, seeded networks).
 
 Corpora are registered by name (:func:`register_corpus`); ``"virtual"`` is the paper's
 protocol recorded from :func:`sim.user.subjects.make_population` subjects with the noise
@@ -34,10 +36,8 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import io
 import json
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from importlib import metadata, resources
 from pathlib import Path
 from typing import Any
@@ -45,14 +45,16 @@ from typing import Any
 import numpy as np
 from scipy.special import expit
 
+from estimation import pretrained_store as store
 from estimation.base import ForceEstimator
 from estimation.baselines.mlp import fit_quietly
 from estimation.deployable import check_period
 from estimation.errors import EstimationInputError, check_features, check_mode, check_target
 from estimation.metrics import r2_score
 from estimation.normalize import MinMaxScaling
+from estimation.pretrained_store import Network, Pretrained
 from estimation.streaming import scaled
-from sim.cache import build_lock, cache_subdir, write_atomic
+from sim.cache import build_lock, cache_subdir
 from sim.registry import Registry
 
 #: Version of the cache format (weights NPZ + JSON); another version is rebuilt.
@@ -118,24 +120,6 @@ def lagged(U: np.ndarray, lags: int) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------- networks
-@dataclass(frozen=True)
-class Network:
-    """Weights of one logistic MLP: ``coefs[l]`` (n_in, n_out) and ``intercepts[l]`` (n_out,)."""
-
-    coefs: tuple[np.ndarray, ...]
-    intercepts: tuple[np.ndarray, ...]
-
-    def predict(self, X: np.ndarray) -> np.ndarray:
-        """Output for rows ``X`` (n_samples, n_in), shape (n_samples,)."""
-        h = X
-        last = len(self.coefs) - 1
-        for i, (W, b) in enumerate(zip(self.coefs, self.intercepts, strict=True)):
-            h = h @ W + b
-            if i < last:
-                h = expit(h)
-        return h[:, 0]
-
-
 def _regressor(hidden: Sequence[int], seed: int, **options: Any) -> Any:
     from sklearn.neural_network import MLPRegressor
 
@@ -198,27 +182,6 @@ def finetune(network: Network, X: np.ndarray, y: np.ndarray, *, epochs: int,
 
 
 # ----------------------------------------------------------------------- pretraining
-@dataclass(frozen=True)
-class Pretrained:
-    """Pretrained networks and the fine-tuning settings chosen on virtual subjects.
-
-    Attributes
-    ----------
-    networks : tuple of Network
-    epochs : int
-        Fine-tuning epochs chosen on the validation subjects.
-    learning_rate : float
-        Fine-tuning step size chosen there.
-    info : dict
-        Settings, corpus size, validation scores of every candidate, timing, key.
-    """
-
-    networks: tuple[Network, ...]
-    epochs: int
-    learning_rate: float
-    info: dict
-
-
 def _choose_finetuning(networks: Sequence[Network], validation: Corpus, lags: int,
                        hidden: Sequence[int]) -> tuple[int, float, dict]:
     """Fine-tuning epochs and step size that serve the validation subjects best.
@@ -322,88 +285,54 @@ def build_pretrained(settings: dict) -> Pretrained:
     return Pretrained(tuple(networks), epochs, lr, info)
 
 
-def _save(path: Path, model: Pretrained) -> None:
-    arrays = {}
-    for k, net in enumerate(model.networks):
-        for i, (W, b) in enumerate(zip(net.coefs, net.intercepts, strict=True)):
-            arrays[f"net{k}_W{i}"] = W
-            arrays[f"net{k}_b{i}"] = b
-    buffer = io.BytesIO()
-    np.savez(buffer, **arrays)
-    write_atomic(path.with_suffix(".npz"), buffer.getvalue())
-    meta = dict(model.info, epochs=model.epochs, learning_rate=model.learning_rate)
-    write_atomic(path.with_suffix(".json"), json.dumps(meta, indent=1).encode())
-
-
-def _load(path: Path, settings: dict) -> Pretrained:
-    """Read a cached model; raise ``ValueError`` unless it is exactly what ``settings`` ask."""
-    meta = json.loads(path.with_suffix(".json").read_text())
-    if any(meta.get(k) != v for k, v in settings.items()) or meta.get("key") != _key(settings):
-        raise ValueError("settings differ")
-    sizes = [settings["n_inputs"] * (settings["lags"] + 1), *settings["hidden"], 1]
-    networks = []
-    with np.load(path.with_suffix(".npz"), allow_pickle=False) as z:
-        for k in range(settings["n_networks"]):
-            coefs = tuple(np.array(z[f"net{k}_W{i}"], dtype=float) for i in range(len(sizes) - 1))
-            intercepts = tuple(np.array(z[f"net{k}_b{i}"], dtype=float)
-                               for i in range(len(sizes) - 1))
-            for i, (W, b) in enumerate(zip(coefs, intercepts, strict=True)):
-                if W.shape != (sizes[i], sizes[i + 1]) or b.shape != (sizes[i + 1],) \
-                        or not (np.all(np.isfinite(W)) and np.all(np.isfinite(b))):
-                    raise ValueError(f"network {k} layer {i} has the wrong shape or non-finite")
-            networks.append(Network(coefs, intercepts))
-    epochs, lr = int(meta["epochs"]), float(meta["learning_rate"])
-    if epochs < 0 or epochs % EPOCH_STAGE or not lr > 0:
-        raise ValueError("bad fine-tuning settings")
-    return Pretrained(tuple(networks), epochs, lr, meta)
-
-
 def pretrained(n_inputs: int, *, corpus: str = "virtual", n_subjects: int = 40,
                seed: int = PRETRAIN_SEED, hidden: Sequence[int] = (32, 16), lags: int = 2,
                n_networks: int = 3, epochs: int = 60,
                validation_subjects: int = VALIDATION_SUBJECTS) -> Pretrained:
-    """The pretrained ensemble for ``n_inputs`` features: memory, then disk, else built.
+    """The pretrained ensemble for ``n_inputs`` features: memory, shipped, disk, else built.
 
-    A cached file is used only if its JSON states exactly these settings and this source
-    digest and its arrays have the expected shapes and finite values; anything else
-    (missing, corrupt, another version) is rebuilt and rewritten. ``info["cache"]`` says
-    which happened (``"memory"``, ``"disk"``, ``"built"``, ``"rebuilt: <reason>"``).
+    A stored file (shipped in the package, or in the cache) is used only if its JSON
+    states exactly these settings and this source digest and its arrays have the expected
+    shapes and finite values; anything else (missing, corrupt, another version) is rebuilt
+    and written to the cache (:mod:`estimation.pretrained_store`). ``info["cache"]`` says
+    which happened (``"memory"``, ``"shipped"``, ``"disk"``, ``"built"``, ``"rebuilt:
+    <reason>"``).
     """
     settings = _settings(n_inputs, corpus, n_subjects, seed, hidden, lags, n_networks, epochs,
                          validation_subjects)
     key = _key(settings)
     if key in _MEMO:
         return _MEMO[key]
+    model, status = store.read(store.SHIPPED_DIR / f"{store.PREFIX}{key}", settings, key,
+                               EPOCH_STAGE, found="shipped")
     folder = cache_subdir("pretrained")
-    if folder is None:
+    if model is None and folder is None:
         model = build_pretrained(settings)
-        model.info["cache"] = "built"
-    else:
-        path = folder / f"transfer_mlp-{key}"
-        model, status = _from_disk(path, settings)
+        model.info["cache"] = status
+    elif model is None:
+        path = folder / f"{store.PREFIX}{key}"
+        model, status = store.read(path, settings, key, EPOCH_STAGE, found="disk",
+                                   missing=status)
         if model is None:
             # another process may be building the same network: wait for it, then read it
             with build_lock(path):
-                model, status = _from_disk(path, settings, status)
+                model, status = store.read(path, settings, key, EPOCH_STAGE, found="disk",
+                                           missing=status)
                 if model is None:
                     model = build_pretrained(settings)
                     model.info["cache"] = status
-                    _save(path, model)
+                    store.save(path, model)
     _MEMO[key] = model
     return model
 
 
-def _from_disk(path: Path, settings: dict, status: str = "built"
-               ) -> tuple[Pretrained | None, str]:
-    """The cached model at ``path`` (``info["cache"] = "disk"``), or None and why it was not."""
-    if not (path.with_suffix(".json").exists() or path.with_suffix(".npz").exists()):
-        return None, status
-    try:
-        model = _load(path, settings)
-    except (OSError, ValueError, KeyError, TypeError, json.JSONDecodeError) as exc:
-        return None, f"rebuilt: {type(exc).__name__}: {exc}"
-    model.info["cache"] = "disk"
-    return model, "disk"
+def ship_default_networks(n_inputs: Sequence[int] = (24, 9)) -> list[Path]:
+    """Write the default ensembles (all 8 channels, and channels 6-8) as the shipped ones.
+
+    ``make pretrained`` runs this after a change to what builds them (the key's source
+    digest); each is read from the cache or built first. Returns the stems written.
+    """
+    return store.ship([pretrained(n) for n in n_inputs])
 
 
 def clear_memory() -> None:

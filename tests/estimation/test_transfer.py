@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from est_synthetic import SMALL_TRANSFER, register_synthetic_corpus, synthetic_corpus
 
+from estimation import transfer
 from estimation.errors import EstimationInputError, InsufficientDataError
 from estimation.transfer import (
     EPOCH_STAGE,
@@ -152,3 +153,61 @@ def test_bad_input_is_named():
     est = TransferMLP(**SMALL, random_state=0).fit(U[:n_id], y[:n_id])
     with pytest.raises(EstimationInputError):
         est.predict(U[:, :3])
+
+
+def test_the_shipped_networks_are_those_this_code_builds():
+    """``make pretrained`` wrote the default ensembles of this source (its digest is in the key).
+
+    If this fails, what builds them changed: run ``make pretrained`` and commit the files.
+    """
+    from estimation import pretrained_store as store
+    from estimation.transfer import EPOCH_STAGE, _key, _settings
+
+    for n_inputs in (24, 9):
+        settings = _settings(n_inputs, "virtual", 40, transfer.PRETRAIN_SEED, (32, 16), 2, 3,
+                             60, transfer.VALIDATION_SUBJECTS)
+        key = _key(settings)
+        stem = store.SHIPPED_DIR / f"{store.PREFIX}{key}"
+        assert stem.with_suffix(".npz").exists(), (
+            f"no shipped networks for {n_inputs} inputs of this source: run `make pretrained`")
+        model = store.load(stem, settings, key, EPOCH_STAGE)
+        assert len(model.networks) == 3 and model.epochs % EPOCH_STAGE == 0
+    assert len(list(store.SHIPPED_DIR.glob("*.npz"))) == 2  # nothing stale beside them
+
+
+def test_the_default_ensemble_is_read_from_the_package_without_pretraining(tmp_path,
+                                                                           monkeypatch):
+    monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(tmp_path))  # an empty cache
+    monkeypatch.setattr(transfer, "build_pretrained",
+                        lambda settings: pytest.fail("pretrained although shipped"))
+    model = pretrained(9)
+    assert model.info["cache"] == "shipped" and len(model.networks) == 3
+    assert not (tmp_path / "pretrained").exists()  # nothing copied into the cache
+
+
+def test_shipped_networks_are_trusted_only_for_their_own_settings(tmp_path, monkeypatch):
+    from estimation import pretrained_store as store
+
+    kw = {"corpus": "synthetic-test", "n_subjects": 6, "epochs": 10, "hidden": (8,),
+          "n_networks": 2, "validation_subjects": 3}
+    monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(tmp_path / "cache"))
+    built = pretrained(N_INPUTS, **kw)
+    shipped = tmp_path / "shipped"
+    shipped.mkdir()
+    (shipped / f"{store.PREFIX}stale.npz").write_bytes(b"old")
+    monkeypatch.setattr(store, "SHIPPED_DIR", shipped)
+    (stem,) = store.ship([built], shipped)
+    assert sorted(p.name for p in shipped.iterdir()) == [stem.name + ".json",
+                                                         stem.name + ".npz"]  # stale removed
+    clear_memory()
+    monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(tmp_path / "empty"))
+    read = pretrained(N_INPUTS, **kw)
+    assert read.info["cache"] == "shipped" and read.epochs == built.epochs
+    np.testing.assert_array_equal(read.networks[1].coefs[0], built.networks[1].coefs[0])
+    assert pretrained(N_INPUTS, **dict(kw, epochs=5)).info["cache"] == "built"  # other key
+    meta = stem.with_suffix(".json")
+    meta.write_text(json.dumps(dict(json.loads(meta.read_text()), n_networks=3)))
+    clear_memory()
+    again = pretrained(N_INPUTS, **kw)  # the mismatched shipped file is not used
+    assert again.info["cache"].startswith("rebuilt: ValueError: settings differ")
+    np.testing.assert_array_equal(again.networks[0].coefs[0], built.networks[0].coefs[0])
