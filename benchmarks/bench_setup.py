@@ -9,9 +9,10 @@ venv and installing griploop: untimed, printed), then
 - ``make test`` (ruff and the whole suite, on one pytest-xdist worker per core) in at
   most 4 min;
 - ``make demo`` in at most 60 s after installation, with an empty cache of its own
-  (``GRIPLOOP_CACHE_DIR``: plant families linearized, controllers designed and the
-  ``transfer_mlp`` network pretrained, as on a new machine); the same command with that
-  cache warm is printed beside it, as is the time of each of the demo's steps.
+  (``GRIPLOOP_CACHE_DIR``: plant families linearized and controllers designed as on a new
+  machine; ``transfer_mlp``'s default networks are read from the package, where ``make
+  pretrained`` put them, as a clone has them); the same command with that cache warm is
+  printed beside it, as is the time of each of the demo's steps.
 
 Each is the median of ``--repeat`` runs (each demo run in an empty output directory and,
 for the cold figure, an empty cache), with the spread. Uncommitted changes are not in the
