@@ -221,14 +221,13 @@ def source_digest() -> str:
     """SHA-256 of everything that makes a corpus or a pretrained network, and the version.
 
     Every module of :mod:`sim.user` (the virtual subjects), :mod:`sim.recording` (the
-    recording type) and :mod:`estimation` (features, scaling, this module), and the corpus
-    builder: an edit to any of them makes the cached networks stale.
+    recording type) and :mod:`estimation` (features, scaling, this module, and the
+    subpackages: ``baselines/mlp.py`` trains the networks), and the corpus builder: an
+    edit to any of them makes the cached and the shipped networks stale.
     """
     h = hashlib.sha256()
-    for package in _SOURCE_PACKAGES:
-        for entry in sorted(resources.files(package).iterdir(), key=lambda e: e.name):
-            if entry.name.endswith(".py"):
-                h.update(entry.name.encode() + entry.read_bytes())
+    for name, text in source_files():
+        h.update(name.encode() + text)
     for package, name in _SOURCE_MODULES:
         h.update(resources.files(package).joinpath(name).read_bytes())
     try:
@@ -236,6 +235,22 @@ def source_digest() -> str:
     except metadata.PackageNotFoundError:  # a source tree
         h.update(b"source")
     return h.hexdigest()
+
+
+def source_files() -> list[tuple[str, bytes]]:
+    """``(path in its package, bytes)`` of every module :func:`source_digest` reads."""
+    out = []
+
+    def walk(folder: Any, prefix: str) -> None:
+        for entry in sorted(folder.iterdir(), key=lambda e: e.name):
+            if entry.is_dir() and entry.name != "__pycache__":
+                walk(entry, f"{prefix}{entry.name}/")
+            elif entry.name.endswith(".py"):
+                out.append((prefix + entry.name, entry.read_bytes()))
+
+    for package in _SOURCE_PACKAGES:
+        walk(resources.files(package), f"{package}:")
+    return out
 
 
 _MEMO: dict[str, Pretrained] = {}

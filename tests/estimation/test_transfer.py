@@ -211,3 +211,11 @@ def test_shipped_networks_are_trusted_only_for_their_own_settings(tmp_path, monk
     again = pretrained(N_INPUTS, **kw)  # the mismatched shipped file is not used
     assert again.info["cache"].startswith("rebuilt: ValueError: settings differ")
     np.testing.assert_array_equal(again.networks[0].coefs[0], built.networks[0].coefs[0])
+
+
+def test_the_source_digest_reads_every_module_that_makes_the_networks():
+    names = {name for name, _ in transfer.source_files()}
+    # the virtual subjects, the recording type, the features and, in a subpackage, the
+    # trainer (fit_quietly): an edit to any makes cached and shipped networks stale
+    assert {"sim.user:subjects.py", "sim.recording:core.py", "estimation:features.py",
+            "estimation:transfer.py", "estimation:baselines/mlp.py"} <= names
