@@ -114,13 +114,12 @@ def state_space_dict(owner: Any, name: str) -> dict[str, Any] | None:
     stored = owner.__dict__.get(name)
     if stored is None:
         return None
-    dt = stored.dt if isinstance(stored, StoredSystem) else getattr(owner, name).dt
     A, B, C, D = state_space_matrices(owner, name)
     return {"A": A.tolist(), "B": B.tolist(), "C": C.tolist(), "D": D.tolist(),
-            "dt": float(dt) if dt not in (None, 0, True) and dt > 0 else None}
+            "dt": _dt(stored if isinstance(stored, StoredSystem) else getattr(owner, name))}
 
 
-def _dt(loop: control.LTI) -> float | None:
+def _dt(loop: control.LTI | StoredSystem) -> float | None:
     dt = loop.dt
     return float(dt) if dt not in (None, 0, True) and dt > 0 else None
 
