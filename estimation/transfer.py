@@ -38,7 +38,7 @@ import functools
 import hashlib
 import json
 from collections.abc import Callable, Sequence
-from importlib import metadata, resources
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +54,7 @@ from estimation.metrics import r2_score
 from estimation.normalize import MinMaxScaling
 from estimation.pretrained_store import Network, Pretrained
 from estimation.streaming import scaled
+from sim import cache as sim_cache
 from sim.cache import build_lock, cache_subdir
 from sim.registry import Registry
 
@@ -222,35 +223,14 @@ def source_digest() -> str:
 
     Every module of :mod:`sim.user` (the virtual subjects), :mod:`sim.recording` (the
     recording type) and :mod:`estimation` (features, scaling, this module, and the
-    subpackages: ``baselines/mlp.py`` trains the networks), and the corpus builder: an
-    edit to any of them makes the cached and the shipped networks stale.
+    subpackages: ``baselines/mlp.py`` trains the networks), walked as the design cache
+    walks its packages (:func:`sim.cache.source_digest`), and the corpus builder: an edit
+    to any of them makes the cached and the shipped networks stale.
     """
-    h = hashlib.sha256()
-    for name, text in source_files():
-        h.update(name.encode() + text)
-    for package, name in _SOURCE_MODULES:
+    h = hashlib.sha256(sim_cache.source_digest(_SOURCE_PACKAGES).encode())
+    for package, name in _SOURCE_MODULES:  # read, not imported (estimation's layer)
         h.update(resources.files(package).joinpath(name).read_bytes())
-    try:
-        h.update(metadata.version("griploop").encode())
-    except metadata.PackageNotFoundError:  # a source tree
-        h.update(b"source")
     return h.hexdigest()
-
-
-def source_files() -> list[tuple[str, bytes]]:
-    """``(path in its package, bytes)`` of every module :func:`source_digest` reads."""
-    out = []
-
-    def walk(folder: Any, prefix: str) -> None:
-        for entry in sorted(folder.iterdir(), key=lambda e: e.name):
-            if entry.is_dir() and entry.name != "__pycache__":
-                walk(entry, f"{prefix}{entry.name}/")
-            elif entry.name.endswith(".py"):
-                out.append((prefix + entry.name, entry.read_bytes()))
-
-    for package in _SOURCE_PACKAGES:
-        walk(resources.files(package), f"{package}:")
-    return out
 
 
 _MEMO: dict[str, Pretrained] = {}
@@ -341,7 +321,12 @@ def pretrained(n_inputs: int, *, corpus: str = "virtual", n_subjects: int = 40,
     return model
 
 
-def ship_default_networks(n_inputs: Sequence[int] = (24, 9)) -> list[Path]:
+#: Feature layouts whose default ensembles ship: all 8 channels and channels 6-8 (MAV, RMS
+#: and WL of each; ``scenarios.runners.pretraining.LAYOUTS``).
+SHIPPED_LAYOUTS = (24, 9)
+
+
+def ship_default_networks(n_inputs: Sequence[int] = SHIPPED_LAYOUTS) -> list[Path]:
     """Write the default ensembles (all 8 channels, and channels 6-8) as the shipped ones.
 
     ``make pretrained`` runs this after a change to what builds them (the key's source

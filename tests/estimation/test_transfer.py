@@ -155,34 +155,23 @@ def test_bad_input_is_named():
         est.predict(U[:, :3])
 
 
-def test_the_shipped_networks_are_those_this_code_builds():
+def test_the_shipped_networks_are_those_this_code_builds(tmp_path, monkeypatch):
     """``make pretrained`` wrote the default ensembles of this source (its digest is in the key).
 
     If this fails, what builds them changed: run ``make pretrained`` and commit the files.
     """
     from estimation import pretrained_store as store
-    from estimation.transfer import EPOCH_STAGE, _key, _settings
 
-    for n_inputs in (24, 9):
-        settings = _settings(n_inputs, "virtual", 40, transfer.PRETRAIN_SEED, (32, 16), 2, 3,
-                             60, transfer.VALIDATION_SUBJECTS)
-        key = _key(settings)
-        stem = store.SHIPPED_DIR / f"{store.PREFIX}{key}"
-        assert stem.with_suffix(".npz").exists(), (
-            f"no shipped networks for {n_inputs} inputs of this source: run `make pretrained`")
-        model = store.load(stem, settings, key, EPOCH_STAGE)
-        assert len(model.networks) == 3 and model.epochs % EPOCH_STAGE == 0
-    assert len(list(store.SHIPPED_DIR.glob("*.npz"))) == 2  # nothing stale beside them
-
-
-def test_the_default_ensemble_is_read_from_the_package_without_pretraining(tmp_path,
-                                                                           monkeypatch):
     monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(tmp_path))  # an empty cache
-    monkeypatch.setattr(transfer, "build_pretrained",
-                        lambda settings: pytest.fail("pretrained although shipped"))
-    model = pretrained(9)
-    assert model.info["cache"] == "shipped" and len(model.networks) == 3
+    monkeypatch.setattr(transfer, "build_pretrained", lambda settings: pytest.fail(
+        f"no shipped networks for {settings['n_inputs']} inputs of this source: run "
+        "`make pretrained`"))
+    for n_inputs in transfer.SHIPPED_LAYOUTS:  # the defaults, as TransferMLP asks for them
+        model = pretrained(n_inputs)
+        assert model.info["cache"] == "shipped" and len(model.networks) == 3
+        assert model.epochs % EPOCH_STAGE == 0
     assert not (tmp_path / "pretrained").exists()  # nothing copied into the cache
+    assert len(list(store.SHIPPED_DIR.glob("*.npz"))) == len(transfer.SHIPPED_LAYOUTS)
 
 
 def test_shipped_networks_are_trusted_only_for_their_own_settings(tmp_path, monkeypatch):
@@ -213,9 +202,18 @@ def test_shipped_networks_are_trusted_only_for_their_own_settings(tmp_path, monk
     np.testing.assert_array_equal(again.networks[0].coefs[0], built.networks[0].coefs[0])
 
 
-def test_the_source_digest_reads_every_module_that_makes_the_networks():
-    names = {name for name, _ in transfer.source_files()}
-    # the virtual subjects, the recording type, the features and, in a subpackage, the
-    # trainer (fit_quietly): an edit to any makes cached and shipped networks stale
-    assert {"sim.user:subjects.py", "sim.recording:core.py", "estimation:features.py",
-            "estimation:transfer.py", "estimation:baselines/mlp.py"} <= names
+def test_the_source_digest_walks_every_package_that_makes_the_networks(monkeypatch):
+    from sim import cache as sim_cache
+
+    asked = []
+    real = sim_cache.source_digest
+    monkeypatch.setattr(sim_cache, "source_digest",
+                        lambda packages, *a, **kw: asked.extend(packages) or real(packages))
+    transfer.source_digest.cache_clear()
+    try:
+        transfer.source_digest()
+    finally:
+        transfer.source_digest.cache_clear()
+    # the virtual subjects, the recording type, the features and the trainer
+    # (estimation/baselines/mlp.py, found by the walk of estimation's subpackages)
+    assert {"sim.user", "sim.recording", "estimation"} <= set(asked)
