@@ -1,9 +1,9 @@
-"""Summaries of the feedback benchmarks: feedback modes side by side with 95 % intervals.
+"""Summaries of the benchmarks: feedback modes side by side with 95 % intervals.
 
-The JSON of ``griploop eggs``, ``slip-recovery`` and ``force-matching`` (documented in
-docs/FORMAT.md) and the report's feedback section both come from :func:`aggregate`
-of the result rows of :mod:`scenarios.runners.feedback_tasks`. Plain data, no
-simulation: the report may import it.
+The JSON of ``griploop eggs``, ``slip-recovery``, ``force-matching`` and ``transfers``
+(documented in docs/FORMAT.md) and the report's feedback section both come from
+:func:`aggregate` of the result rows of :mod:`scenarios.runners.feedback_tasks` and
+:mod:`scenarios.runners.transfers`. Plain data, no simulation: the report may import it.
 """
 
 from __future__ import annotations
@@ -85,6 +85,25 @@ def aggregate_force_matching(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any
     return {"by_feedback": out}
 
 
+def aggregate_transfers(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The ``transfers`` JSON contract (docs/FORMAT.md) from ``transfers`` rows (one arm).
+
+    ``{"blocks_per_min", "ci95", "drops", "breaks", "not_released", "not_lifted",
+    "transfer_s", "subjects", "per_subject"}``: blocks per minute averaged over subjects with
+    a Student-t interval (one row per subject), counts summed, ``transfer_s`` the mean time
+    of a moved block.
+    """
+    rate = mean_interval([r["blocks_per_min"] for r in rows])
+    times = [r["transfer_s"] for r in rows if r.get("transfer_s") is not None]
+    return {"blocks_per_min": _num(rate[0]), "ci95": _ci(rate[1:]),
+            **{k: int(sum(r.get(k) or 0 for r in rows))
+               for k in ("drops", "breaks", "not_released", "not_lifted")},
+            "transfer_s": float(sum(times) / len(times)) if times else None,
+            "subjects": len(rows),
+            "per_subject": [{"subject_id": r["subject_id"], "blocks_per_min": r["blocks_per_min"]}
+                            for r in rows]}
+
+
 def _num(v: float) -> float | None:
     return None if math.isnan(v) else float(v)
 
@@ -95,7 +114,7 @@ def _modes(rows: Sequence[Mapping[str, Any]]) -> list[str]:
 
 AGGREGATES: dict[str, Callable[[Sequence[Mapping[str, Any]]], dict[str, Any]]] = {
     "eggs": aggregate_eggs, "slip_recovery": aggregate_slip_recovery,
-    "force_matching": aggregate_force_matching}
+    "force_matching": aggregate_force_matching, "transfers": aggregate_transfers}
 """Scenario kind -> the aggregation of its rows into the command's JSON."""
 
 

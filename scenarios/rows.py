@@ -64,12 +64,16 @@ class EpisodeRow(_Row):
     """One closed-loop grasp-lift-hold episode (kind ``episode``).
 
     Identity: subject, seed, object, controller, estimator and its mode, the
-    user and feedback. Metrics (:func:`scenarios.runners.episode_metrics.episode_metrics`):
-    tracking and estimation error, transient, slip, outcome
-    (:data:`scenarios.outcomes.OUTCOMES`). Loop: margins at the held force and
-    the worst over the forces visited (:func:`controllers.design.worst_case`,
-    prefixed ``worst_``; ``None`` when no force was visited). Calibration and
-    timings (s).
+    user and feedback, their practice (lifts, and the belief it left: contraction
+    gain and safety margin) and the feature window. The trial: ``attempts``
+    (lifts started), ``time_to_lift_s`` (first contact to a secure lift) and
+    ``safety_margin_pct`` (held grip over the slip force, minus 1, in the hold),
+    ``None`` on the scripted schedule or without a lift or hold. Metrics
+    (:func:`scenarios.runners.episode_metrics.episode_metrics`): tracking and
+    estimation error, transient, slip, outcome (:data:`scenarios.outcomes.OUTCOMES`).
+    Loop: margins at the held force and the worst over the forces visited
+    (:func:`controllers.design.worst_case`, prefixed ``worst_``; ``None`` when no
+    force was visited). Calibration and timings (s).
     """
 
     kind: ClassVar[str] = "episode"
@@ -86,6 +90,11 @@ class EpisodeRow(_Row):
     scheduled: bool | None
     user: str | None
     feedback: str | None
+    practice: int | None
+    belief_gain: float | None
+    belief_margin_pct: float | None
+    window_ms: float | None
+    step_ms: float | None
     user_corrections: int | None
     first_correction_s: float | None
     contact_time_s: float | None
@@ -103,6 +112,9 @@ class EpisodeRow(_Row):
     dropped: bool | None
     crushed: bool | None
     outcome: str | None
+    attempts: int | None
+    time_to_lift_s: float | None
+    safety_margin_pct: float | None
     contact_peak_ratio: float | None
     both_sides_time_s: float | None
     held_force_n: float | None

@@ -10,8 +10,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from scenarios.cli.errors import UnknownChoiceError
+from scenarios.cli.errors import UnknownChoiceError, UsageError
 from scenarios.schema.names import (
+    PRACTICE_RANGE,
+    STEP_RANGE_MS,
+    WINDOW_RANGE_MS,
     controller_names,
     estimator_choices,
     feedback_modes,
@@ -20,7 +23,8 @@ from scenarios.schema.names import (
     user_kinds,
 )
 
-__all__ = ["add_user_options", "check_choice", "check_user_options", "controller_names",
+__all__ = ["add_practice_window_options", "add_user_options", "check_choice",
+           "check_practice_window", "check_user_options", "controller_names",
            "estimator_choices", "feedback_modes", "generator_names", "object_names", "one_of",
            "user_kinds"]
 
@@ -74,3 +78,37 @@ def check_user_options(user: str, feedback: Sequence[str]) -> None:
         raise UnknownChoiceError(
             f"--feedback: the {user} user takes feedback none only (found "
             f"{','.join(feedback)}); feedback needs --user {' or '.join(kinds)}")
+
+
+def add_practice_window_options(parser: object) -> None:
+    """Add ``--practice``, ``--window-ms`` and ``--step-ms``."""
+    lo, hi = PRACTICE_RANGE
+    parser.add_argument("--practice", type=int, default=5, metavar="N",
+                        help=f"practice lifts of the object's class before the measured trials, "
+                        f"{lo}..{hi} (default 5; 0 is the novice)")
+    parser.add_argument("--window-ms", type=float, default=400.0, metavar="W",
+                        help=f"sEMG feature window, ms, {WINDOW_RANGE_MS[0]:g}..."
+                        f"{WINDOW_RANGE_MS[1]:g} (default 400, the paper's)")
+    parser.add_argument("--step-ms", type=float, default=125.0, metavar="S",
+                        help=f"window increment, ms, {STEP_RANGE_MS[0]:g}..{STEP_RANGE_MS[1]:g}, "
+                        "at most the window (default 125, the paper's)")
+
+
+def check_practice_window(practice: int, window_ms: float, step_ms: float) -> None:
+    """Refuse a practice count or a window out of range, or a window shorter than its step.
+
+    Raises
+    ------
+    UsageError
+        One line naming the flag.
+    """
+    lo, hi = PRACTICE_RANGE
+    if not lo <= practice <= hi:
+        raise UsageError(f"--practice: expected {lo}..{hi} lifts, found {practice}")
+    for flag, value, (a, b) in (("--window-ms", window_ms, WINDOW_RANGE_MS),
+                                ("--step-ms", step_ms, STEP_RANGE_MS)):
+        if not a <= value <= b:  # NaN fails too
+            raise UsageError(f"{flag}: expected {a:g}..{b:g} ms, found {value:g}")
+    if step_ms > window_ms:
+        raise UsageError(f"--step-ms: expected at most the window (--window-ms {window_ms:g}), "
+                         f"found {step_ms:g}")

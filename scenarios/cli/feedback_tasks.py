@@ -1,4 +1,4 @@
-"""What ``griploop eggs``, ``slip-recovery`` and ``force-matching`` share.
+"""What ``griploop eggs``, ``slip-recovery``, ``force-matching`` and ``transfers`` share.
 
 Each command takes its sweep from the library file of its kind
 (``scenarios/library/eggs.yaml``, ``slip_recovery.yaml``, ``force_matching.yaml``),
@@ -24,14 +24,17 @@ from typing import Any
 import yaml
 
 from scenarios.cli.choices import (
+    add_practice_window_options,
     add_user_options,
     check_choice,
+    check_practice_window,
     check_user_options,
     controller_names,
     estimator_choices,
     one_of,
 )
 from scenarios.cli.errors import UsageError
+from scenarios.schema.names import INTACT
 
 
 def add_common_options(p: argparse.ArgumentParser, *, default_feedback: str,
@@ -53,6 +56,10 @@ def add_common_options(p: argparse.ArgumentParser, *, default_feedback: str,
                    help="worker processes forked from this one (default 1)")
     p.add_argument("--db", type=Path, default=None, metavar="PATH",
                    help="results store (resumable; default: a temporary one, discarded)")
+    add_practice_window_options(p)
+    p.add_argument("--intact", action="store_true",
+                   help="also run the intact-hand reference (the user's own force drives the "
+                   "hand, no sEMG path, felt by touch): the JSON's intact")
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write JSON here")
     p.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
 
@@ -76,62 +83,64 @@ def library_sweep(kind: str) -> dict[str, Any]:
 
 def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | None = None,
              grid: Mapping[str, list[Any]] | None = None,
-             table: Callable[[dict[str, Any]], str]) -> int:
-    """Run a feedback benchmark as the options say; print ``table(result)``, write the JSON.
+             table: Callable[[dict[str, Any]], str], feedback_grid: bool = True) -> int:
+    """Run a benchmark as the options say; print ``table(result)``, write the JSON.
+
+    With ``--intact`` the same design also runs with the intact-hand reference
+    (estimator ``intact``, feedback ``touch``: the user's own force drives the hand,
+    no sEMG path), into the same store; its summary is the JSON's ``intact``.
 
     Parameters
     ----------
     kind : str
-        Scenario kind (``eggs``, ``slip_recovery``, ``force_matching``).
+        Scenario kind (``eggs``, ``slip_recovery``, ``force_matching``, ``transfers``).
     base : mapping, optional
         Dotted scenario paths set on the library file's base.
     grid : mapping, optional
         Dotted scenario paths swept, added to the subjects and feedback modes.
+    feedback_grid : bool
+        Sweep the ``--feedback`` modes (a benchmark that compares them).
     """
-    from scenarios.execution.sweep import run_sweep
     from scenarios.feedback_summary import aggregate
-    from scenarios.schema import iter_expanded, parse_sweep
-    from scenarios.store import ResultStore
 
     feedback = comma_list("--feedback", args.feedback)
     check_user_options(args.user, feedback)
     check_choice("--controller", args.controller, controller_names())
     check_choice("--estimator", args.estimator, estimator_choices())
+    check_practice_window(args.practice, args.window_ms, args.step_ms)
     if args.mode not in ("free_run", "one_step"):
         raise UsageError(f"--mode: expected free_run or one_step, found {args.mode!r}")
     if args.subjects < 1:
         raise UsageError(f"--subjects: expected at least 1, found {args.subjects}")
     if args.workers < 1:
         raise UsageError(f"--workers: expected at least 1, found {args.workers}")
-    data = library_sweep(kind)
     settings = {"controller.kind": args.controller, "estimator.name": args.estimator,
-                "estimator.mode": args.mode, "user.kind": args.user,
+                "estimator.mode": args.mode, "estimator.window_ms": args.window_ms,
+                "estimator.step_ms": args.step_ms, "user.kind": args.user,
+                "user.practice": args.practice,
                 "subject.population_seed": args.population_seed, **(base or {})}
-    for path, value in settings.items():
-        _set(data["base"], path, value)
-    data["grid"] = {"subject.subject_id": list(range(1, args.subjects + 1)),
-                    **(grid or {}), "user.feedback": feedback}
-    if args.seed is not None:
-        data["seed"] = args.seed
-    digest = hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:10]
-    data["name"] = f"{kind}-{digest}"
-    spec = parse_sweep(data, source=f"griploop {args.command} options")
+    arms = [(settings, feedback)]
+    if getattr(args, "intact", False):
+        arms.append(({**settings, "estimator.name": INTACT, "user.kind": "reacting"},
+                     ["touch"]))
     with tempfile.TemporaryDirectory() as tmp:
         db = args.db if args.db is not None else Path(tmp) / "results.sqlite"
-        with ResultStore(db) as store:
-            summary = run_sweep(list(_planned(spec, iter_expanded)), store, workers=args.workers,
-                                sweep_name=spec.name, time_limit_s=spec.time_limit_s,
-                                progress=not args.no_progress)
-            rows = store.rows(sweep=spec.name)
-    ok = [r["result"] for r in rows if r["status"] == "ok"]
-    failed = [r for r in rows if r["status"] == "failed"]
+        outcomes = [_run_arm(args, kind, arm, modes, grid, feedback_grid, db)
+                    for arm, modes in arms]
+    (spec, ok, failed, elapsed) = outcomes[0]
     result = {**aggregate(kind, ok),
               "settings": {"kind": kind, **settings, "feedback": feedback,
                            "subjects": args.subjects, "seed": spec.seed,
                            **{k: v for k, v in (grid or {}).items()}},
               "scenarios": {"ok": len(ok), "failed": len(failed)}}
-    print(f"{kind}: {len(ok)} scenarios ok, {len(failed)} failed in {summary.elapsed_s:.1f} s "
-          f"({args.controller}, {args.estimator} {args.mode}, {args.user} user, "
+    if len(outcomes) > 1:
+        intact_ok = outcomes[1][1]
+        result["intact"] = aggregate(kind, intact_ok)
+        result["scenarios"]["intact"] = {"ok": len(intact_ok), "failed": len(outcomes[1][2])}
+        failed = failed + outcomes[1][2]
+    print(f"{kind}: {len(ok)} scenarios ok, {len(outcomes[0][2])} failed in {elapsed:.1f} s "
+          f"({args.controller}, {args.estimator} {args.mode}, {args.user} user, practice "
+          f"{args.practice}, window {args.window_ms:g}/{args.step_ms:g} ms, "
           f"{args.subjects} subjects)")
     print(table(result))
     for r in failed[:3]:
@@ -144,6 +153,37 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
     if args.db is not None:
         print(f"results in {args.db} (sweep {spec.name}; griploop report {args.db} --out DIR)")
     return 0
+
+
+def _run_arm(args: argparse.Namespace, kind: str, settings: Mapping[str, Any],
+             feedback: list[str], grid: Mapping[str, list[Any]] | None, feedback_grid: bool,
+             db: Path) -> tuple[Any, list[dict[str, Any]], list[dict[str, Any]], float]:
+    """One sweep of the library design with ``settings``; its spec, ok and failed rows."""
+    from scenarios.execution.sweep import run_sweep
+    from scenarios.schema import iter_expanded, parse_sweep
+    from scenarios.store import ResultStore
+
+    data = library_sweep(kind)
+    for path, value in settings.items():
+        _set(data["base"], path, value)
+    data["grid"] = {"subject.subject_id": list(range(1, args.subjects + 1)), **(grid or {})}
+    if feedback_grid or len(feedback) > 1:
+        data["grid"]["user.feedback"] = feedback
+    else:
+        _set(data["base"], "user.feedback", feedback[0])
+    if args.seed is not None:
+        data["seed"] = args.seed
+    digest = hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:10]
+    data["name"] = f"{kind}-{digest}"
+    spec = parse_sweep(data, source=f"griploop {args.command} options")
+    with ResultStore(db) as store:
+        summary = run_sweep(list(_planned(spec, iter_expanded)), store, workers=args.workers,
+                            sweep_name=spec.name, time_limit_s=spec.time_limit_s,
+                            progress=not args.no_progress)
+        rows = store.rows(sweep=spec.name)
+    ok = [r["result"] for r in rows if r["status"] == "ok"]
+    failed = [r for r in rows if r["status"] == "failed"]
+    return spec, ok, failed, summary.elapsed_s
 
 
 def _planned(spec: Any, iter_expanded: Callable[..., Any]) -> Any:

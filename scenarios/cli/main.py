@@ -81,6 +81,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
                  "simulate the paper's squeeze session for a virtual population"),
     "sweep": ("scenarios.cli.commands.sweep",
               "run a YAML sweep of scenarios into the results store (resumable)"),
+    "transfers": ("scenarios.cli.commands.transfers",
+                  "timed transfers (Box and Blocks style): blocks per minute, prosthesis and "
+                  "intact hand"),
 }
 
 

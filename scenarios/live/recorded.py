@@ -290,7 +290,8 @@ def episode_on_recording(recording: Recording, cal: RecordedCalibration, obj: Ob
         to_hand = cal.to_hand(hand_force_at_mvc_n)
         ceiling = 1.2 * hand_force_at_mvc_n
         t0 = time.perf_counter()
-        estimates = np.clip(stream_estimates(cal.calibration, features) * to_hand, 0.0, ceiling)
+        gated = cal.calibration.rest_gate().run(stream_estimates(cal.calibration, features))
+        estimates = np.clip(gated * to_hand, 0.0, ceiling)
         timings["t_estimator_s"] = time.perf_counter() - t0
         n_steps = int(round(episode_s / control_dt_s))
         t_ctrl = np.arange(n_steps) * control_dt_s

@@ -163,6 +163,7 @@ class LiveGrasp:
         self.guard = SampleGuard(cal.integer)
         self.fs_hz = cal.fs_hz
         self.to_hand = cal.to_hand(s.hand_force_at_mvc_n)
+        self.gate = cal.calibration.rest_gate()  # the hand acts above the rest threshold
         self.ceiling = 1.2 * s.hand_force_at_mvc_n
         self.n_steps = int(round(s.duration_s / s.control_dt_s))
         self._publish, self._event, self._clock = publish, event, clock
@@ -276,7 +277,7 @@ class LiveGrasp:
             self.received += 1
             row = self.windows.push(x[i])
             if row is not None:
-                value = self.stream.step(row, None) * self.to_hand
+                value = self.gate.step(self.stream.step(row, None)) * self.to_hand
                 value = 0.0 if value < 0.0 else self.ceiling if value > self.ceiling else value
                 if value == value:  # not NaN
                     self.reference_n = value

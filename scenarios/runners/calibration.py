@@ -22,11 +22,12 @@ import numpy as np
 
 from estimation.features import FeatureSet
 from estimation.paper import PAPER_ORDER
+from estimation.rest_gate import RestGate, rest_thresholds
 from estimation.threads import one_blas_thread
 from scenarios.rows import CalibrationRow
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.subject import calibration_session, subject_for
-from scenarios.schema import ORACLE, Scenario
+from scenarios.schema import NO_ESTIMATOR, Scenario
 from sim.user.subjects import VirtualSubject
 
 
@@ -37,16 +38,21 @@ class Calibration:
     Attributes
     ----------
     name : str
-        Estimator name (or ``"oracle"``).
+        Estimator name (or ``"oracle"``, ``"intact"``).
     mode : {"one_step", "free_run"}
     pipeline : object or None
-        Fitted :class:`estimation.pipeline.ForcePipeline` (``None`` for the oracle).
+        Fitted :class:`estimation.pipeline.ForcePipeline` (``None`` for the oracle and the
+        intact-hand reference).
     mvc_cal_n : float
         Largest FSR force of the calibration session, N.
     r2 : float or None
         Validation R^2 in ``mode`` on the session's last part (None for the oracle).
     fit_s : float
         Time to fit, s.
+    rest_on_n, rest_off_n : float
+        The hand's rest threshold on the estimate (:mod:`estimation.rest_gate`), N:
+        closed above ``rest_on_n``, open again below ``rest_off_n``; set from the
+        estimate at sustained rest in the session (0: none, the oracle's).
     """
 
     name: str
@@ -55,6 +61,12 @@ class Calibration:
     mvc_cal_n: float
     r2: float | None
     fit_s: float
+    rest_on_n: float = 0.0
+    rest_off_n: float = 0.0
+
+    def rest_gate(self) -> RestGate:
+        """A new (open) :class:`~estimation.rest_gate.RestGate` at the calibration's thresholds."""
+        return RestGate(self.rest_on_n, self.rest_off_n)
 
 
 def fit_one(features: FeatureSet, estimator: str, mode: str, *, rng: np.random.Generator,
@@ -115,7 +127,9 @@ def fit_on_features(features: FeatureSet, estimator: str, mode: str, *,
     """Fit ``estimator`` on the identification part of a calibration's features and score it.
 
     The fit of a calibration, for a simulated session (:func:`calibrate`) and a
-    recording (:mod:`scenarios.live.recorded`), through :func:`fit_one`.
+    recording (:mod:`scenarios.live.recorded`), through :func:`fit_one`; the hand's
+    rest threshold comes from the fitted estimate over the whole session
+    (:func:`estimation.rest_gate.rest_thresholds`).
 
     Raises
     ------
@@ -126,8 +140,12 @@ def fit_on_features(features: FeatureSet, estimator: str, mode: str, *,
     """
     result = fit_one(features, estimator, mode, rng=rng, order=order,
                      fraction=identification_fraction, options=options)
-    return Calibration(estimator, mode, result["_pipeline"], mvc_cal_n,
-                       result["modes"][mode]["r2"], result["train_ms"] / 1e3)
+    pipeline = result["_pipeline"]
+    estimate = pipeline.predict(features.X, features.y if mode == "one_step" else None,
+                                mode=mode)
+    on_n, off_n = rest_thresholds(estimate, features.y, features.dt_s)
+    return Calibration(estimator, mode, pipeline, mvc_cal_n, result["modes"][mode]["r2"],
+                       result["train_ms"] / 1e3, on_n, off_n)
 
 
 def calibrate(
@@ -141,21 +159,75 @@ def calibrate(
     identification_fraction: float = 0.5,
     calibration_s: float | None = None,
     options: Mapping[str, Any] | None = None,
+    window_ms: float = 400.0,
+    step_ms: float = 125.0,
 ) -> Calibration:
     """Record a calibration session and fit ``estimator`` (with ``options``) on its first part.
 
     ``rng`` is split in two: the session (protocol timing, levels, noise) and the
-    estimator's seeds. Raises as :func:`fit_on_features`.
+    estimator's seeds. The features use ``window_ms`` windows every ``step_ms``.
+    Raises as :func:`fit_on_features`.
     """
     session_rng, estimator_rng = rng.spawn(2)
     recording, features = calibration_session(subject, session_rng, generator=generator,
-                                              min_duration_s=calibration_s)
+                                              min_duration_s=calibration_s,
+                                              window_ms=window_ms, step_ms=step_ms)
     mvc_cal_n = float(np.max(recording.force_n))
-    if estimator == ORACLE:
-        return Calibration(ORACLE, mode, None, mvc_cal_n, None, 0.0)
+    if estimator in NO_ESTIMATOR:  # the oracle, the intact hand: nothing to fit
+        return Calibration(estimator, mode, None, mvc_cal_n, None, 0.0)
     return fit_on_features(features, estimator, mode, rng=estimator_rng, order=order,
                            identification_fraction=identification_fraction,
                            mvc_cal_n=mvc_cal_n, options=options)
+
+
+@dataclass(frozen=True)
+class CalibrationSettings:
+    """How a calibration is recorded and fitted: everything but the subject and the seed.
+
+    Attributes
+    ----------
+    estimator, mode : str
+        The estimator (or ``"oracle"``, ``"intact"``) and its mode.
+    order : int
+        State-space order of the estimators that take one.
+    generator : str
+        The sEMG generator.
+    identification_fraction : float
+        Share of the session that identifies.
+    calibration_s : float or None
+        Least session length, s (``None``: the paper's one session).
+    options : mapping or None
+        The estimator's own hyperparameters.
+    window_ms, step_ms : float
+        The feature window and its increment, ms.
+    """
+
+    estimator: str
+    mode: str
+    order: int = PAPER_ORDER
+    generator: str = "noise"
+    identification_fraction: float = 0.5
+    calibration_s: float | None = None
+    options: Mapping[str, Any] | None = None
+    window_ms: float = 400.0
+    step_ms: float = 125.0
+
+    def fit(self, subject: VirtualSubject, seed_seq: np.random.SeedSequence) -> Calibration:
+        """:func:`shared_calibration` of ``subject`` with these settings."""
+        return shared_calibration(
+            subject, self.estimator, self.mode, seed_seq=seed_seq, generator=self.generator,
+            order=self.order, identification_fraction=self.identification_fraction,
+            calibration_s=self.calibration_s, options=self.options, window_ms=self.window_ms,
+            step_ms=self.step_ms)
+
+    def key(self, seed_seq: np.random.SeedSequence) -> dict[str, Any]:
+        """JSON-ready identity of the calibration these settings fit with ``seed_seq``."""
+        return {"seed": [int(x) for x in seed_seq.generate_state(4)],
+                "estimator": self.estimator, "mode": self.mode, "order": int(self.order),
+                "generator": self.generator,
+                "identification_fraction": float(self.identification_fraction),
+                "calibration_s": self.calibration_s, "options": dict(self.options or {}),
+                "window_ms": float(self.window_ms), "step_ms": float(self.step_ms)}
 
 
 _CALIBRATIONS: dict[tuple, Calibration] = {}
@@ -165,7 +237,8 @@ _MAX_CALIBRATIONS = 8
 def shared_calibration(subject: VirtualSubject, estimator: str, mode: str, *,
                        seed_seq: np.random.SeedSequence, generator: str, order: int,
                        identification_fraction: float, calibration_s: float | None,
-                       options: Mapping[str, Any] | None = None) -> Calibration:
+                       options: Mapping[str, Any] | None = None, window_ms: float = 400.0,
+                       step_ms: float = 125.0) -> Calibration:
     """:func:`calibrate`, memoized in this process on everything it depends on.
 
     A sweep's scenarios that differ only in what happens after the calibration (the
@@ -176,14 +249,16 @@ def shared_calibration(subject: VirtualSubject, estimator: str, mode: str, *,
     time the one fit took. The last :data:`_MAX_CALIBRATIONS` are kept.
     """
     key = (subject, estimator, mode, order, generator, identification_fraction, calibration_s,
-           tuple(seed_seq.generate_state(4)), tuple(sorted((options or {}).items())))
+           tuple(seed_seq.generate_state(4)), tuple(sorted((options or {}).items())),
+           float(window_ms), float(step_ms))
     if key not in _CALIBRATIONS:
         if len(_CALIBRATIONS) >= _MAX_CALIBRATIONS:
             _CALIBRATIONS.pop(next(iter(_CALIBRATIONS)))
         _CALIBRATIONS[key] = calibrate(
             subject, estimator, mode, rng=np.random.default_rng(seed_seq), generator=generator,
             order=order, identification_fraction=identification_fraction,
-            calibration_s=calibration_s, options=options)
+            calibration_s=calibration_s, options=options, window_ms=window_ms,
+            step_ms=step_ms)
     return _CALIBRATIONS[key]
 
 

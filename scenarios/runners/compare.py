@@ -16,16 +16,28 @@ from typing import Any
 import numpy as np
 
 from controllers.design import DEFAULT_SPECS
+from scenarios.outcomes import OUTCOMES
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.episode import run_episode
-from scenarios.schema import ORACLE
+from scenarios.schema import ORACLE, derive_seed
+from scenarios.stats import wilson_interval
 from sim.hand.objects import ObjectSpec
 from sim.user.subjects import VirtualSubject
 
 DEFAULT_REFERENCES = ("ss_kf", "mlp", "features_mav", ORACLE)
 COLUMNS = ("reference_volatility_n_per_s", "estimation_rmse_n", "tracking_rmse_n",
            "slip_events", "slip_distance_m", "dropped", "crushed", "peak_force_n",
-           "user_corrections")
+           "user_corrections", "attempts", "time_to_lift_s", "safety_margin_pct")
+
+
+def session_seed(seed: int, population_seed: int, subject_id: int, session: int = 0) -> int:
+    """The seed of one subject's session (calibration, practice and trial) in a run.
+
+    Derived from the run's ``seed``, the subject and the session number, so that
+    subjects draw independent sessions (one seed given to every subject would be one
+    draw seen again and again) and a subject's estimators share theirs (paired).
+    """
+    return derive_seed(seed, f"population {population_seed} subject {subject_id}", session)
 
 
 def compare_references(
@@ -38,9 +50,11 @@ def compare_references(
     subject_ids: Sequence[int] = (1, 2, 3),
     population_seed: int = 0,
     seed: int = 0,
-    episode_s: float = 6.0,
+    sessions: int = 1,
+    episode_s: float | None = None,
     user: str = "reacting",
     feedback: str = "none",
+    practice: int = 5,
 ) -> dict[str, Any]:
     """Run one grasp per subject and estimator; summarize per estimator.
 
@@ -60,39 +74,50 @@ def compare_references(
     subject_ids : sequence of int
         Virtual subjects of ``population_seed``.
     seed : int
-        Episode seed; the same for every estimator, so the subject's sEMG is identical.
+        The run's seed: each subject's sessions derive from it and the subject
+        (:func:`session_seed`); a subject's estimators share them, so their sEMG
+        is identical (paired).
+    sessions : int
+        Sessions per subject (independent calibrations, practice and trials).
+    episode_s : float, optional
+        The trial's time limit (default: the user kind's).
     user, feedback : str
         The user kind and feedback mode (:func:`scenarios.runners.episode.run_episode`).
+    practice : int
+        Practice lifts before each measured trial (0: the novice).
 
     Returns
     -------
     dict
-        ``rows``: one flat row per (subject, estimator) with ``status`` ok/failed
-        and ``error``; ``summary``: per estimator, the mean of each column in
-        :data:`COLUMNS` over the successful episodes (``not_lifted``, ``dropped``
-        and ``crushed`` as fractions of the outcome categories: each episode has
-        one), ``n_ok`` and ``n_failed``.
+        ``rows``: one flat row per (subject, session, estimator) with its
+        ``seed``, ``status`` ok/failed and ``error``; ``summary``: per estimator,
+        the mean of each column in :data:`COLUMNS` over the successful episodes
+        (``held``, ``not_lifted``, ``dropped`` and ``crushed`` as fractions of the
+        outcome categories: each episode has one), ``held_ci95`` (Wilson),
+        ``held_by_subject`` (min and max over subjects of their held fraction:
+        the spread a verdict on few draws hides), ``n_ok`` and ``n_failed``.
     """
     spec = dict(DEFAULT_SPECS.get(controller, {}) if controller_spec is None else controller_spec)
     rows: list[dict[str, Any]] = []
     for sid in subject_ids:
         subject = VirtualSubject.sample(population_seed, sid)
-        for name in estimators:
-            base = {"subject_id": sid, "estimator": name,
-                    "mode": "oracle" if name == ORACLE else mode}
-            try:
-                result = run_episode(subject, obj, estimator=name, mode=mode,
-                                     controller=controller, controller_spec=spec, seed=seed,
-                                     episode_s=episode_s, user=user, feedback=feedback)
-            except (DivergedError, UnsupportedScenarioError) as exc:
-                rows.append({**base, "status": "failed", "error": str(exc)})
-                continue
-            row = result.row
-            rows.append({**base, "status": "ok", "error": None,
-                         **{k: row[k] for k in COLUMNS},
-                         "not_lifted": row["outcome"] == "not_lifted",
-                         "dropped": row["outcome"] == "dropped",
-                         "crushed": row["outcome"] == "crushed"})
+        for session in range(sessions):
+            episode_seed = session_seed(seed, population_seed, sid, session)
+            for name in estimators:
+                base = {"subject_id": sid, "session": session, "seed": episode_seed,
+                        "estimator": name, "mode": "oracle" if name == ORACLE else mode}
+                try:
+                    result = run_episode(subject, obj, estimator=name, mode=mode,
+                                         controller=controller, controller_spec=spec,
+                                         seed=episode_seed, episode_s=episode_s, user=user,
+                                         feedback=feedback, practice=practice)
+                except (DivergedError, UnsupportedScenarioError) as exc:
+                    rows.append({**base, "status": "failed", "error": str(exc)})
+                    continue
+                row = result.row
+                rows.append({**base, "status": "ok", "error": None,
+                             **{k: row[k] for k in COLUMNS},
+                             **{o: row["outcome"] == o for o in OUTCOMES}})
     summary = {}
     for name in estimators:
         ok = [r for r in rows if r["estimator"] == name and r["status"] == "ok"]
@@ -100,22 +125,27 @@ def compare_references(
                                  "n_ok": len(ok), "n_failed": sum(
                                      r["estimator"] == name and r["status"] == "failed"
                                      for r in rows)}
-        for col in (*COLUMNS, "not_lifted"):
+        for col in (*COLUMNS, *OUTCOMES):
             values = [float(r[col]) for r in ok if r[col] is not None]
             entry[col] = float(np.mean(values)) if values else None
+        entry["held_ci95"] = list(wilson_interval(sum(r["held"] for r in ok), len(ok)))
+        by_subject = [np.mean([r["held"] for r in ok if r["subject_id"] == sid])
+                      for sid in subject_ids if any(r["subject_id"] == sid for r in ok)]
+        entry["held_by_subject"] = ([float(min(by_subject)), float(max(by_subject))]
+                                    if by_subject else None)
         summary[name] = entry
     return {"object": {"name": obj.name, "mass_kg": obj.mass_kg, "friction": obj.friction,
                        "break_force_n": obj.break_force_n},
             "controller": controller, "subjects": list(subject_ids), "seed": seed,
-            "user": user, "feedback": feedback,
+            "sessions": sessions, "user": user, "feedback": feedback, "practice": practice,
             "rows": rows, "summary": summary}
 
 
 def format_comparison(result: dict[str, Any]) -> str:
     """A plain-text table of :func:`compare_references`'s summary."""
-    head = (f"{'reference':<14}{'mode':<10}{'volatility N/s':>15}{'est. RMSE N':>12}"
-            f"{'track RMSE N':>13}{'slip ev.':>9}{'slip mm':>8}{'not lifted %':>13}"
-            f"{'drop %':>7}{'crush %':>8}"
+    head = (f"{'reference':<14}{'mode':<10}{'held %':>7}{'not lifted %':>13}"
+            f"{'drop %':>7}{'crush %':>8}{'attempts':>9}{'lift s':>7}{'margin %':>9}"
+            f"{'volatility N/s':>15}{'est. RMSE N':>12}{'track RMSE N':>13}{'slip mm':>8}"
             f"{'peak N':>8}{'corr.':>6}{'ok/fail':>9}")
     lines = [head]
 
@@ -124,11 +154,14 @@ def format_comparison(result: dict[str, Any]) -> str:
 
     for name, s in result["summary"].items():
         lines.append(
-            f"{name:<14}{s['mode']:<10}{f(s['reference_volatility_n_per_s']):>15}"
-            f"{f(s['estimation_rmse_n']):>12}{f(s['tracking_rmse_n']):>13}"
-            f"{f(s['slip_events'], fmt='.1f'):>9}{f(s['slip_distance_m'], 1e3, '.1f'):>8}"
+            f"{name:<14}{s['mode']:<10}{f(s['held'], 100, '.0f'):>7}"
             f"{f(s['not_lifted'], 100, '.0f'):>13}"
             f"{f(s['dropped'], 100, '.0f'):>7}{f(s['crushed'], 100, '.0f'):>8}"
+            f"{f(s['attempts'], fmt='.2f'):>9}{f(s['time_to_lift_s'], fmt='.2f'):>7}"
+            f"{f(s['safety_margin_pct'], fmt='.0f'):>9}"
+            f"{f(s['reference_volatility_n_per_s']):>15}"
+            f"{f(s['estimation_rmse_n']):>12}{f(s['tracking_rmse_n']):>13}"
+            f"{f(s['slip_distance_m'], 1e3, '.1f'):>8}"
             f"{f(s['peak_force_n'], fmt='.1f'):>8}{f(s['user_corrections'], fmt='.1f'):>6}"
             f"{s['n_ok']:>5}/{s['n_failed']}"
         )

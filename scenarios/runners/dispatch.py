@@ -238,3 +238,5 @@ register_kind("slip_recovery", "scenarios.runners.feedback_tasks:run_slip_recove
               protocols=("slip_recovery",))
 register_kind("force_matching", "scenarios.runners.feedback_tasks:run_force_matching_scenario",
               protocols=("force_matching",))
+register_kind("transfers", "scenarios.runners.transfers:run_transfers_scenario",
+              protocols=("timed_transfers",))

@@ -16,11 +16,15 @@ Conventions (documented choices):
   user's strongest squeeze) and ``hand_force_at_mvc_n`` (default 30 N) is the
   hand force commanded at that effort. References are clipped to
   ``0..1.2 * hand_force_at_mvc_n``.
-- **What the user intends.** The user grips the object with
-  ``safety_factor`` times its slip threshold ``m g / (2 mu)``, at least
-  ``min_grip_n`` (2 N), and at most 70 % of a fragile object's break force.
-  Their intent (fraction of MVC) is that hand force mapped back through the
-  calibration.
+- **What the user intends.** The user aims at their safety margin over the
+  object's slip threshold ``m g / (2 mu)``, at least 2 N, at most 70 % of a
+  fragile object's break force, through the calibration's mapping and what
+  they learnt of the prosthesis (:mod:`sim.user.belief`). By default a reacting
+  user practises ``practice`` lifts of the object's class first
+  (:mod:`scenarios.runners.practice`); ``practice=0`` is the novice, who aims at
+  1.5 x the slip threshold as every user of griploop 0.4 did. The scripted user
+  aims at that too. The controller's ``safety_factor`` is the controller's own
+  (the MPC's sensed slip bound), not the user's.
 - **Oracle.** ``estimator = "oracle"`` is a perfect force estimator: the user's
   true grip force (before the FSR) at each window, through the same mapping and
   hold. Its estimation error is zero by construction; it isolates the controller.
@@ -31,14 +35,19 @@ Conventions (documented choices):
   (zero before the first 400 ms window ends). The controller's command is
   applied one control period after the observation it was computed from,
   which is the computation delay its margins include.
-- **Episode.** Rest, a 0.5 s ramp to the hold level, hold. The wrist lifts at
-  ``episode_s - hold_s - lift_duration_s`` once the grip is established and
-  the object is held in the air for ``hold_s``; the episode ends while holding.
+- **Episode.** The reacting user paces the trial with their own arm
+  (:mod:`sim.user.reacting`): they close the hand, lift once it looks secure,
+  try again when the object stays behind, hold it ``hold_s`` in the air, put
+  it down and let go; ``episode_s`` is the time limit (15 s by default) and a
+  trial that runs out before a secure lift is ``not_lifted``
+  (:mod:`scenarios.runners.trial_outcome`). The scripted user rests, ramps to
+  the hold level in 0.5 s and holds, and the wrist lifts at ``episode_s -
+  hold_s - 0.6 s`` once the grip is established (6 s episodes by default).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -46,13 +55,12 @@ import numpy as np
 
 from controllers.design import ControllerDesign, worst_case
 from controllers.design_cache import grasp_design
-from controllers.drive import HandLoop
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
 from scenarios.outcomes import outcome_of
 from scenarios.rows import WORST_FIELDS, EpisodeRow
-from scenarios.runners.calibration import Calibration, shared_calibration
-from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
+from scenarios.runners.calibration import Calibration, CalibrationSettings
+from scenarios.runners.dispatch import DivergedError
 from scenarios.runners.episode_metrics import (
     contact_peak_ratio,
     episode_metrics,
@@ -61,27 +69,37 @@ from scenarios.runners.episode_metrics import (
     operating_forces,
     was_lifted,
 )
-from scenarios.runners.operator_loop import LiveUser, scene_from_info
-from scenarios.runners.reference import (
-    RAMP_S,
-    REST_S,
-    ReferenceStream,
-    intended_grip_n,
-    live_stream,
-    live_user,
-    scripted_reference,
+from scenarios.runners.operator_loop import STEP_MS, WINDOW_MS
+from scenarios.runners.practice import (
+    DEFAULT_PRACTICE,
+    Interface,
+    practice_object_for,
+    practise,
 )
+from scenarios.runners.reference import grasp_task, intended_grip_n
 from scenarios.runners.subject import subject_for
+from scenarios.runners.trial import (  # noqa: F401  (re-exported: the episode's pieces)
+    LIFT_DURATION_S,
+    Trial,
+    closed_loop,
+    default_episode_s,
+    lift_time_s,
+    paces_itself,
+    run_trial,
+)
+from scenarios.runners.trial_outcome import hold_window, safety_margin_pct
 from scenarios.schema import Scenario
 from sim.codec import state_space_matrices
-from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.hand.objects import ObjectSpec, make_object
-from sim.user.operator import Operator, OperatorParams, ScriptedOperator
+from sim.user.operator import Operator, OperatorParams
 from sim.user.operators import make_operator
 from sim.user.subjects import VirtualSubject
 
+#: Earlier names of :func:`closed_loop` and :func:`lift_time_s`, used across the runners.
+_closed_loop = closed_loop
+_lift_time_s = lift_time_s
+
 HAND_FORCE_AT_MVC_N = 30.0
-LIFT_DURATION_S = 0.6
 
 
 # ------------------------------------------------------------------------ episode
@@ -133,7 +151,7 @@ def run_episode(
     order: int = PAPER_ORDER,
     identification_fraction: float = 0.5,
     calibration_s: float | None = None,
-    episode_s: float = 6.0,
+    episode_s: float | None = None,
     hold_s: float = 2.0,
     control_dt_s: float = 0.01,
     hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N,
@@ -142,83 +160,115 @@ def run_episode(
     feedback: str = "none",
     operator_params: OperatorParams | None = None,
     estimator_options: Mapping[str, Any] | None = None,
+    practice: int = DEFAULT_PRACTICE,
+    window_ms: float = WINDOW_MS,
+    step_ms: float = STEP_MS,
 ) -> EpisodeResult:
-    """Calibrate, then run one closed-loop grasp-lift-hold episode.
+    """Calibrate, let the user practise, then run one closed-loop grasp-lift-hold trial.
 
     Parameters
     ----------
     subject, obj : VirtualSubject, ObjectSpec
         The user (with any electrode shift, noise or fatigue applied) and the object.
-    estimator : str
-        Estimator name (:func:`estimation.registry.estimator_names`) or ``"oracle"``.
-    mode : {"free_run", "one_step"}
-        Estimator mode (see module notes).
-    controller : str
-        Registered controller kind (``pid``, ``lead_lag``, ``mpc``, a plugin's).
-    controller_spec : mapping, optional
-        Keyword arguments of :func:`controllers.design.design_for_object`.
+    estimator, mode : str
+        Estimator name (:func:`estimation.registry.estimator_names`, ``"oracle"`` or
+        ``"intact"``) and mode (``free_run``, ``one_step``; module notes).
+    controller, controller_spec : str, mapping
+        Registered controller kind and the keywords of
+        :func:`controllers.design.design_for_object`.
     seed : int
-        Seeds the calibration session, the episode session, the networks'
-        initialization and the environment.
+        Seeds the calibration, the practice, the trial's sEMG, the networks and the hand.
     episode_s, hold_s : float
-        Episode length and in-air hold, s.
-    control_dt_s : float
-        Control period, s (a whole multiple of the 2 ms physics step).
-    record_frames : bool
-        Also return rendered RGB frames every 40 ms under ``traces["frames"]``.
+        The trial's time limit (a user who paces it; default 15 s) or the
+        scripted episode's length (default 6 s), and the in-air hold, s.
+    control_dt_s, record_frames : float, bool
+        Control period, s (a multiple of the 2 ms physics step); also return RGB frames.
     user, feedback : str
-        User kind (:mod:`sim.user.operators`: ``reacting``, the default, sees
-        the hand and corrects; ``scripted`` follows the intent profile) and a
-        reacting user's feedback (``none``, ``force_vibration``, ``slip_vibration``).
+        User kind (:mod:`sim.user.operators`: ``reacting``, the default, sees, corrects
+        and moves their own arm; ``scripted`` follows the intent profile) and feedback.
     operator_params, estimator_options : optional
-        The reacting user's parameters (default :class:`OperatorParams`); the
-        estimator's own hyperparameters (a scenario's ``estimator.options``).
-
-    Returns
-    -------
-    EpisodeResult
+        The user's parameters (default :class:`OperatorParams`); the estimator's own.
+    practice : int
+        Practice lifts of the object's class first (a user who learns; 0: the novice).
+    window_ms, step_ms : float
+        The feature window and its increment, ms (the paper's 400 and 125).
 
     Raises
     ------
     UnsupportedScenarioError
-        Episode timing that leaves no time to grasp before the lift, an
-        estimator mode that does not exist, or a reacting user with an sEMG
-        generator that cannot run causally (``motor_units``).
+        No time to grasp before a scripted lift, an estimator mode that does not exist,
+        or a reacting user with a generator that cannot run causally (``motor_units``).
     DivergedError
         Unstable identified model in free run, or physics divergence.
-    sim.user.operators.UnknownOperatorError, sim.user.operators.UnknownFeedbackError
-        Unknown user kind or feedback mode.
-    sim.user.operator.OperatorError
-        A feedback mode for the scripted user.
+    sim.user.operators.UnknownOperatorError, sim.user.operators.UnknownFeedbackError, \
+sim.user.operator.OperatorError
+        Unknown user kind or feedback mode, or a feedback mode for the scripted user.
     """
     operator = make_operator(user, feedback=feedback, params=operator_params)
-    lift_after_s = _lift_time_s(episode_s, hold_s)
-    root = np.random.SeedSequence(seed)
-    cal_seq, episode_seq, env_seq, operator_seq = root.spawn(4)
-    timings = dict.fromkeys(("t_semg_s", "t_features_s", "t_estimator_s", "t_operator_s",
-                             "t_controller_s", "t_physics_s"), 0.0)
+    self_paced = paces_itself(operator)
+    episode_s = default_episode_s(operator) if episode_s is None else float(episode_s)
+    lift_after_s = float("inf") if self_paced else lift_time_s(episode_s, hold_s)
+    cal_seq, episode_seq, env_seq, operator_seq, practice_seq = seed_sequences(seed)
+    timings, params = dict.fromkeys(TIMING_KEYS, 0.0), operator_params or OperatorParams()
+    settings = CalibrationSettings(estimator, mode, order, generator, identification_fraction,
+                                   calibration_s, estimator_options, window_ms, step_ms)
     with one_blas_thread():
-        cal = shared_calibration(subject, estimator, mode, seed_seq=cal_seq,
-                                 generator=generator, order=order,
-                                 identification_fraction=identification_fraction,
-                                 calibration_s=calibration_s, options=estimator_options)
+        cal = settings.fit(subject, cal_seq)
         design = grasp_design(obj, controller, control_dt_s, controller_spec)
-        target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
-        trial = run_trial(subject, obj, cal, design, operator, goal_n=target_n,
+        if self_paced and practice > 0:
+            practise(operator, subject, cal, Interface(
+                settings, controller, dict(controller_spec or {}), practice_object_for(obj),
+                user, feedback, params, control_dt_s, hand_force_at_mvc_n),
+                cal_seq=cal_seq, n_lifts=practice, seed_seq=practice_seq)
+        trial = run_trial(subject, obj, cal, design, operator, goal_n=intended_grip_n(obj),
                           seeds=(episode_seq, env_seq, operator_seq), generator=generator,
                           episode_s=episode_s, lift_after_s=lift_after_s,
                           control_dt_s=control_dt_s, hand_force_at_mvc_n=hand_force_at_mvc_n,
-                          timings=timings, record_frames=record_frames)
-    if trial.failure is not None:
-        raise DivergedError(f"physics diverged at t = {trial.info['time_s']:.3f} s: "
-                            f"{trial.failure}")
+                          timings=timings, record_frames=record_frames,
+                          task=grasp_task(obj, hold_s=hold_s) if self_paced else None,
+                          window_ms=window_ms, step_ms=step_ms)
+    _raise_on_divergence(trial)
     row = {"subject_id": subject.subject_id, "seed": int(seed), **_object_fields(obj),
            "controller": controller, "estimator": estimator, "mode": mode,
            "scheduled": bool(design.scheduled), "user": user, "feedback": feedback,
+           "practice": int(practice) if self_paced else 0, **_belief_fields(operator, params),
+           "window_ms": float(window_ms), "step_ms": float(step_ms),
            **_operator_fields(operator)}
-    return _episode_result(row, cal, design, trial.stream, trial.traces, trial.info, timings,
-                           target_n=target_n, lift_after_s=lift_after_s,
-                           hold_from_s=episode_s - hold_s, control_dt_s=control_dt_s)
+    return _episode_result(row, cal, design, trial, obj, timings, target_n=_aim_n(
+        operator, params, obj), lift_after_s=lift_after_s, hold_from_s=episode_s - hold_s,
+        control_dt_s=control_dt_s)
+
+
+def seed_sequences(seed: int) -> list[np.random.SeedSequence]:
+    """The episode's five seeds: calibration, the trial's sEMG, the hand, the user, practice."""
+    return np.random.SeedSequence(seed).spawn(5)
+
+
+def _raise_on_divergence(trial: Trial) -> None:
+    """:class:`DivergedError` naming MuJoCo's warning if the trial's physics diverged."""
+    if trial.failure is not None:
+        raise DivergedError(f"physics diverged at t = {trial.info['time_s']:.3f} s: "
+                            f"{trial.failure}")
+
+
+#: The timing fields of a row, s (wall time in each part of the loop).
+TIMING_KEYS = ("t_semg_s", "t_features_s", "t_estimator_s", "t_operator_s", "t_controller_s",
+               "t_physics_s")
+
+
+def _belief_fields(operator: Operator, params: OperatorParams) -> dict[str, Any]:
+    """What the user believed of the prosthesis (None for a user who does not learn)."""
+    belief = getattr(operator, "belief", None)
+    if belief is None:
+        return {"belief_gain": None, "belief_margin_pct": None}
+    return {"belief_gain": float(belief.gain), "belief_margin_pct": 100.0 * belief.margin(params)}
+
+
+def _aim_n(operator: Operator, params: OperatorParams, obj: ObjectSpec) -> float:
+    """The grip force the user aimed at, N (their margin; the novice's for a user without one)."""
+    belief = getattr(operator, "belief", None)
+    return intended_grip_n(obj) if belief is None else intended_grip_n(
+        obj, 1.0 + belief.margin(params))
 
 
 def _object_fields(obj: ObjectSpec) -> dict[str, Any]:
@@ -234,153 +284,69 @@ def _operator_fields(operator: Operator) -> dict[str, Any]:
             "first_correction_s": float(times[0]) if times else None}
 
 
-@dataclass
-class Trial:
-    """One closed-loop trial: the traces, how it ended, and the reference it ran on.
-
-    Attributes
-    ----------
-    traces : dict of ndarray
-        :func:`_closed_loop`'s traces (plus ``user_intent`` for a user in the loop).
-    failure : str or None
-        MuJoCo's warning if the physics diverged.
-    info : dict
-        The environment's last ``info``.
-    stream : ReferenceStream
-        The reference and the user's true force at the control rate (for the metrics).
-    """
-
-    traces: dict[str, np.ndarray]
-    failure: str | None
-    info: dict[str, Any]
-    stream: ReferenceStream
-
-
-def run_trial(subject: VirtualSubject, obj: ObjectSpec, cal: Calibration,
-              design: ControllerDesign, operator: Operator, *, goal_n: float,
-              seeds: tuple[np.random.SeedSequence, np.random.SeedSequence,
-                           np.random.SeedSequence],
-              generator: str, episode_s: float, lift_after_s: float, control_dt_s: float,
-              hand_force_at_mvc_n: float, timings: dict[str, float],
-              record_frames: bool = False, hold_level: float | None = None,
-              load: Callable[[float, Mapping[str, Any]], float] | None = None,
-              schedule: WristSchedule | None = None,
-              until: Callable[[float, Mapping[str, Any]], bool] | None = None) -> Trial:
-    """One grasp of ``obj`` by a calibrated user, scripted or in the loop.
-
-    A :class:`~sim.user.operator.ScriptedOperator` (the class itself) runs the
-    batch path (the whole reference computed before the physics, any sEMG
-    generator); any other operator runs in the loop (:class:`LiveUser`, causal generators
-    only) and is finished here (what it learnt plans its next trial).
-
-    Parameters
-    ----------
-    goal_n : float
-        Hand grip force the user aims at, N.
-    seeds : (SeedSequence, SeedSequence, SeedSequence)
-        The sEMG session (profile and noise), the environment and the operator.
-    hold_level : float, optional
-        The scripted hold level (default: ``goal_n`` through the calibration).
-    load, schedule, until
-        See :func:`_closed_loop`.
-
-    Raises
-    ------
-    UnsupportedScenarioError
-        A user in the loop with an sEMG generator that cannot run causally.
-    """
-    episode_seq, env_seq, operator_seq = seeds
-    if type(operator) is ScriptedOperator and hold_level is None:  # not a subclass: it may act
-        stream = scripted_reference(subject, cal, goal_n, np.random.default_rng(episode_seq),
-                                   generator=generator, episode_s=episode_s,
-                                   control_dt_s=control_dt_s,
-                                   hand_force_at_mvc_n=hand_force_at_mvc_n, timings=timings)
-        traces, failure, info = _closed_loop(obj, design, stream.reference_n, stream.t_s,
-                                             control_dt_s, episode_s, lift_after_s, env_seq,
-                                             timings, record_frames, load=load,
-                                             schedule=schedule, until=until)
-        return Trial(traces, failure, info, stream)
-    person, start_s = live_user(subject, cal, operator, goal_n, np.random.default_rng(episode_seq),
-                                np.random.default_rng(operator_seq), generator=generator,
-                                episode_s=episode_s, control_dt_s=control_dt_s,
-                                hand_force_at_mvc_n=hand_force_at_mvc_n, hold_level=hold_level)
-    t_ctrl = np.arange(int(round(episode_s / control_dt_s))) * control_dt_s
-    reference = np.zeros(t_ctrl.size)
-    traces, failure, info = _closed_loop(obj, design, reference, t_ctrl, control_dt_s, episode_s,
-                                         lift_after_s, env_seq, timings, record_frames,
-                                         user=person, load=load, schedule=schedule,
-                                         until=until)
-    person.intent_until(int(round(t_ctrl.size * control_dt_s * person.fs_hz)))
-    stream = live_stream(person, start_s, t_ctrl, reference, episode_s, timings)
-    traces["user_intent"] = person.intent[
-        np.minimum((traces["t_s"] * person.fs_hz).round().astype(int), person.n_samples - 1)]
-    operator.finish()
-    return Trial(traces, failure, info, stream)
-
-
-def _lift_time_s(episode_s: float, hold_s: float) -> float:
-    """When the wrist starts lifting, s: ``episode_s - hold_s`` less the lift's duration.
-
-    Raises
-    ------
-    UnsupportedScenarioError
-        That leaves no time to grasp (rest, ramp and closing) before the lift.
-    """
-    lift_after_s = episode_s - hold_s - LIFT_DURATION_S
-    if lift_after_s < REST_S * 1.1 + RAMP_S + 0.3:
-        raise UnsupportedScenarioError(
-            f"episode_s - hold_s - {LIFT_DURATION_S} s lift = {lift_after_s:.2f} s leaves no time "
-            f"to grasp before lifting: needs at least {REST_S * 1.1 + RAMP_S + 0.3:.2f} s"
-        )
-    return lift_after_s
-
-
 def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDesign,
-                    stream: ReferenceStream, traces: dict[str, np.ndarray],
-                    info: Mapping[str, Any], timings: dict[str, float], *, target_n: float,
-                    lift_after_s: float, hold_from_s: float, control_dt_s: float
-                    ) -> EpisodeResult:
+                    trial: Trial, obj: ObjectSpec, timings: dict[str, float], *,
+                    target_n: float, lift_after_s: float, hold_from_s: float,
+                    control_dt_s: float) -> EpisodeResult:
     """Metrics, outcome, margins at the forces visited and timings of a finished episode.
 
     Parameters
     ----------
     row : dict
         The episode's identity (subject, object, controller, estimator), extended here.
-    traces : dict of ndarray, shape (n_run,)
-        :func:`_closed_loop`'s traces (``n_run`` <= the stream's steps if it ended early).
-    info : mapping
-        The environment's last ``info`` (drop, crush and slip counters).
+    trial : Trial
+        The trial's traces (``n_run`` steps, fewer than the stream's if it ended
+        early), the environment's last ``info`` and, for a trial the user paced,
+        its referee.
     target_n : float
         The grip force the user intended, N.
     lift_after_s, hold_from_s : float
-        Start of the lift and of the in-air hold, s.
+        The scripted schedule's lift and in-air hold, s (a trial the user paced
+        reads both from its referee).
     """
+    traces, info, stream, referee = trial.traces, trial.info, trial.stream, trial.referee
     n_run = traces["grip_force_n"].size
+    t = traces["t_s"]
+    hold = None
+    if referee is not None:
+        hold = hold_window(t, traces["wrist_height_m"], referee.secure_lift_s, referee.fell_s)
+        rising = np.flatnonzero(traces["wrist_height_m"] > 0.0)
+        lift_after_s = float(t[rising[0]]) if rising.size else float(t[-1]) + control_dt_s
+        lifted, crushed = referee.secure_lift_s is not None, referee.crushed
+        dropped = referee.fell_s is not None
+        outcome = referee.outcome
+    else:
+        lifted = was_lifted(traces["object_height_m"])
+        dropped, crushed = bool(info["dropped"]), bool(info["crushed"])
+        outcome = outcome_of(lifted=lifted, dropped=dropped, crushed=crushed)
     metrics = episode_metrics(stream.t_s[:n_run], stream.reference_n[:n_run],
                               traces["grip_force_n"], stream.oracle_n[:n_run],
                               start_s=stream.start_s, lift_s=lift_after_s,
-                              hold_from_s=hold_from_s,
+                              hold_from_s=hold_from_s, hold=hold,
                               window_values_n=stream.window_values_n,
                               window_dt_s=stream.window_dt_s)
-    ratio, both_s = contact_peak_ratio(traces["t_s"], traces["tracked_reference_n"],
+    ratio, both_s = contact_peak_ratio(t, traces["tracked_reference_n"],
                                        traces["grip_force_n"], traces["both_sides"])
-    lifted = was_lifted(traces["object_height_m"])
-    dropped, crushed = bool(info["dropped"]), bool(info["crushed"])
     held_n, visited_n = operating_forces(traces, design, hold_from_s=hold_from_s,
-                                         both_sides_s=both_s)
+                                         both_sides_s=both_s, hold=hold)
     analysed = design.analyse_many([*visited_n, *([] if held_n is None else [held_n])])
     held = analysed[-1] if held_n is not None else None
     worst = worst_case(analysed[:len(visited_n)]) if visited_n else {}
-    simulated = traces["t_s"][-1] + control_dt_s
+    simulated = t[-1] + control_dt_s
     loop_time = sum(timings[k] for k in ("t_estimator_s", "t_controller_s", "t_physics_s",
                                          "t_semg_s", "t_features_s", "t_operator_s"))
+    if hold is None:  # the scripted schedule: the last hold_s, where the object was in the air
+        hold = (t >= hold_from_s) if lifted and not dropped else np.zeros(t.size, dtype=bool)
     row = EpisodeRow.build(**{
         **row,
         **metrics,
         "intended_grip_n": target_n,
         "slip_events": int(info["slip_events"]), "slip_distance_m": float(info["slip_distance_m"]),
-        "lifted": lifted, "dropped": dropped, "crushed": crushed,
-        "outcome": outcome_of(lifted=lifted, dropped=dropped, crushed=crushed),
+        "lifted": lifted, "dropped": dropped, "crushed": crushed, "outcome": outcome,
+        "attempts": trial.attempts,
+        "time_to_lift_s": None if referee is None else referee.time_to_lift_s,
+        "safety_margin_pct": safety_margin_pct(traces["grip_force_n"], hold, obj)
+        if outcome == "held" else None,
         "contact_peak_ratio": ratio, "both_sides_time_s": both_s,
         "held_force_n": held_n,
         "visited_forces_n": ",".join(f"{f:g}" for f in visited_n),
@@ -395,104 +361,24 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
         "realtime_factor": float(simulated / loop_time) if loop_time > 0 else None,
     }).as_dict()
     traces["intent_n"] = stream.oracle_n[:n_run]
+    if trial.phases is not None:
+        traces["phase"] = _phase_trace(t, trial.phases)
     if held is not None and held.ok:
         A, B, C, D = state_space_matrices(held.margins, "loop")
         traces.update(loop_A=A, loop_B=B, loop_C=C, loop_D=D)
     return EpisodeResult(row=row, traces=traces, design=design)
 
 
-def _closed_loop(obj: ObjectSpec, design: ControllerDesign, reference: np.ndarray | None,
-                 t_ctrl: np.ndarray, control_dt_s: float, episode_s: float,
-                 lift_after_s: float, env_seq: np.random.SeedSequence,
-                 timings: dict[str, float], record_frames: bool, *,
-                 user: LiveUser | None = None,
-                 load: Callable[[float, Mapping[str, Any]], float] | None = None,
-                 schedule: WristSchedule | None = None,
-                 until: Callable[[float, Mapping[str, Any]], bool] | None = None,
-                 ) -> tuple[dict[str, np.ndarray], str | None, dict[str, Any]]:
-    """Drive GraspEnv with the designed controller; returns traces, failure, last info.
+#: The phases of a trial, as numbers in the ``phase`` trace (index in this tuple).
+PHASE_CODES = ("grasp", "liftoff", "lift", "setdown", "release", "done", "hold")
 
-    Parameters
-    ----------
-    reference : ndarray, shape (n_steps,) or None
-        The reference of a scripted user, computed before the physics; ``None``
-        with ``user``.
-    t_ctrl : ndarray, shape (n_steps,)
-        Control-step times, s.
-    user : LiveUser, optional
-        A user in the loop: the reference of step k is ``user.step(k, scene)``
-        with the scene after step k - 1. If the episode ends early (a drop, a
-        crush), the user goes on to ``n_steps`` seeing the last scene, so the
-        reference covers the episode as a scripted user's does.
-    load : callable, optional
-        ``load(t_s, info) -> N``: a load hung on the object before the step at
-        ``t_s`` (:meth:`sim.hand.grasp_env.GraspEnv.set_object_load`).
-    schedule : WristSchedule, optional
-        The wrist's schedule (default: lift after ``lift_after_s``).
-    until : callable, optional
-        ``until(t_s, info) -> bool``: end the episode after the step at ``t_s``
-        when true (a task that has its answer).
-    """
-    schedule = schedule or WristSchedule(lift_after_s=lift_after_s,
-                                         lift_duration_s=LIFT_DURATION_S)
-    env = GraspEnv(obj, 0.0, control_dt_s=control_dt_s, episode_s=episode_s,
-                   schedule=schedule, render_mode="rgb_array" if record_frames else None)
-    n = t_ctrl.size
-    reference = np.zeros(n) if reference is None else reference
-    grip = np.zeros(n)
-    command = np.zeros(n)
-    height = np.zeros(n)
-    slip = np.zeros(n)
-    both = np.zeros(n, dtype=bool)
-    tracked = np.zeros(n)
-    loads = np.zeros(n)
-    frames: list[np.ndarray] = []
-    frame_every = max(1, int(round(0.04 / control_dt_s)))
-    loop = HandLoop(env, design.controller)
-    load_n = 0.0
-    try:
-        info = loop.reset(seed=int(env_seq.generate_state(1)[0]))
-        failure = None
-        k = 0
-        for k in range(n):
-            if user is not None:
-                reference[k] = user.step(k, scene_from_info(float(t_ctrl[k]), info))
-            if load is not None:
-                new_load = float(load(float(t_ctrl[k]), info))
-                if new_load != load_n:
-                    env.set_object_load(new_load)
-                    load_n = new_load
-                loads[k] = load_n
-            ref = float(reference[k])
-            env.set_reference(ref)
-            _, command[k], done = loop.step(ref)
-            tracked[k] = max(ref, design.core.last_reference_n)
-            info = loop.info
-            grip[k] = info["grip_force_n"]
-            height[k], slip[k] = info["object_height_m"], info["slip_speed_m_s"]
-            both[k] = info["thumb_contact"] and info["finger_contact"]
-            if record_frames and k % frame_every == 0:
-                frames.append(env.render())
-            failure = info.get("failure")
-            if done or (until is not None and until(float(t_ctrl[k]), info)):
-                break
-        k_end = k + 1
-        if user is not None:  # the user goes on, seeing the last scene (module notes)
-            for j in range(k_end, n):
-                reference[j] = user.step(j, scene_from_info(float(t_ctrl[j]), info))
-    finally:
-        env.close()
-    timings["t_controller_s"] += loop.controller_s
-    timings["t_physics_s"] += loop.physics_s
-    traces = {"t_s": t_ctrl[:k_end], "reference_n": reference[:k_end],
-              "grip_force_n": grip[:k_end], "command": command[:k_end],
-              "object_height_m": height[:k_end], "slip_speed_m_s": slip[:k_end],
-              "both_sides": both[:k_end], "tracked_reference_n": tracked[:k_end]}
-    if load is not None:
-        traces["object_load_n"] = loads[:k_end]
-    if record_frames:
-        traces["frames"] = np.stack(frames)
-    return traces, failure, info
+
+def _phase_trace(t_s: np.ndarray, phases: list[tuple[float, str]]) -> np.ndarray:
+    """The user's phase at each control step, coded by :data:`PHASE_CODES`."""
+    out = np.zeros(t_s.size, dtype=np.int8)
+    for t0, name in phases:
+        out[t_s >= t0 - 1e-9] = PHASE_CODES.index(name)
+    return out
 
 
 # ------------------------------------------------------------------------ runners
@@ -527,7 +413,8 @@ def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False) ->
         episode_s=p.episode_s, hold_s=p.hold_s,
         control_dt_s=1.0 / scenario.controller.control_hz, record_frames=record_frames,
         user=scenario.user.kind, feedback=scenario.user.feedback,
-        operator_params=scenario.user.operator_params(), estimator_options=e.options)
+        operator_params=scenario.user.operator_params(), estimator_options=e.options,
+        practice=scenario.user.practice, window_ms=e.window_ms, step_ms=e.step_ms)
 
 
 def run_episode_scenario(scenario: Scenario) -> dict[str, Any]:

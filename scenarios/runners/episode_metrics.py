@@ -51,7 +51,8 @@ def contact_peak_ratio(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndar
 
 def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray,
                     oracle_n: np.ndarray, *, start_s: float, lift_s: float, hold_from_s: float,
-                    window_values_n: np.ndarray, window_dt_s: float) -> dict[str, Any]:
+                    window_values_n: np.ndarray, window_dt_s: float,
+                    hold: np.ndarray | None = None) -> dict[str, Any]:
     """Tracking, estimation and transient figures of one episode.
 
     Parameters
@@ -64,6 +65,9 @@ def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray
         Earliest lift, s: the grasp phase is ``start_s..lift_s``.
     hold_from_s : float
         Start of the in-air hold, s; the hold reference is the mean reference after it.
+    hold : ndarray of bool, shape (n_steps,), optional
+        The in-air hold's steps, when it does not run to the end (a trial the
+        user paced); overrides ``hold_from_s``.
     window_values_n : ndarray, shape (n_windows,)
         The reference at the estimator's update rate (for volatility).
     window_dt_s : float
@@ -86,7 +90,7 @@ def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray
     touching = np.flatnonzero(grip_n >= CONTACT_N)
     contact_s = float(t_s[touching[0]]) if touching.size else None
     track = (t_s >= contact_s + 0.5) if contact_s is not None else np.zeros(t_s.size, bool)
-    hold = t_s >= hold_from_s
+    hold = t_s >= hold_from_s if hold is None else hold
     hold_ref = float(np.mean(reference_n[hold])) if hold.any() else float("nan")
     grasp = (t_s >= start_s) & (t_s < lift_s)
     grasp_ref = float(reference_n[grasp][-1]) if grasp.any() else float("nan")
@@ -122,11 +126,12 @@ def was_lifted(object_height_m: np.ndarray) -> bool:
 
 
 def operating_forces(traces: Mapping[str, np.ndarray], design: ControllerDesign, *,
-                     hold_from_s: float, both_sides_s: float | None
-                     ) -> tuple[float | None, list[float]]:
+                     hold_from_s: float, both_sides_s: float | None,
+                     hold: np.ndarray | None = None) -> tuple[float | None, list[float]]:
     """The force an episode held and the forces it visited, N.
 
-    The held force is the median grip in the in-air hold (the last ``hold_s``);
+    The held force is the median grip in the in-air hold (from ``hold_from_s``,
+    or the steps of ``hold``);
     the visited forces are the design grid points between the 5th and 95th
     percentiles of the grip once both sides touched, plus the held force. Both
     are clamped into the analysed range and rounded to 0.1 N.
@@ -135,7 +140,7 @@ def operating_forces(traces: Mapping[str, np.ndarray], design: ControllerDesign,
         return None, []
     lo_range, hi_range = design.family.range_n
     t, grip = traces["t_s"], traces["grip_force_n"]
-    hold = t >= hold_from_s
+    hold = t >= hold_from_s if hold is None else hold
     after = t >= both_sides_s
     if not hold.any() or not after.any():
         return None, []

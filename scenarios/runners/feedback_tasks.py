@@ -1,27 +1,33 @@
 """The benchmarks prosthetics research uses, as scenario kinds: eggs, slip recovery, force matching.
 
 Each kind runs one virtual user (a calibrated subject and an operator model,
-:mod:`sim.user.operator`) with one feedback mode through several closed-loop
+:mod:`sim.user.operators`) with one feedback mode through several closed-loop
 trials on the MuJoCo hand, and returns a flat result row; the commands
 (``griploop eggs``, ``slip-recovery``, ``force-matching``) sweep subjects x
 feedback modes (x eggs or targets) and compare the modes side by side with
-95 % confidence intervals (:func:`aggregate`).
+95 % confidence intervals (:func:`scenarios.feedback_summary.aggregate`).
+A reacting user practises ``user.practice`` lifts of the object's class with the
+same prosthesis first (:mod:`scenarios.runners.practice`) and paces each trial
+with their own arm (:mod:`sim.user.reacting`): they lift when the grip looks
+secure and try again when the object stays behind. :class:`TaskSetup` holds what
+the trials share; the timed transfers are :mod:`scenarios.runners.transfers`.
 
 ``eggs`` (protocol ``virtual_eggs``), after the Virtual Eggs Test (Controzzi et al.)
     One block (``vet_block``, breaking at ``object.break_force_n``) is grasped,
-    lifted and held ``protocol.trials`` times by the same user, who plans each
-    transfer from the last (anticipatory scaling). A transfer is *broken*
-    (the grip exceeded the break force), *dropped* (not lifted, or fell) or a
-    *success*. The test's 11 eggs break at 0.4-11.5 N; :data:`EGG_BREAK_FORCES_N`
-    spaces them logarithmically over that range (the spacing is ours).
+    lifted, held ``protocol.hold_s`` and put down ``protocol.trials`` times by the
+    same user, who plans each transfer from the last. A transfer is *broken*
+    (the grip exceeded the break force), *dropped* (fell, or not lifted within
+    the trial's time) or a *success*. The test's 11 eggs break at 0.4-11.5 N;
+    :data:`EGG_BREAK_FORCES_N` spaces them logarithmically over that range (the
+    spacing is ours).
 ``slip_recovery`` (protocol ``slip_recovery``)
-    The user lifts the object and holds it; half a second after the lift a
-    load hung on the object rises at ``protocol.load_rate_n_s`` until the
-    object starts to slip (the hand's slip speed exceeds 5 mm/s: the
-    disturbance is the task's, the user perceives only through their
-    channels), then stays. The trial is *recovered* when the object is still
-    in the hand :data:`RECOVERY_WINDOW_S` later. Trials whose object was not
-    lifted, or never slipped, are counted apart (not in ``n``).
+    The user lifts the object and holds it; half a second after the wrist reached
+    the top of the lift a load hung on the object rises at
+    ``protocol.load_rate_n_s`` until the object starts to slip (the hand's slip
+    speed exceeds 5 mm/s: the disturbance is the task's, the user perceives only
+    through their channels), then stays. The trial is *recovered* when the object
+    is still in the hand :data:`RECOVERY_WINDOW_S` later. Trials whose object was
+    not lifted, or never slipped, are counted apart (not in ``n``).
 ``force_matching`` (protocol ``force_matching``)
     The hand closes on an object resting on the table (no lift) and the user
     holds ``protocol.target_fraction`` of the hand force at their MVC for
@@ -40,19 +46,25 @@ import numpy as np
 from controllers.design_cache import grasp_design
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
-from scenarios.runners.calibration import Calibration, shared_calibration
+from scenarios.runners.calibration import CalibrationSettings
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.episode import (
     HAND_FORCE_AT_MVC_N,
-    LIFT_DURATION_S,
-    _lift_time_s,
+    TIMING_KEYS,
     controller_spec,
-    run_trial,
     scenario_object,
 )
 from scenarios.runners.episode_metrics import was_lifted
-from scenarios.runners.reference import hold_level_for, intended_grip_n
+from scenarios.runners.practice import Interface, practice_object_for, practise
+from scenarios.runners.reference import Task, grasp_task, hold_level_for, intended_grip_n
 from scenarios.runners.subject import subject_for
+from scenarios.runners.trial import (
+    Trial,
+    default_episode_s,
+    lift_time_s,
+    paces_itself,
+    run_trial,
+)
 from scenarios.schema import Scenario
 from sim.hand.grasp_env import WristSchedule
 from sim.user.operators import make_operator
@@ -69,47 +81,84 @@ SLIP_ONSET_M_S = 0.005
 """Slip recovery: slip speed at which the object has started to slip (a slip event), m/s."""
 FORCE_MATCH_CONTACT_N = 0.5
 
-def _calibration(scenario: Scenario, subject: Any, rng_seq: np.random.SeedSequence
-                 ) -> Calibration:
-    """:func:`~scenarios.runners.calibration.shared_calibration` for the scenario."""
+
+def calibration_settings(scenario: Scenario) -> CalibrationSettings:
+    """How the scenario's estimator is calibrated."""
     e, p = scenario.estimator, scenario.protocol
-    return shared_calibration(
-        subject, e.name, e.mode, seed_seq=rng_seq, generator=scenario.subject.generator,
-        order=PAPER_ORDER if e.order is None else e.order,
-        identification_fraction=p.identification_fraction, calibration_s=p.calibration_s,
-        options=e.options)
+    return CalibrationSettings(e.name, e.mode, PAPER_ORDER if e.order is None else e.order,
+                               scenario.subject.generator, p.identification_fraction,
+                               p.calibration_s, e.options, e.window_ms, e.step_ms)
 
 
-class _Setup:
-    """What every trial of a task scenario shares: the user, the object, the loop design."""
+class TaskSetup:
+    """What every trial of a task scenario shares: the user, their practice, the object, the loop.
+
+    The user practises ``user.practice`` lifts of the object's class first
+    (:mod:`scenarios.runners.practice`), then runs the task's trials in a row, each
+    planned from the last. The seeds of the calibration, the practice and the trials
+    derive from the scenario's seed.
+    """
 
     def __init__(self, scenario: Scenario) -> None:
         u = scenario.user
         self.scenario = scenario
-        self.operator = make_operator(u.kind, feedback=u.feedback, params=u.operator_params())
+        self.params = u.operator_params()
+        self.operator = make_operator(u.kind, feedback=u.feedback, params=self.params)
+        self.self_paced = paces_itself(self.operator)
         self.subject = subject_for(scenario)
         self.obj = scenario_object(scenario)
         self.spec = controller_spec(scenario)
         self.dt = 1.0 / scenario.controller.control_hz
+        self.window = {"window_ms": scenario.estimator.window_ms,
+                       "step_ms": scenario.estimator.step_ms}
+        p = scenario.protocol
+        self.episode_s = default_episode_s(self.operator) if p.episode_s is None \
+            else float(p.episode_s)
         root = np.random.SeedSequence(int(scenario.seed or 0))
-        cal_seq, trial_seq = root.spawn(2)
-        self.trial_seqs = [s.spawn(3) for s in trial_seq.spawn(scenario.protocol.trials)]
-        self.cal = _calibration(scenario, self.subject, cal_seq)
+        cal_seq, trial_seq, practice_seq = root.spawn(3)
+        self.trial_seqs = [s.spawn(3) for s in trial_seq.spawn(p.trials)]
+        settings = calibration_settings(scenario)
+        self.cal = settings.fit(self.subject, cal_seq)
         self.design = grasp_design(self.obj, scenario.controller.kind, self.dt, self.spec)
-        self.timings = dict.fromkeys(("t_semg_s", "t_features_s", "t_estimator_s",
-                                      "t_operator_s", "t_controller_s", "t_physics_s"), 0.0)
+        self.practice = int(u.practice) if self.self_paced else 0
+        practise(self.operator, self.subject, self.cal, Interface(
+            settings, scenario.controller.kind, self.spec, practice_object_for(self.obj), u.kind,
+            u.feedback, self.params, self.dt, HAND_FORCE_AT_MVC_N),
+            cal_seq=cal_seq, n_lifts=self.practice, seed_seq=practice_seq)
+        self.timings = dict.fromkeys(TIMING_KEYS, 0.0)
 
-    def trial(self, i: int, *, goal_n: float, episode_s: float, lift_after_s: float,
-              **kw: Any) -> Any:
-        """Trial ``i`` (:func:`scenarios.runners.episode.run_trial`); physics divergence raises."""
+    def lift_after_s(self, hold_s: float) -> float:
+        """The scripted wrist's lift time (a user who paces the trial lifts by themselves)."""
+        return math.inf if self.self_paced else lift_time_s(self.episode_s, hold_s)
+
+    def trial(self, i: int, *, goal_n: float, hold_s: float, task: Task | None = None,
+              **kw: Any) -> Trial:
+        """Trial ``i`` (:func:`scenarios.runners.trial.run_trial`); physics divergence raises.
+
+        ``task`` defaults to grasping, lifting and holding the object ``hold_s``.
+        """
+        if task is None:
+            task = grasp_task(self.obj, hold_s=hold_s)
+        kw.setdefault("lift_after_s", self.lift_after_s(hold_s))
         t = run_trial(self.subject, self.obj, self.cal, self.design, self.operator,
                       goal_n=goal_n, seeds=tuple(self.trial_seqs[i]),
-                      generator=self.scenario.subject.generator, episode_s=episode_s,
-                      lift_after_s=lift_after_s, control_dt_s=self.dt,
-                      hand_force_at_mvc_n=HAND_FORCE_AT_MVC_N, timings=self.timings, **kw)
+                      generator=self.scenario.subject.generator, episode_s=self.episode_s,
+                      control_dt_s=self.dt, hand_force_at_mvc_n=HAND_FORCE_AT_MVC_N,
+                      timings=self.timings, task=task if self.self_paced else None,
+                      **self.window, **kw)
         if t.failure is not None:
             raise DivergedError(f"physics diverged at t = {t.info['time_s']:.3f} s: {t.failure}")
         return t
+
+    def outcome(self, t: Trial) -> str:
+        """The trial's outcome: its referee's, or on the scripted schedule the flags'."""
+        if t.referee is not None:
+            return t.referee.outcome
+        lifted = was_lifted(t.traces["object_height_m"])
+        if t.info["crushed"]:
+            return "crushed"
+        return "dropped" if lifted and t.info["dropped"] else (
+            "held" if lifted else "not_lifted")
 
     def identity(self) -> dict[str, Any]:
         """The row fields naming the user, the object and the loop."""
@@ -120,7 +169,9 @@ class _Setup:
                 "object_break_force_n": self.obj.break_force_n,
                 "controller": s.controller.kind, "estimator": s.estimator.name,
                 "mode": s.estimator.mode, "user": s.user.kind, "feedback": s.user.feedback,
-                "trials": s.protocol.trials, "cal_r2": self.cal.r2}
+                "practice": self.practice, "window_ms": s.estimator.window_ms,
+                "step_ms": s.estimator.step_ms, "trials": s.protocol.trials,
+                "cal_r2": self.cal.r2}
 
 
 # ---------------------------------------------------------------------- eggs
@@ -131,28 +182,23 @@ def run_eggs_scenario(scenario: Scenario) -> dict[str, Any]:
     -------
     dict
         The identity fields, ``break_force_n``, ``transfers``, ``success``,
-        ``broken``, ``dropped``, ``success_rate``, ``user_corrections`` (over
-        the transfers) and ``peak_force_n`` (mean over transfers of the peak
-        grip), plus timings.
+        ``broken``, ``dropped`` (dropped, or not lifted within the trial),
+        ``success_rate``, ``user_corrections`` (over the transfers) and
+        ``peak_force_n`` (mean over transfers of the peak grip), plus timings.
     """
     p = scenario.protocol
     with one_blas_thread():
-        setup = _Setup(scenario)
+        setup = TaskSetup(scenario)
         if setup.obj.break_force_n is None:
             raise UnsupportedScenarioError("eggs: the object needs a break_force_n (found none)")
-        lift_after_s = _lift_time_s(p.episode_s, p.hold_s)
-        goal_n = intended_grip_n(setup.obj, scenario.controller.safety_factor)
+        goal_n = intended_grip_n(setup.obj)
         counts = {"success": 0, "broken": 0, "dropped": 0}
         corrections, peaks = 0, []
         for i in range(p.trials):
-            t = setup.trial(i, goal_n=goal_n, episode_s=p.episode_s, lift_after_s=lift_after_s)
-            lifted = was_lifted(t.traces["object_height_m"])
-            if t.info["crushed"]:
-                counts["broken"] += 1
-            elif not lifted or t.info["dropped"]:
-                counts["dropped"] += 1
-            else:
-                counts["success"] += 1
+            t = setup.trial(i, goal_n=goal_n, hold_s=p.hold_s)
+            outcome = setup.outcome(t)
+            key = {"held": "success", "crushed": "broken"}.get(outcome, "dropped")
+            counts[key] += 1
             corrections += setup.operator.corrections
             peaks.append(float(np.max(t.traces["grip_force_n"])))
     return {**setup.identity(), "break_force_n": float(setup.obj.break_force_n),
@@ -165,19 +211,27 @@ def run_eggs_scenario(scenario: Scenario) -> dict[str, Any]:
 class _RisingLoad:
     """The slip-recovery disturbance: a load that rises until the object slips, then stays.
 
-    Reads the hand's ground truth (lift, slip speed): it is the task, not the user.
+    It starts :data:`LOAD_DELAY_S` after the wrist has reached the top of the lift with
+    the object in the hand (on the scripted schedule or where the user lifted it). Reads
+    the hand's ground truth (wrist, slip speed): it is the task, not the user.
     """
 
-    def __init__(self, start_s: float, rate_n_s: float) -> None:
-        self.start_s = start_s
+    def __init__(self, lift_height_m: float, rate_n_s: float) -> None:
+        self.lift_height_m = lift_height_m
         self.rate = rate_n_s
         self.onset_s: float | None = None
         self.load_n = 0.0
+        self._top_s: float | None = None
         self._t0: float | None = None
 
     def __call__(self, t_s: float, info: Mapping[str, Any]) -> float:
         if self._t0 is None:
-            if info["lifted"] and t_s >= self.start_s and not info["dropped"]:
+            touching = info["thumb_contact"] or info["finger_contact"]
+            if (self._top_s is None and touching
+                    and info["wrist_height_m"] >= self.lift_height_m - 1e-6):
+                self._top_s = t_s
+            if (self._top_s is not None and t_s >= self._top_s + LOAD_DELAY_S
+                    and touching and not info["object_out_of_hand"]):
                 self._t0 = t_s
             return 0.0
         if self.onset_s is None:
@@ -187,6 +241,11 @@ class _RisingLoad:
             else:
                 self.load_n = self.rate * (t_s - self._t0)
         return self.load_n
+
+    @property
+    def started(self) -> bool:
+        """The load began to rise (the object was lifted and held)."""
+        return self._t0 is not None
 
     def done(self, t_s: float, info: Mapping[str, Any]) -> bool:
         """The trial has its answer: dropped, or held for the recovery window after the onset."""
@@ -210,18 +269,18 @@ def run_slip_recovery_scenario(scenario: Scenario) -> dict[str, Any]:
     """
     p = scenario.protocol
     with one_blas_thread():
-        setup = _Setup(scenario)
-        lift_after_s = _lift_time_s(p.episode_s, p.hold_s)
-        goal_n = intended_grip_n(setup.obj, scenario.controller.safety_factor)
+        setup = TaskSetup(scenario)
+        goal_n = intended_grip_n(setup.obj)
+        task = grasp_task(setup.obj, hold_s=setup.episode_s, place=False)  # hold to the end
         n = recovered = not_lifted = no_slip = corrections = 0
         slip_loads: list[float] = []
         reactions: list[float] = []
         for i in range(p.trials):
-            load = _RisingLoad(lift_after_s + LIFT_DURATION_S + LOAD_DELAY_S, p.load_rate_n_s)
-            t = setup.trial(i, goal_n=goal_n, episode_s=p.episode_s, lift_after_s=lift_after_s,
-                            load=load, until=load.done)
+            load = _RisingLoad(WristSchedule().lift_height_m, p.load_rate_n_s)
+            t = setup.trial(i, goal_n=goal_n, hold_s=p.hold_s, task=task, load=load,
+                            until=load.done)
             corrections += setup.operator.corrections
-            if load._t0 is None:
+            if not load.started:
                 not_lifted += 1
                 continue
             if load.onset_s is None:
@@ -255,15 +314,16 @@ def run_force_matching_scenario(scenario: Scenario) -> dict[str, Any]:
     """
     p = scenario.protocol
     with one_blas_thread():
-        setup = _Setup(scenario)
+        setup = TaskSetup(scenario)
         goal_n = p.target_fraction * HAND_FORCE_AT_MVC_N
         hold_level = hold_level_for(goal_n, setup.cal, setup.subject, HAND_FORCE_AT_MVC_N)
         never = WristSchedule(lift_after_s=math.inf)
+        on_table = Task(need_n=None, lift_height_m=None, hold_s=setup.episode_s, place=False)
         means, errors, cvs, user_cvs, corrections = [], [], [], [], 0
         for i in range(p.trials):
-            t = setup.trial(i, goal_n=goal_n, episode_s=p.episode_s,
+            t = setup.trial(i, goal_n=goal_n, hold_s=p.hold_s, task=on_table,
                             lift_after_s=math.inf, schedule=never, hold_level=hold_level)
-            hold = t.traces["t_s"] >= p.episode_s - p.hold_s
+            hold = t.traces["t_s"] >= setup.episode_s - p.hold_s
             grip = t.traces["grip_force_n"][hold]
             user = t.stream.oracle_n[:t.traces["t_s"].size][hold]
             mean = float(np.mean(grip)) if grip.size else 0.0

@@ -26,12 +26,15 @@ from typing import Any
 import numpy as np
 
 from estimation.features import PAPER_CHANNELS, window_samples
+from scenarios.schema.names import INTACT
 from sim.user.causal import CausalSession
 from sim.user.operator import Operator, Plan, Scene
 from sim.user.subjects import VirtualSubject
 
 WINDOW_MS = 400.0
+"""The paper's feature window, ms (the default of ``estimator.window_ms``)."""
 STEP_MS = 125.0
+"""The paper's window increment, ms (the default of ``estimator.step_ms``)."""
 
 
 def scene_from_info(t_s: float, info: Mapping[str, Any]) -> Scene:
@@ -39,8 +42,10 @@ def scene_from_info(t_s: float, info: Mapping[str, Any]) -> Scene:
     # positional and unconverted: GraspEnv's info holds plain floats and bools already,
     # and this runs at every control step
     return Scene(t_s, info["thumb_contact"] and info["finger_contact"],
-                 info["object_in_palm_z_m"], info["object_height_m"], info["dropped"],
-                 info["crushed"], info["grip_force_n"], info["slip_speed_m_s"])
+                 info["object_in_palm_z_m"], info["object_height_m"],
+                 info["object_out_of_hand"], info["crushed"], info["grip_force_n"],
+                 info["slip_speed_m_s"], abs(info["finger_velocity_rad_s"]),
+                 info["thumb_contact"] or info["finger_contact"])
 
 
 class LiveUser:
@@ -69,12 +74,15 @@ class LiveUser:
         Hand reference at the user's calibration MVC, N.
     generator : str
         A causal sEMG generator (``noise``).
+    window_ms, step_ms : float
+        The feature window and its increment, ms (the calibration's).
     """
 
     def __init__(self, subject: VirtualSubject, calibration: Any, operator: Operator,
                  plan: Plan, *, session_rng: np.random.Generator,
                  operator_rng: np.random.Generator, n_samples: int, control_dt_s: float,
-                 hand_force_at_mvc_n: float, generator: str = "noise") -> None:
+                 hand_force_at_mvc_n: float, generator: str = "noise",
+                 window_ms: float = WINDOW_MS, step_ms: float = STEP_MS) -> None:
         self.fs_hz = float(plan.fs_hz)
         self.session = CausalSession(subject, n_samples, generator=generator, fs_hz=self.fs_hz,
                                      rng=session_rng)
@@ -82,7 +90,7 @@ class LiveUser:
         operator.start(plan, control_dt_s=control_dt_s, rng=operator_rng)
         self.dt = float(control_dt_s)
         self.cal = calibration
-        self.win, self.hop = window_samples(self.fs_hz, WINDOW_MS, STEP_MS)
+        self.win, self.hop = window_samples(self.fs_hz, window_ms, step_ms)
         cols = [c - 1 for c in PAPER_CHANNELS]
         contiguous = cols == list(range(cols[0], cols[0] + len(cols)))
         self._channels = slice(cols[0], cols[-1] + 1) if contiguous else np.array(cols)
@@ -96,6 +104,8 @@ class LiveUser:
             self._stream = calibration.pipeline.streaming(calibration.mode)
             self._stream.reset()
         self._one_step = calibration.mode == "one_step"
+        self._intact = calibration.name == INTACT  # no sEMG path: the true force, every step
+        self._gate = calibration.rest_gate()  # the hand acts above the rest threshold
         self.to_hand = hand_force_at_mvc_n / calibration.mvc_cal_n
         self.ceiling = 1.2 * hand_force_at_mvc_n
         self._next_window = 0
@@ -124,6 +134,13 @@ class LiveUser:
         while self._next_end < self.n_samples and self._next_end / self.fs_hz <= t + 1e-9:
             self._window(self._next_end)
             self._next_end += self.hop
+        if self._intact:  # the hand follows the user's own force as it is now
+            n = min(int(t * self.fs_hz + 1e-9) + 1, self.n_samples)
+            self._record_to(n)
+            t0 = time.perf_counter()
+            grip_n, _ = self.session.read_forces()
+            self.timings["t_semg_s"] += time.perf_counter() - t0
+            self._reference = float(np.clip(grip_n[n - 1] * self.to_hand, 0.0, self.ceiling))
         return self._reference
 
     def intent_until(self, n: int) -> None:
@@ -135,13 +152,19 @@ class LiveUser:
             self._n_intent = n
             self.timings["t_operator_s"] += time.perf_counter() - t0
 
-    def _window(self, end: int) -> None:
-        """Record up to sample ``end``, compute that window's features, step the estimator."""
-        self.intent_until(end + 1)
+    def _record_to(self, n: int) -> None:
+        """Record the sEMG of every sample before ``n`` (its intent decided by now)."""
+        self.intent_until(n)
         t0 = time.perf_counter()
         done = self.session.n_done
-        if end + 1 > done:
-            self.emg[done:end + 1] = self.session.advance(self.intent[done:end + 1])
+        if n > done:
+            self.emg[done:n] = self.session.advance(self.intent[done:n])
+        self.timings["t_semg_s"] += time.perf_counter() - t0
+
+    def _window(self, end: int) -> None:
+        """Record up to sample ``end``, compute that window's features, step the estimator."""
+        self._record_to(end + 1)
+        t0 = time.perf_counter()
         live_force = self._stream is None or self._one_step
         if live_force:  # the oracle or the one-step estimator reads forces now
             grip_n, force_n = self.session.read_forces()
@@ -160,12 +183,14 @@ class LiveUser:
             y_prev = None
             if self._one_step:
                 y_prev = float(force_n[end - self.hop]) if self._next_window > 0 else 0.0
-            estimate = self._stream.step(x, y_prev) * self.to_hand
+            estimate = self._gate.step(self._stream.step(x, y_prev)) * self.to_hand
         t3 = time.perf_counter()
-        self._reference = float(np.clip(estimate, 0.0, self.ceiling))
+        value = float(np.clip(estimate, 0.0, self.ceiling))
+        if not self._intact:
+            self._reference = value
         self.window_t_s.append(end / self.fs_hz)
         self.window_end.append(end)
-        self.window_estimate_n.append(self._reference)
+        self.window_estimate_n.append(value)
         self._next_window += 1
         self.timings["t_semg_s"] += t1 - t0
         self.timings["t_features_s"] += t2 - t1

@@ -16,26 +16,70 @@ from controllers.bounds import slip_threshold_n
 from estimation.features import PAPER_CHANNELS, FeatureSet, align_to_windows, extract_features
 from scenarios.runners.calibration import Calibration
 from scenarios.runners.dispatch import UnsupportedScenarioError
-from scenarios.runners.operator_loop import LiveUser
+from scenarios.runners.operator_loop import STEP_MS, WINDOW_MS, LiveUser
+from scenarios.schema.names import INTACT
 from sim.hand.objects import ObjectSpec
+from sim.hand.wrist import WristSchedule
 from sim.user.causal import NotCausalError
 from sim.user.intent import IntentProfile, grasp_lift_hold
-from sim.user.operator import Operator, Plan
+from sim.user.operator import FRAGILE_MARGIN, MIN_GRIP_N, Operator, OperatorParams, Plan
 from sim.user.subjects import VirtualSubject
 
-MIN_GRIP_N = 2.0  # the least grip a user intends, N
-FRAGILE_MARGIN = 0.7  # a user intends at most this fraction of a fragile object's break force
 REST_S = 1.0  # rest before the grasp, s
 RAMP_S = 0.5  # ramp to the hold level, s
+LIFT_HEIGHT_M = WristSchedule().lift_height_m
+"""How high a grasp-lift-hold trial lifts the object, m."""
+NOVICE_SAFETY_FACTOR = 1.0 + OperatorParams().novice_margin
+"""Grip over the slip force a user aims at without practice (the scripted user's aim)."""
 
 
+def intended_grip_n(obj: ObjectSpec, safety_factor: float = NOVICE_SAFETY_FACTOR) -> float:
+    """Hand grip force a user with ``safety_factor`` aims at for ``obj``, N (module notes).
 
-def intended_grip_n(obj: ObjectSpec, safety_factor: float) -> float:
-    """Hand grip force the user aims at for ``obj``, N (see module notes)."""
+    ``safety_factor`` times the slip threshold ``m g / (2 mu)``, at least
+    :data:`~sim.user.operator.MIN_GRIP_N`, at most
+    :data:`~sim.user.operator.FRAGILE_MARGIN` of a fragile object's break force.
+    """
     target = max(safety_factor * slip_threshold_n(obj.mass_kg, obj.friction), MIN_GRIP_N)
     if obj.break_force_n is not None:
         target = min(target, FRAGILE_MARGIN * obj.break_force_n)
     return float(target)
+
+
+@dataclass(frozen=True)
+class Task:
+    """What a trial asks of the user besides a grip (the :class:`~sim.user.operator.Plan`'s task).
+
+    Attributes
+    ----------
+    need_n : float or None
+        The grip the object needs not to slip, N (``None``: the task gives a
+        force target instead).
+    break_n : float or None
+        A fragile object's break force, N.
+    lift_height_m : float or None
+        How high to lift, m (``None``: hold on the table).
+    hold_s : float
+        How long to hold before putting the object down, s.
+    place : bool
+        Put the object down and let go after the hold.
+    move_s : float or None
+        Duration of the lift and the set-down when the task sets it, s.
+    """
+
+    need_n: float | None
+    break_n: float | None = None
+    lift_height_m: float | None = LIFT_HEIGHT_M
+    hold_s: float = 2.0
+    place: bool = True
+    move_s: float | None = None
+
+
+def grasp_task(obj: ObjectSpec, *, hold_s: float, lift_height_m: float | None = LIFT_HEIGHT_M,
+               place: bool = True) -> Task:
+    """The task of grasping, lifting and holding ``obj``: its slip force and break force."""
+    return Task(need_n=slip_threshold_n(obj.mass_kg, obj.friction), break_n=obj.break_force_n,
+                lift_height_m=lift_height_m, hold_s=hold_s, place=place)
 
 
 def reference_from_windows(values_n: np.ndarray, window_t_s: np.ndarray,
@@ -89,10 +133,17 @@ class ReferenceStream:
     oracle_n: np.ndarray
 
 
+def level_per_newton(cal: Calibration, subject: VirtualSubject,
+                     hand_force_at_mvc_n: float) -> float:
+    """Intent (fraction of MVC) per newton of hand force, through the calibration's mapping."""
+    return float(cal.mvc_cal_n / subject.mvc_n / hand_force_at_mvc_n)
+
+
 def hold_level_for(target_n: float, cal: Calibration, subject: VirtualSubject,
                    hand_force_at_mvc_n: float) -> float:
     """The intent (fraction of MVC) asking for ``target_n`` through the calibration's mapping."""
-    return float(np.clip(target_n / hand_force_at_mvc_n * cal.mvc_cal_n / subject.mvc_n, 0.0, 1.0))
+    return float(np.clip(target_n * level_per_newton(cal, subject, hand_force_at_mvc_n),
+                         0.0, 1.0))
 
 
 def episode_profile(rng: np.random.Generator, hold_level: float, episode_s: float
@@ -106,7 +157,8 @@ def episode_profile(rng: np.random.Generator, hold_level: float, episode_s: floa
 def scripted_reference(subject: VirtualSubject, cal: Calibration, target_n: float,
                       rng: np.random.Generator, *, generator: str, episode_s: float,
                       control_dt_s: float, hand_force_at_mvc_n: float,
-                      timings: dict[str, float]) -> ReferenceStream:
+                      timings: dict[str, float], window_ms: float = WINDOW_MS,
+                      step_ms: float = STEP_MS) -> ReferenceStream:
     """Record the user's sEMG while they grasp, estimate, and hold it at the control rate.
 
     The scripted user: the whole episode's sEMG and reference are computed
@@ -123,18 +175,20 @@ def scripted_reference(subject: VirtualSubject, cal: Calibration, target_n: floa
     n_keep = int(round((episode_s + 0.5) * recording.fs_hz))
     recording = recording.slice(0, min(n_keep, recording.n_samples))
     t0 = time.perf_counter()
-    features = extract_features(recording, channels=PAPER_CHANNELS)
+    features = extract_features(recording, channels=PAPER_CHANNELS, window_ms=window_ms,
+                                step_ms=step_ms)
     timings["t_features_s"] = time.perf_counter() - t0
 
     # Estimates at the window rate, then the held reference at the control rate.
     to_hand = hand_force_at_mvc_n / cal.mvc_cal_n
     # the user's true grip force (before the FSR) at each window's end
-    oracle_windows = align_to_windows(recording.intent_force_n, recording.fs_hz) * to_hand
+    oracle_windows = align_to_windows(recording.intent_force_n, recording.fs_hz,
+                                      window_ms=window_ms, step_ms=step_ms) * to_hand
     t0 = time.perf_counter()
     if cal.pipeline is None:
         estimate_windows = oracle_windows
-    else:
-        estimate_windows = stream_estimates(cal, features) * to_hand
+    else:  # the hand acts above the rest threshold
+        estimate_windows = cal.rest_gate().run(stream_estimates(cal, features)) * to_hand
     timings["t_estimator_s"] = time.perf_counter() - t0
     ceiling = 1.2 * hand_force_at_mvc_n
     estimate_windows = np.clip(estimate_windows, 0.0, ceiling)
@@ -142,6 +196,9 @@ def scripted_reference(subject: VirtualSubject, cal: Calibration, target_n: floa
     t_ctrl = np.arange(n_steps) * control_dt_s
     reference = reference_from_windows(estimate_windows, features.t_s, t_ctrl)
     oracle = reference_from_windows(np.clip(oracle_windows, 0, ceiling), features.t_s, t_ctrl)
+    if cal.name == INTACT:  # no sEMG path: the user's own force at every control step
+        idx = np.minimum((t_ctrl * recording.fs_hz + 1e-9).astype(int), recording.n_samples - 1)
+        reference = np.clip(recording.intent_force_n[idx] * to_hand, 0.0, ceiling)
     return ReferenceStream(start_s, estimate_windows[features.t_s <= episode_s],
                             features.dt_s, t_ctrl, reference, oracle)
 
@@ -149,28 +206,41 @@ def scripted_reference(subject: VirtualSubject, cal: Calibration, target_n: floa
 def live_user(subject: VirtualSubject, cal: Calibration, operator: Operator, goal_n: float,
               rng: np.random.Generator, operator_rng: np.random.Generator, *, generator: str,
               episode_s: float, control_dt_s: float, hand_force_at_mvc_n: float,
-              hold_level: float | None = None) -> tuple[LiveUser, float]:
+              hold_level: float | None = None, task: Task | None = None,
+              window_ms: float = WINDOW_MS, step_ms: float = STEP_MS
+              ) -> tuple[LiveUser, float]:
     """A user in the loop for one episode, and their ramp onset, s.
 
     Draws the same profile and the same sEMG noise from ``rng`` as
     :func:`scripted_reference` does (a scripted operator so gives its very
-    references); the operator plans from the profile and aims at ``goal_n``.
+    references); the script aims at ``goal_n``, and a user who plans by
+    themselves reads the object's needs and the arm's part from ``task``.
 
     Parameters
     ----------
     hold_level : float, optional
         The scripted hold level; default: ``goal_n`` through the calibration.
+    task : Task, optional
+        The object's slip and break forces and the lift; default: a force
+        target of ``goal_n`` held on the table.
+    window_ms, step_ms : float
+        The feature window and its increment, ms.
     """
     if hold_level is None:
         hold_level = hold_level_for(goal_n, cal, subject, hand_force_at_mvc_n)
+    task = task or Task(need_n=None, lift_height_m=None, hold_s=episode_s, place=False)
     profile, start_s = episode_profile(rng, hold_level, episode_s)
     plan = Plan(intent=profile.intent, fs_hz=profile.fs_hz, hold_level=hold_level,
-                goal_n=float(goal_n), force_range_n=float(hand_force_at_mvc_n))
+                goal_n=float(goal_n), force_range_n=float(hand_force_at_mvc_n),
+                need_n=task.need_n, break_n=task.break_n,
+                level_per_n=level_per_newton(cal, subject, hand_force_at_mvc_n),
+                lift_height_m=task.lift_height_m, hold_s=task.hold_s, place=task.place,
+                move_s=task.move_s)
     try:
         user = LiveUser(subject, cal, operator, plan, session_rng=rng,
                         operator_rng=operator_rng, n_samples=profile.n_samples,
                         control_dt_s=control_dt_s, hand_force_at_mvc_n=hand_force_at_mvc_n,
-                        generator=generator)
+                        generator=generator, window_ms=window_ms, step_ms=step_ms)
     except NotCausalError as exc:
         raise UnsupportedScenarioError(f"user {operator.name}: {exc}") from None
     return user, start_s

@@ -45,7 +45,8 @@ def calibration_profile(rng: np.random.Generator, *, fs_hz: float,
 
 
 def calibration_session(subject: VirtualSubject, rng: np.random.Generator, *,
-                        generator: str = "noise", min_duration_s: float | None = None
+                        generator: str = "noise", min_duration_s: float | None = None,
+                        window_ms: float = 400.0, step_ms: float = 125.0
                         ) -> tuple[Recording, FeatureSet]:
     """Record the subject's calibration session and extract its features.
 
@@ -61,15 +62,19 @@ def calibration_session(subject: VirtualSubject, rng: np.random.Generator, *,
         Repeat the paper's session until it lasts at least this long, s
         (``None``: one session, about 25-36 s, as
         :meth:`sim.user.subjects.VirtualSubject.paper_session` records it).
+    window_ms, step_ms : float
+        The feature window and its increment, ms (the paper's 400 and 125).
 
     Returns
     -------
     recording : Recording
         sEMG at 200 Hz, shape (n_samples, 8), with the FSR force.
     features : FeatureSet
-        MAV, RMS and WL of the paper's channels, ``X`` shape (n_windows, 9), ``y`` in N.
+        MAV, RMS and WL of the paper's channels, ``X`` shape (n_windows, 9), ``y`` in N,
+        one window every ``step_ms``.
     """
     profile = calibration_profile(rng, fs_hz=CALIBRATION_FS_HZ, min_duration_s=min_duration_s)
     recording = subject.record(profile, generator=generator, fs_hz=CALIBRATION_FS_HZ, rng=rng,
                                rig=True)
-    return recording, extract_features(recording, channels=PAPER_CHANNELS)
+    return recording, extract_features(recording, channels=PAPER_CHANNELS, window_ms=window_ms,
+                                       step_ms=step_ms)

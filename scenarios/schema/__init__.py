@@ -52,6 +52,8 @@ from scenarios.schema.expansion import (
 )
 from scenarios.schema.models import (
     DEFAULT_TIME_LIMIT_S,
+    INTACT,
+    NO_ESTIMATOR,
     ORACLE,
     SIZE_LENGTHS,
     ControllerConfig,
@@ -94,7 +96,8 @@ from scenarios.schema.yaml_loading import (
 
 __all__ = [
     "DEFAULT_MAX_SCENARIOS", "DEFAULT_TIME_LIMIT_S", "MAX_YAML_DEPTH", "MAX_YAML_NODES",
-    "ORACLE", "SIZE_LENGTHS", "Choice", "ControllerConfig", "Distribution", "EstimatorConfig",
+    "INTACT", "NO_ESTIMATOR", "ORACLE", "SIZE_LENGTHS", "Choice", "ControllerConfig",
+    "Distribution", "EstimatorConfig",
     "ExpandedScenario", "Integers", "LogUniform", "Normal", "ObjectConfig",
     "OperatorParamsConfig", "ProtocolConfig", "RandomDesign", "Scenario", "ScenarioError",
     "SlipReflexConfig", "SubjectConfig", "SweepConfig", "Uniform", "UserConfig", "check_size",

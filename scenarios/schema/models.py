@@ -16,7 +16,12 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 
 from scenarios.schema.names import (  # noqa: F401  (re-exported: the schema's public names)
     _NAMES,
+    INTACT,
+    NO_ESTIMATOR,
     ORACLE,
+    PRACTICE_RANGE,
+    STEP_RANGE_MS,
+    WINDOW_RANGE_MS,
     _registered,
     check_declared_options,
     controller_names,
@@ -96,19 +101,25 @@ class ProtocolConfig(_Model):
     Attributes
     ----------
     name : {"paper_calibration", "grasp_lift_hold", "fragile_handling", "virtual_eggs", \
-"slip_recovery", "force_matching"}
+"slip_recovery", "force_matching", "timed_transfers"}
         The paper's three-squeeze FSR session, a Johansson-Westling
         grasp-lift-hold, handling a breakable object, or one of the feedback
         benchmarks (:mod:`scenarios.runners.feedback_tasks`): transferring a
         fragile block (Virtual Eggs Test), recovering an object whose load
-        rises until it slips, holding a target force.
+        rises until it slips, holding a target force; or moving blocks over a
+        partition for a minute (:mod:`scenarios.runners.transfers`).
     calibration_s : float or None
         Duration of the calibration session used to fit the estimator, s;
         ``None`` keeps the paper protocol's own length (about 25-36 s).
-    episode_s : float
-        Duration of the closed-loop episode, s.
+    episode_s : float or None
+        Length of the closed-loop episode, s: the time limit of a trial the
+        user paces (they lift when the grip looks secure and try again; a
+        trial that runs out before a secure lift is ``not_lifted``), or the
+        scripted user's whole episode. ``None``: 15 s for a user who paces the
+        trial, 6 s for the scripted user.
     hold_s : float
-        Duration of the hold phase within the episode, s.
+        How long the object is held in the air, s (the scripted user: the end
+        of the episode).
     identification_fraction : float
         Fraction of the calibration session used for identification; the rest
         validates (the paper uses 0.5).
@@ -121,21 +132,25 @@ class ProtocolConfig(_Model):
         force at the user's MVC.
     load_rate_n_s : float
         ``slip_recovery``: rate at which the load on the held object rises, N/s.
+    duration_s : float
+        ``timed_transfers``: how long the user moves blocks, s (the Box and
+        Blocks Test's 60).
     """
 
     name: Literal["paper_calibration", "grasp_lift_hold", "fragile_handling", "virtual_eggs",
-                  "slip_recovery", "force_matching"] = "grasp_lift_hold"
+                  "slip_recovery", "force_matching", "timed_transfers"] = "grasp_lift_hold"
     calibration_s: float | None = Field(None, ge=5.0, le=600.0)
-    episode_s: float = Field(6.0, ge=0.5, le=120.0)
+    episode_s: float | None = Field(None, ge=0.5, le=120.0)
     hold_s: float = Field(2.0, ge=0.0, le=60.0)
     identification_fraction: float = Field(0.5, gt=0.05, lt=0.95)
     trials: int = Field(3, ge=1, le=100)
     target_fraction: float = Field(0.4, gt=0.0, le=1.0)
     load_rate_n_s: float = Field(1.0, gt=0.0, le=50.0)
+    duration_s: float = Field(60.0, ge=10.0, le=600.0)
 
     @model_validator(mode="after")
     def _hold_fits(self) -> ProtocolConfig:
-        if self.hold_s >= self.episode_s:
+        if self.episode_s is not None and self.hold_s >= self.episode_s:
             raise ValueError(
                 f"hold_s must be shorter than episode_s={self.episode_s:g} s "
                 f"(found hold_s={self.hold_s:g} s)"
@@ -214,12 +229,27 @@ class EstimatorConfig(_Model):
         The estimator's own hyperparameters (its ``get_params``, e.g. an MLP's
         ``alpha``), except the order, seed and feature period an evaluation
         sets; each value has the type of its default.
+    window_ms : float
+        Feature window, ms: the paper's 400 (50..1000). The sEMG path's
+        latency grows with it; research uses 150-250 ms as well.
+    step_ms : float
+        Window increment, ms: the paper's 125 (10..500, at most the window);
+        the estimator updates at this period.
     """
 
     name: str = "ss_kf"
     mode: Literal["one_step", "free_run"] = "free_run"
     order: int | None = Field(None, ge=1, le=12)
     options: dict[str, Any] = Field(default_factory=dict)
+    window_ms: float = Field(400.0, ge=WINDOW_RANGE_MS[0], le=WINDOW_RANGE_MS[1])
+    step_ms: float = Field(125.0, ge=STEP_RANGE_MS[0], le=STEP_RANGE_MS[1])
+
+    @model_validator(mode="after")
+    def _step_fits_window(self) -> EstimatorConfig:
+        if self.step_ms > self.window_ms:
+            raise ValueError(f"step_ms must not exceed window_ms={self.window_ms:g} ms "
+                             f"(found step_ms={self.step_ms:g} ms)")
+        return self
 
     @field_validator("name")
     @classmethod
@@ -380,10 +410,15 @@ class UserConfig(_Model):
     params : OperatorParamsConfig
         The reacting user's parameters, each within its physical range
         (:class:`sim.user.operator.OperatorParams` lists them with sources).
+    practice : int
+        Practice lifts of the object's class with the same estimator,
+        controller and feedback before the measured trials (0..50; default 5;
+        0 is the novice). A user kind that does not learn ignores it.
     """
 
     kind: str = "reacting"
     feedback: str = "none"
+    practice: int = Field(5, ge=PRACTICE_RANGE[0], le=PRACTICE_RANGE[1])
     params: OperatorParamsConfig = Field(default_factory=OperatorParamsConfig)  # type: ignore[valid-type]
 
     @field_validator("kind")

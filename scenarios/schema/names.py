@@ -18,6 +18,17 @@ from sim.errors import GriploopError
 
 #: Reference source that is not an estimator: the user's true intent (a perfect estimate).
 ORACLE = "oracle"
+#: The intact-hand reference: the user's true grip force at every control step, no sEMG path
+#: (no window, no estimator); its user feels through touch (feedback ``touch``).
+INTACT = "intact"
+#: Reference sources that fit no estimator.
+NO_ESTIMATOR = (ORACLE, INTACT)
+#: Feature windows a scenario may use, ms (``estimator.window_ms``, ``--window-ms``).
+WINDOW_RANGE_MS = (50.0, 1000.0)
+#: Window increments a scenario may use, ms (``estimator.step_ms``, ``--step-ms``).
+STEP_RANGE_MS = (10.0, 500.0)
+#: Practice lifts a scenario may ask for (``user.practice``, ``--practice``).
+PRACTICE_RANGE = (0, 50)
 
 
 def scenario_kinds() -> tuple[str, ...]:
@@ -49,10 +60,11 @@ def object_names() -> tuple[str, ...]:
 
 
 def estimator_choices() -> tuple[str, ...]:
-    """Estimators registered in :mod:`estimation.registry`, then :data:`ORACLE`."""
+    """Estimators registered in :mod:`estimation.registry`, then :data:`ORACLE` and
+    :data:`INTACT`."""
     from estimation.registry import estimator_names
 
-    return (*estimator_names(), ORACLE)
+    return (*estimator_names(), *NO_ESTIMATOR)
 
 
 def controller_names() -> tuple[str, ...]:
@@ -156,9 +168,9 @@ def estimator_own_options(name: str) -> dict[str, Any]:
 
     What the estimator declares (scikit-learn's ``get_params``), less what its
     registration fixes and what an evaluation sets (order, seed, feature period).
-    The oracle has none.
+    The oracle and the intact-hand reference have none.
     """
-    if name == ORACLE:
+    if name in NO_ESTIMATOR:
         return {}
     from estimation.registry import estimator_info, make_estimator
 

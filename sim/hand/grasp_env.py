@@ -2,8 +2,10 @@
 
 Episode: the object rests on the table with the open hand around it. The agent
 commands the motor (normalized armature voltage, -1..1) every control period
-to track a grip-force reference; the wrist follows a :class:`WristSchedule`
-(lift once the grip is established, hold, optionally shake and place).
+to track a grip-force reference. The wrist follows a :class:`WristSchedule`
+(lift once the grip is established, hold, optionally shake and place) or, with
+``wrist="commanded"``, its user's own moves (:meth:`GraspEnv.move_wrist`,
+:mod:`sim.hand.wrist`): the person in the loop lifts when they choose.
 
 Observation (float32, ``GraspEnv.OBS_NAMES``)::
 
@@ -33,105 +35,12 @@ from sim.hand.contact import ContactReading, OutcomeTracker, read_contacts
 from sim.hand.errors import GraspFailedError, HandSpecError
 from sim.hand.model import HandIds, MotorSpec, PadSpec, build_model
 from sim.hand.objects import ObjectSpec, as_object_spec
+from sim.hand.wrist import CommandedWrist, WristSchedule, min_jerk
 from sim.references import Reference, StreamReference, as_reference
 
+__all__ = ["G_M_S2", "GraspEnv", "RewardWeights", "WristSchedule", "CommandedWrist"]
+
 G_M_S2 = 9.81
-
-
-@dataclass(frozen=True)
-class WristSchedule:
-    """Wrist trajectory of an episode (offsets from the approach pose, m and s).
-
-    Parameters
-    ----------
-    lift_after_s : float
-        Earliest lift time. The lift starts at the first control step at or
-        after it where the grip force reaches ``lift_min_grip_n`` with both
-        sides touching (the grip is established); without a grip, no lift.
-    lift_min_grip_n : float
-        Grip force that counts as established, N.
-    lift_height_m : float
-        Lift height, reached along a minimum-jerk path in ``lift_duration_s``.
-    lift_duration_s : float
-        Duration of the lift, s.
-    shake_amplitude_m : float
-        Vertical shake amplitude (0 = no shake), m.
-    shake_frequency_hz : float
-        Shake frequency, Hz.
-    shake_delay_s : float
-        Shake starts this long after the lift ends, s.
-    shake_duration_s : float
-        Shake duration, s; the amplitude is windowed by ``sin^2`` so the wrist
-        velocity stays continuous.
-    place_delay_s : float or None
-        If set, the object is put back down this long after the lift ends.
-    """
-
-    lift_after_s: float = 0.8
-    lift_min_grip_n: float = 1.0
-    lift_height_m: float = 0.08
-    lift_duration_s: float = 0.6
-    shake_amplitude_m: float = 0.0
-    shake_frequency_hz: float = 3.0
-    shake_delay_s: float = 0.3
-    shake_duration_s: float = 1.0
-    place_delay_s: float | None = None
-
-    def height_m(self, t_s: float, lift_start_s: float | None) -> float:
-        """Wrist height offset at ``t_s`` given when the lift started (or ``None``)."""
-        if lift_start_s is None:
-            return 0.0
-        tau = t_s - lift_start_s
-        z = self.lift_height_m * _min_jerk(tau / self.lift_duration_s)
-        if self.shake_amplitude_m <= 0 and self.place_delay_s is None:
-            return z  # the common schedule: lift and hold (called every substep of a lift)
-        after = tau - self.lift_duration_s
-        if self.shake_amplitude_m > 0 and 0 < after - self.shake_delay_s < self.shake_duration_s:
-            s = after - self.shake_delay_s
-            window = math.sin(math.pi * s / self.shake_duration_s) ** 2
-            phase = 2 * math.pi * self.shake_frequency_hz * s
-            z += self.shake_amplitude_m * window * math.sin(phase)
-        if self.place_delay_s is not None and after > self.place_delay_s:
-            z -= self.lift_height_m * _min_jerk((after - self.place_delay_s) / self.lift_duration_s)
-        return z
-
-    def moves_during(self, t0_s: float, t1_s: float, lift_start_s: float | None) -> bool:
-        """Whether the wrist set-point changes anywhere in ``[t0_s, t1_s]``.
-
-        Parameters
-        ----------
-        t0_s, t1_s : float
-            Interval, episode time in s.
-        lift_start_s : float or None
-            When the lift started (``None``: not yet; ``-inf``: lifted by
-            :meth:`GraspEnv.steady_grasp`).
-
-        Returns
-        -------
-        bool
-            True when the interval overlaps the lift, the shake or the place
-            motion; outside them :meth:`height_m` is constant.
-        """
-        if lift_start_s is None:
-            return False
-        return any(t0_s < b and a < t1_s for a, b in self.motion_windows(lift_start_s))
-
-    def motion_windows(self, lift_start_s: float) -> tuple[tuple[float, float], ...]:
-        """``(start_s, end_s)`` of the lift and, if configured, the shake and the place motion."""
-        end = lift_start_s + self.lift_duration_s
-        windows = [(lift_start_s, end)]
-        if self.shake_amplitude_m > 0:
-            windows.append((end + self.shake_delay_s,
-                            end + self.shake_delay_s + self.shake_duration_s))
-        if self.place_delay_s is not None:
-            windows.append((end + self.place_delay_s,
-                            end + self.place_delay_s + self.lift_duration_s))
-        return tuple(windows)
-
-
-def _min_jerk(s: float) -> float:
-    s = 0.0 if s < 0 else 1.0 if s > 1 else s
-    return s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
 
 
 @dataclass(frozen=True)
@@ -168,7 +77,14 @@ class GraspEnv(gym.Env):
     episode_s : float
         Episode duration; ``truncated`` is set when it is reached.
     schedule : WristSchedule
-        Wrist trajectory.
+        Wrist trajectory of ``wrist="scheduled"``.
+    wrist : {"scheduled", "commanded"}
+        ``"scheduled"`` follows ``schedule``; ``"commanded"`` stays at the approach
+        pose until :meth:`move_wrist` moves it (the user's own arm).
+    terminate_on_drop : bool
+        End the episode (``terminated``) when the object is dropped. A user
+        who lifts by themselves and tries again after the object stayed behind
+        needs the episode to go on; the crush always ends it.
     motor : MotorSpec
         Drive parameters.
     pads : PadSpec
@@ -196,7 +112,8 @@ class GraspEnv(gym.Env):
                  motor: MotorSpec | None = None, reward_weights: RewardWeights | None = None,
                  slip_threshold_m_s: float = 0.005, drop_distance_m: float = 0.03,
                  position_jitter_m: float = 0.0, render_mode: str | None = None,
-                 render_size: tuple[int, int] = (480, 640), pads: PadSpec | None = None) -> None:
+                 render_size: tuple[int, int] = (480, 640), pads: PadSpec | None = None,
+                 wrist: str = "scheduled", terminate_on_drop: bool = True) -> None:
         if not 0.001 <= physics_dt_s <= 0.002 + 1e-12:
             raise HandSpecError(f"physics_dt_s: expected 0.001..0.002 s, found {physics_dt_s!r}")
         n_sub = round(control_dt_s / physics_dt_s)
@@ -207,6 +124,8 @@ class GraspEnv(gym.Env):
             )
         if not episode_s > 0:
             raise HandSpecError(f"episode_s: expected a positive duration, found {episode_s!r}")
+        if wrist not in ("scheduled", "commanded"):
+            raise HandSpecError(f"wrist: expected 'scheduled' or 'commanded', found {wrist!r}")
         if render_mode not in (None, "rgb_array"):
             raise HandSpecError(f"render_mode: expected None or 'rgb_array', found {render_mode!r}")
         if not 0 <= position_jitter_m <= 0.01:
@@ -219,6 +138,8 @@ class GraspEnv(gym.Env):
         self.episode_s = float(episode_s)
         self.max_steps = int(round(episode_s / control_dt_s))
         self.schedule = schedule or WristSchedule()
+        self.commanded: CommandedWrist | None = CommandedWrist() if wrist == "commanded" else None
+        self.terminate_on_drop = bool(terminate_on_drop)
         self.motor = motor or MotorSpec()
         self.pads = pads or PadSpec()
         self.weights = reward_weights or RewardWeights()
@@ -287,6 +208,23 @@ class GraspEnv(gym.Env):
         self._load_n = f
         self.data.xfrc_applied[self._obj_body, 2] = -f
 
+    def move_wrist(self, height_m: float, duration_s: float) -> None:
+        """Start a wrist move to ``height_m`` (m above the approach pose) over ``duration_s``.
+
+        The move starts now (the current episode time) from the wrist's
+        set-point along a minimum-jerk path (:class:`sim.hand.wrist.CommandedWrist`).
+
+        Raises
+        ------
+        HandSpecError
+            The environment was made with ``wrist="scheduled"``, or a height or
+            duration out of range.
+        """
+        if self.commanded is None:
+            raise HandSpecError("move_wrist: this environment's wrist follows its schedule; "
+                                "make it with wrist='commanded' to move it")
+        self.commanded.move(self.data.time, height_m, duration_s)
+
     def set_reference(self, force_n: float) -> None:
         """Push the next reference value (N), e.g. an estimator's output.
 
@@ -328,6 +266,8 @@ class GraspEnv(gym.Env):
         mujoco.mj_forward(m, d)
         self._step_count = 0
         self._lift_start_s: float | None = None
+        if self.commanded is not None:
+            self.commanded.reset()
         self._clipped = 0
         self._warn_view = d.warning.number  # a view on mjData, updated in place
         self._warnings = self._warn_view.tolist()
@@ -359,27 +299,11 @@ class GraspEnv(gym.Env):
         ctrl = self._ctrl
         ctrl[self._i_motor] = u
         t = d.time
-        schedule = self.schedule
-        if self._lift_start_s is None and t >= schedule.lift_after_s - 1e-9:
-            c = self._contacts
-            if (c.thumb_contact and c.finger_contact
-                    and c.grip_force_n >= schedule.lift_min_grip_n):
-                self._lift_start_s = t
-        lift_start = self._lift_start_s
-        if lift_start is not None and self._moves(t, t + self.control_dt_s, lift_start):
-            # While the wrist moves its path is sampled at every physics
-            # substep: a set-point held over the control period is a staircase
-            # that the stiff wrist servo follows with acceleration spikes of
-            # about 2 g, which shook light objects out of the grasp
-            # (docs/HAND.md, "The lift").
-            height_m, dt, i_wrist = schedule.height_m, self.physics_dt_s, self._i_wrist_z
-            step = mujoco.mj_step
-            for i in range(1, self.n_substeps + 1):
-                ctrl[i_wrist] = height_m(t + i * dt, lift_start)
-                step(m, d)
+        commanded = self.commanded
+        if commanded is not None:
+            self._step_commanded(commanded, t)
         else:
-            ctrl[self._i_wrist_z] = schedule.height_m(t + self.control_dt_s, lift_start)
-            mujoco.mj_step(m, d, self.n_substeps)
+            self._step_scheduled(t)
         self._step_count += 1
 
         # MuJoCo checks qpos/qvel/qacc for NaN, inf and huge values itself
@@ -408,10 +332,48 @@ class GraspEnv(gym.Env):
         crush = -w.crush if tr.crushed and not was_crushed else 0.0
         terms = {"tracking": tracking, "slip": slip, "drop": drop, "crush": crush}
         reward = tracking + slip + drop + crush
-        terminated = tr.dropped or tr.crushed
+        terminated = (tr.dropped and self.terminate_on_drop) or tr.crushed
         truncated = self._step_count >= self.max_steps or failure is not None
         obs, info = self._observe_info(ref, terms, failure)
         return obs, float(reward), bool(terminated), bool(truncated), info
+
+    def _step_scheduled(self, t: float) -> None:
+        """Physics of one control period with the wrist on its schedule."""
+        m, d, ctrl, schedule = self.model, self.data, self._ctrl, self.schedule
+        if self._lift_start_s is None and t >= schedule.lift_after_s - 1e-9:
+            c = self._contacts
+            if (c.thumb_contact and c.finger_contact
+                    and c.grip_force_n >= schedule.lift_min_grip_n):
+                self._lift_start_s = t
+        lift_start = self._lift_start_s
+        if lift_start is not None and self._moves(t, t + self.control_dt_s, lift_start):
+            # While the wrist moves its path is sampled at every physics
+            # substep: a set-point held over the control period is a staircase
+            # that the stiff wrist servo follows with acceleration spikes of
+            # about 2 g, which shook light objects out of the grasp
+            # (docs/HAND.md, "The lift").
+            self._substeps(lambda s: schedule.height_m(s, lift_start), t)
+        else:
+            ctrl[self._i_wrist_z] = schedule.height_m(t + self.control_dt_s, lift_start)
+            mujoco.mj_step(m, d, self.n_substeps)
+
+    def _step_commanded(self, wrist: CommandedWrist, t: float) -> None:
+        """Physics of one control period with the wrist where its user moves it."""
+        if wrist.moves_during(t, t + self.control_dt_s):
+            self._substeps(wrist.height_m, t)  # sampled per substep, as a scheduled lift
+        else:
+            self._ctrl[self._i_wrist_z] = wrist.height_m(t + self.control_dt_s)
+            mujoco.mj_step(self.model, self.data, self.n_substeps)
+        self._lift_start_s = wrist.first_rise_s
+
+    def _substeps(self, height_m: Any, t: float) -> None:
+        """The control period's physics substeps with the wrist at ``height_m(time)``."""
+        m, d, ctrl, dt, i_wrist = self.model, self.data, self._ctrl, self.physics_dt_s, \
+            self._i_wrist_z
+        step = mujoco.mj_step
+        for i in range(1, self.n_substeps + 1):
+            ctrl[i_wrist] = height_m(t + i * dt)
+            step(m, d)
 
     def render(self) -> np.ndarray | None:
         """An RGB frame ``(height, width, 3)`` uint8 from the ``front`` camera."""
@@ -474,11 +436,13 @@ class GraspEnv(gym.Env):
             "object_in_palm_z_m": s.item(self._k_in_palm + 2),
             "object_load_n": self._load_n,
             "object_displacement_m": tr.displacement_m,
+            "object_out_of_hand": c.n_contacts == 0 and tr.displacement_m > tr.drop_distance_m,
             "finger_position_rad": finger_pos,
             "finger_velocity_rad_s": finger_vel,
             "motor_current_a": current,
             "motor_command": self._ctrl.item(self._i_motor),
             "lifted": self._lift_start_s is not None,
+            "wrist_height_m": self._ctrl.item(self._i_wrist_z),
             "action_clipped_count": self._clipped,
             "reward_terms": terms,
         }
@@ -548,7 +512,7 @@ class GraspEnv(gym.Env):
         if lifted:
             steps = int(round(self.schedule.lift_duration_s / self.physics_dt_s))
             for i in range(steps + 1):
-                d.ctrl[ids.wrist_act[2]] = self.schedule.lift_height_m * _min_jerk(i / steps)
+                d.ctrl[ids.wrist_act[2]] = self.schedule.lift_height_m * min_jerk(i / steps)
                 mujoco.mj_step(m, d)
             self._lift_start_s = -math.inf
         # Lifted: start from the (safe) current command and come down to the target.

@@ -247,8 +247,23 @@ def _vet_block() -> ObjectSpec:
                       break_force_n=4.0, rgba=(0.95, 0.85, 0.3, 1.0))
 
 
+def _transfer_block() -> ObjectSpec:
+    """A block for timed transfers (Box and Blocks style): a 50 mm wooden cube of 30 g.
+
+    The Box and Blocks Test's blocks are 2.5 cm wooden cubes (Mathiowetz et al. 1985).
+    This hand's fingertips hold a 25 mm cube by their edges and shake it out at the
+    accelerations of a transport over the partition (about 1 g, measured in simulation),
+    so the transfer block is 50 mm, as the Virtual Eggs Test's blocks; 30 g and friction
+    0.6 (wood on the pads) are our choice. It does not break (override
+    ``break_force_n`` for a fragile block).
+    """
+    return ObjectSpec("transfer_block", "box", (0.025, 0.025, 0.025), 0.03, friction=0.6,
+                      rgba=(0.2, 0.45, 0.8, 1.0))
+
+
 for _name, _factory in (("ball", _ball), ("can", _can), ("cup", _cup), ("egg", _egg),
-                        ("block", _block), ("vet_block", _vet_block)):
+                        ("block", _block), ("vet_block", _vet_block),
+                        ("transfer_block", _transfer_block)):
     register_object(_name, _factory)
 
 

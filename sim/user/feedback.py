@@ -21,6 +21,12 @@ Registered modes (:mod:`sim.user.operators`):
     crosses ``slip_speed_m_s`` (DESC-style event feedback: Johansson and Edin's
     discrete event-driven control); the user perceives the burst's onset with
     a delay.
+``touch``
+    An intact hand's own touch, for the intact-hand reference: contact and slips
+    felt ``touch_delay_s`` late (the grip responds to a slip 74 ms after it
+    starts, Johansson and Westling 1987). A user who feels contact knows the
+    grasp is secure without watching the hand and lifts without a careful
+    lift-off (:mod:`sim.user.reacting`).
 
 A mode is a class with ``name``, ``codes_force``, ``start(control_dt_s=,
 force_range_n=, rng=)``, ``perceive(scene) -> Felt`` and ``level_of(force_n)``.
@@ -49,10 +55,14 @@ class Felt:
         The onset of a slip burst is felt now.
     level : int or None
         The vibration level felt (``None``: no vibration, or no force coding).
+    contact : bool or None
+        Both sides of the hand felt touching the object (``None``: a mode that
+        does not tell contact).
     """
 
     slip: bool = False
     level: int | None = None
+    contact: bool | None = None
 
 
 _NOTHING = Felt()
@@ -147,6 +157,27 @@ class SlipVibration(NoFeedback):
         onset = bool(on) and not self._was_on
         self._was_on = bool(on)
         return Felt(slip=True) if onset else _NOTHING
+
+
+class Touch(SlipVibration):
+    """An intact hand's touch: contact and slips felt, ``touch_delay_s`` late (module notes)."""
+
+    name = "touch"
+    feels_contact = True
+
+    def start(self, *, control_dt_s: float, force_range_n: float,
+              rng: np.random.Generator) -> None:
+        """Begin a trial: slips as bursts of the slip sensor, felt with touch's delay."""
+        super().start(control_dt_s=control_dt_s, force_range_n=force_range_n, rng=rng)
+        steps = round(self.params.touch_delay_s / control_dt_s)
+        self._line = DelayLine(steps)
+        self._contact = DelayLine(steps)
+
+    def perceive(self, scene: Scene) -> Felt:
+        """A slip's onset and whether the hand touches the object, as felt now."""
+        slip = super().perceive(scene).slip
+        contact = self._contact.push(scene.contact)
+        return Felt(slip=slip, contact=bool(contact))
 
 
 class FeedbackDevice:

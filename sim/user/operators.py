@@ -4,9 +4,9 @@
 user kind                 operator model
 ========================  ===================================================
 scripted                  follows the script, whatever the hand does
-                          (:class:`sim.user.operator.ScriptedOperator`)
+                          (:class:`sim.user.scripted.ScriptedOperator`)
 reacting                  sees, feels and corrects
-                          (:class:`sim.user.operator.ReactingOperator`)
+                          (:class:`sim.user.reacting.ReactingOperator`)
 ========================  ===================================================
 
 ========================  ===================================================
@@ -15,6 +15,7 @@ feedback mode             device and perception (:mod:`sim.user.feedback`)
 none                      vision only
 force_vibration           grip force as a few vibration intensities
 slip_vibration            a discrete burst at each slip event
+touch                     an intact hand's touch (the intact-hand reference)
 ========================  ===================================================
 
 A new operator model is a class ``Model(params, feedback)`` satisfying
@@ -145,8 +146,9 @@ def make_operator(kind: str, *, feedback: str = "none",
     return _OPERATORS.get(kind)(params, feedback)
 
 
-register_operator("reacting", "sim.user.operator:ReactingOperator")
-register_operator("scripted", "sim.user.operator:ScriptedOperator", takes_feedback=False)
+register_operator("reacting", "sim.user.reacting:ReactingOperator")
+register_operator("scripted", "sim.user.scripted:ScriptedOperator", takes_feedback=False)
 register_feedback("none", "sim.user.feedback:NoFeedback")
 register_feedback("force_vibration", "sim.user.feedback:ForceVibration")
 register_feedback("slip_vibration", "sim.user.feedback:SlipVibration")
+register_feedback("touch", "sim.user.feedback:Touch")

@@ -23,8 +23,9 @@ def _margins_args(controller: str) -> argparse.Namespace:
 def _episode_args(controller: str) -> argparse.Namespace:
     return argparse.Namespace(controller=controller, estimator="ss_kf", mode="free_run",
                               object="can", mass_kg=0.4, friction=0.5, subject=1,
-                              population_seed=0, seed=0, episode_s=6.0, user="reacting",
-                              feedback="none")
+                              population_seed=0, seed=0, episode_s=None, hold_s=2.0,
+                              user="reacting", feedback="none", practice=5, window_ms=400.0,
+                              step_ms=125.0)
 
 
 def test_every_controller_has_default_specs():

@@ -109,7 +109,8 @@ def test_same_seed_same_episode(oracle_episode) -> None:
 def test_bad_timing_and_missing_modes_are_named() -> None:
     subject = VirtualSubject.sample(0, 1)
     with pytest.raises(UnsupportedScenarioError, match="no time to grasp"):
-        run_episode(subject, CAN, estimator="oracle", episode_s=3.0, hold_s=2.0)
+        run_episode(subject, CAN, estimator="oracle", episode_s=3.0, hold_s=2.0,
+                    user="scripted")
     with pytest.raises(UnsupportedScenarioError, match="persistence has modes"):
         run_episode(subject, CAN, estimator="persistence", mode="free_run")
 
@@ -183,3 +184,13 @@ def test_episodes_of_one_subject_and_seed_share_one_calibration(monkeypatch):
     other = run_episode(subject, make_object("can"), estimator="ridge", controller="pid",
                         seed=6, episode_s=4.0, hold_s=1.0).row
     assert fits == ["ridge", "ridge"] and other["cal_r2"] != rows[0]["cal_r2"]  # a new seed
+
+
+def test_a_trial_that_runs_out_of_time_is_an_outcome_not_an_error() -> None:
+    """A self-paced trial too short to lift in ends ``not_lifted`` with its row complete."""
+    result = run_episode(VirtualSubject.sample(0, 1), CAN, estimator="oracle", episode_s=1.5,
+                         practice=0)
+    row = result.row
+    assert row["outcome"] == "not_lifted" and row["lifted"] is False
+    assert row["time_to_lift_s"] is None and row["safety_margin_pct"] is None
+    assert row["attempts"] == 0 and row["simulated_s"] == pytest.approx(1.5)

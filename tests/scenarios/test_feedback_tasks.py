@@ -120,7 +120,7 @@ def test_slip_recovery_and_force_matching_commands_write_their_contracts(tmp_pat
 @pytest.mark.parametrize("argv, expected", [
     (["episode", "--controller", "pid", "--estimator", "oracle", "--object", "ball",
       "--feedback", "buzz"], "--feedback: expected one of ['none', 'force_vibration', "
-     "'slip_vibration'], found 'buzz'"),
+     "'slip_vibration', 'touch'], found 'buzz'"),
     (["episode", "--controller", "pid", "--estimator", "oracle", "--object", "ball",
       "--user", "scripted", "--feedback", "slip_vibration"],
      "--feedback: the scripted user takes feedback none only (found slip_vibration); "

@@ -45,10 +45,10 @@ def error_of(path: Path) -> str:
 # ------------------------------------------------------------------ library
 
 
-def test_library_has_the_four_files_the_demo_and_the_feedback_benchmarks():
+def test_library_has_the_four_files_the_demo_and_the_benchmarks():
     names = {p.stem for p in LIBRARY_FILES}
     assert names == {"paper", "grasp_mass_friction", "fragile", "robustness", "demo",
-                     "eggs", "slip_recovery", "force_matching"}
+                     "eggs", "slip_recovery", "force_matching", "transfers"}
 
 
 @pytest.mark.parametrize("path", LIBRARY_FILES, ids=lambda p: p.stem)
@@ -90,8 +90,9 @@ def test_default_scenario_is_valid_and_canonical_json_is_sorted_and_stable():
 
 
 def test_names_match_the_project():
-    assert set(ESTIMATORS) >= {"ss_kf", "ss", "mlp", "narx", "lda_qpf", "latent_kf", "oracle"}
-    assert set(OBJECTS) == {"ball", "can", "cup", "egg", "block", "vet_block"}
+    assert set(ESTIMATORS) >= {"ss_kf", "ss", "mlp", "narx", "lda_qpf", "latent_kf", "oracle",
+                               "intact"}
+    assert set(OBJECTS) == {"ball", "can", "cup", "egg", "block", "vet_block", "transfer_block"}
     assert "object.mass_kg" in field_paths()
     assert "controller.slip_reflex.latency_s" in field_paths()
 

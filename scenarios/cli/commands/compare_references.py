@@ -9,6 +9,7 @@ from pathlib import Path
 from controllers.design_plant import object_for
 from scenarios.cli.choices import (
     add_user_options,
+    check_practice_window,
     check_user_options,
     controller_names,
     estimator_choices,
@@ -40,7 +41,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--controller", default="pid", metavar="NAME",
                    help=f"{', '.join(controller_names())} (default pid)")
     p.add_argument("--subjects", type=int, default=3, help="number of subjects (default 3)")
-    p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="the run's seed: each subject's sessions derive from it (default 0)")
+    p.add_argument("--sessions", type=int, default=1, metavar="K",
+                   help="independent sessions per subject (default 1)")
+    p.add_argument("--practice", type=int, default=5, metavar="N",
+                   help="practice lifts before each trial, 0..50 (default 5; 0 is the novice)")
     add_user_options(p)
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="write results here")
     p.set_defaults(func=run)
@@ -58,15 +64,19 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--mode: expected free_run or one_step, found {args.mode!r}")
     if args.subjects < 1:
         raise UsageError(f"--subjects: expected at least 1, found {args.subjects}")
+    if args.sessions < 1:
+        raise UsageError(f"--sessions: expected at least 1, found {args.sessions}")
     check_user_options(args.user, [args.feedback])
+    check_practice_window(args.practice, 400.0, 125.0)
     obj = object_for(args.object, mass_kg=args.mass_kg, friction=args.friction)
     result = compare_references(obj, estimators=names, mode=args.mode,
                                 controller=args.controller,
                                 subject_ids=range(1, args.subjects + 1), seed=args.seed,
-                                user=args.user, feedback=args.feedback)
+                                sessions=args.sessions, user=args.user, feedback=args.feedback,
+                                practice=args.practice)
     print(f"{obj.name} ({obj.mass_kg:g} kg, mu {obj.friction:g}), {args.controller}, "
-          f"{args.subjects} subjects, seed {args.seed}, {args.user} user, feedback "
-          f"{args.feedback}")
+          f"{args.subjects} subjects x {args.sessions} sessions (seeds from {args.seed} and the "
+          f"subject), {args.user} user, feedback {args.feedback}, practice {args.practice}")
     print(format_comparison(result))
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -11,7 +11,9 @@ import numpy as np
 
 from controllers.design import worst_case
 from scenarios.cli.choices import (
+    add_practice_window_options,
     add_user_options,
+    check_practice_window,
     check_user_options,
     controller_names,
     estimator_choices,
@@ -20,11 +22,13 @@ from scenarios.cli.choices import (
 )
 from scenarios.cli.commands.margins import format_table
 from scenarios.cli.errors import UsageError
-from scenarios.runners.episode import episode_from_scenario
+from scenarios.runners.episode import PHASE_CODES, episode_from_scenario
 from scenarios.runners.video import write_video
 from scenarios.schema import parse_scenario
 
-METRIC_KEYS = ("outcome", "user_corrections", "tracking_rmse_n", "estimation_rmse_n",
+METRIC_KEYS = ("outcome", "attempts", "time_to_lift_s", "safety_margin_pct", "user_corrections",
+               "practice", "belief_gain", "belief_margin_pct", "tracking_rmse_n",
+               "estimation_rmse_n",
                "hold_reference_n",
                "held_force_n", "overshoot_pct", "settling_time_s", "contact_peak_ratio",
                "slip_events", "slip_distance_m", "lifted", "dropped", "crushed", "peak_force_n",
@@ -55,8 +59,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--population-seed", type=int, default=0,
                    help="seed of the virtual population (default 0)")
     p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
-    p.add_argument("--episode-s", type=float, default=6.0, help="episode length, s (default 6)")
+    p.add_argument("--episode-s", type=float, default=None,
+                   help="the trial's time limit, s (default 15; the scripted user's episode: 6)")
+    p.add_argument("--hold-s", type=float, default=2.0,
+                   help="how long the object is held in the air, s (default 2)")
     add_user_options(p)
+    add_practice_window_options(p)
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write JSON here")
     p.add_argument("--video", type=Path, default=None, metavar="FILE",
                    help="also render the episode to an animated GIF (.gif)")
@@ -81,11 +89,13 @@ def scenario_from_args(args: argparse.Namespace) -> Any:
     return parse_scenario({
         "kind": "episode", "seed": args.seed,
         "subject": {"population_seed": args.population_seed, "subject_id": args.subject},
-        "protocol": {"name": "grasp_lift_hold", "episode_s": args.episode_s},
+        "protocol": {"name": "grasp_lift_hold", "episode_s": args.episode_s,
+                     "hold_s": args.hold_s},
         "object": obj,
-        "estimator": {"name": args.estimator, "mode": args.mode},
+        "estimator": {"name": args.estimator, "mode": args.mode, "window_ms": args.window_ms,
+                      "step_ms": args.step_ms},
         "controller": {"kind": args.controller},
-        "user": {"kind": args.user, "feedback": args.feedback},
+        "user": {"kind": args.user, "feedback": args.feedback, "practice": args.practice},
     }, source="options")
 
 
@@ -94,6 +104,7 @@ def run(args: argparse.Namespace) -> int:
     if args.video is not None and args.video.suffix.lower() != ".gif":
         raise UsageError(f"--video: expected a .gif file, found {args.video.name!r}")
     check_user_options(args.user, [args.feedback])
+    check_practice_window(args.practice, args.window_ms, args.step_ms)
     if (args.recording is None) != (args.calibration is None):
         raise UsageError("--recording and --calibration go together; found only "
                          + ("--recording" if args.calibration is None else "--calibration"))
@@ -107,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     print(format_table(args.controller, analyses, worst_case(analyses) if analyses else None))
     print(f"episode: {args.estimator} ({args.mode}) -> {args.controller} on {row['object_name']} "
           f"({row['object_mass_kg']:g} kg, mu {row['object_friction']:g}), {args.user} user, "
-          f"feedback {args.feedback}")
+          f"feedback {args.feedback}, practice {row['practice']}")
     for key in METRIC_KEYS:
         value = row[key]
         text = f"{value:.4g}" if isinstance(value, float) else str(value)
@@ -121,10 +132,12 @@ def run(args: argparse.Namespace) -> int:
                                if k.startswith("worst_")},
         "design": {"spec": design.spec, "plant_family": design.family.summary()},
         "metrics": {k: row[k] for k in METRIC_KEYS},
+        "phase_codes": list(PHASE_CODES),
         "row": row,
         "traces": {k: np.asarray(v).tolist() for k, v in result.traces.items()
                    if k in ("t_s", "intent_n", "reference_n", "grip_force_n", "command",
-                            "object_height_m", "slip_speed_m_s", "user_intent")},
+                            "object_height_m", "slip_speed_m_s", "user_intent",
+                            "wrist_height_m", "phase")},
     }
     if args.json is not None:
         _write_json(args.json, out)
@@ -153,7 +166,8 @@ def _run_recorded(args: argparse.Namespace) -> int:
                  if v is not None}
     obj = make_object(args.object, **overrides)
     result = episode_on_recording(load_recording(args.recording), cal, obj,
-                                  controller=args.controller, episode_s=args.episode_s,
+                                  controller=args.controller,
+                                  episode_s=6.0 if args.episode_s is None else args.episode_s,
                                   seed=args.seed, record_frames=args.video is not None)
     m = result.metrics
     print(f"episode on {args.recording}: {args.estimator} ({args.mode}, calibration R2 "

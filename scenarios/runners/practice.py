@@ -1,0 +1,232 @@
+"""Practice before the measured trials: the user learns their prosthesis, once per interface.
+
+Every study of prosthesis users measures them after they have familiarised themselves
+with the device (CALIBRATION.md, "Practised users"). :func:`practised_belief` runs
+``n_lifts`` practice lifts of the object class's library object with the same calibrated
+estimator, the same controller and the same feedback, by a user of the same kind and
+parameters, and returns what they learnt (:class:`sim.user.belief.ProsthesisBelief`: how
+hard to contract for this prosthesis, and the safety margin its variability calls for).
+
+Practice is deterministic for its seed and cached on disk per subject and interface
+(``$GRIPLOOP_CACHE_DIR/practice``, JSON), so a sweep's scenarios of one subject and one
+interface practise once: the key holds the subject, the calibration (estimator, options,
+mode, order, session seed, identification fraction, window), the controller and its
+specification, the object class, the user kind, feedback and parameters, the number of
+lifts, the practice seed, the trial's limits and the digest of every source file the
+practice runs through. A file that does not parse, or whose key differs, is rebuilt and
+replaced, never trusted.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from controllers.design_cache import grasp_design
+from scenarios.runners.calibration import Calibration, CalibrationSettings
+from scenarios.runners.dispatch import DivergedError
+from scenarios.runners.reference import grasp_task, intended_grip_n
+from scenarios.runners.trial import default_episode_s, lift_time_s, run_trial
+from sim import cache as sim_cache
+from sim.hand.objects import ObjectSpec, make_object, object_names
+from sim.user.belief import ProsthesisBelief
+from sim.user.operator import OperatorParams
+from sim.user.operators import make_operator
+from sim.user.subjects import VirtualSubject
+
+DEFAULT_PRACTICE = 5
+"""Practice lifts before the measured trials (``--practice``)."""
+MAX_PRACTICE = 50
+"""The most practice lifts a scenario may ask for."""
+PRACTICE_HOLD_S = 1.0
+"""How long a practice lift holds the object in the air, s."""
+FORMAT = 1
+
+
+@dataclass(frozen=True)
+class Interface:
+    """What the user practises with: everything but the measured object's own settings.
+
+    Attributes
+    ----------
+    calibration : CalibrationSettings
+        How the estimator was calibrated (estimator, mode, window, ...).
+    controller : str
+        Controller kind.
+    controller_spec : mapping
+        Its specification (:func:`controllers.design.design_for_object`'s keywords).
+    practice_object : ObjectSpec
+        The object practised with: the library object of the measured object's
+        class (:func:`practice_object_for`).
+    user, feedback : str
+        User kind and feedback mode.
+    params : OperatorParams
+        The user's parameters.
+    control_dt_s, hand_force_at_mvc_n : float
+        Control period, s, and the hand force at the user's MVC, N.
+    """
+
+    calibration: CalibrationSettings
+    controller: str
+    controller_spec: Mapping[str, Any]
+    practice_object: ObjectSpec
+    user: str
+    feedback: str
+    params: OperatorParams
+    control_dt_s: float
+    hand_force_at_mvc_n: float
+
+
+def practice_object_for(obj: ObjectSpec) -> ObjectSpec:
+    """The object a user practises with before grasping ``obj``: its class's library object.
+
+    A can of any mass and friction is practised with the library can; an object whose
+    name is not registered is practised with itself.
+    """
+    return make_object(obj.name) if obj.name in object_names() else obj
+
+
+def practised_belief(subject: VirtualSubject, cal: Calibration, interface: Interface, *,
+                     cal_seq: np.random.SeedSequence, n_lifts: int,
+                     seed_seq: np.random.SeedSequence, trial_s: float) -> ProsthesisBelief:
+    """What ``subject`` believes of their prosthesis after ``n_lifts`` practice lifts.
+
+    Parameters
+    ----------
+    cal : Calibration
+        The fitted estimator the user practises with.
+    interface : Interface
+        The rest of what they practise with.
+    cal_seq : SeedSequence
+        The seed ``cal`` was fitted with (for the cache's key).
+    n_lifts : int
+        Practice lifts (0: a novice's belief).
+    seed_seq : SeedSequence
+        Seeds the practice lifts' sEMG, hand and perception.
+    trial_s : float
+        Time limit of one practice lift, s.
+
+    Raises
+    ------
+    DivergedError
+        The physics diverged in a practice lift.
+    """
+    operator = make_operator(interface.user, feedback=interface.feedback,
+                             params=interface.params)
+    novice = getattr(operator, "belief", None)
+    if n_lifts <= 0 or novice is None:
+        return novice if novice is not None else ProsthesisBelief.novice(interface.params)
+    key = _key(subject, interface, n_lifts, seed_seq, trial_s, interface.calibration.key(cal_seq))
+    directory = sim_cache.cache_subdir("practice")
+    path = None if directory is None else directory / f"{key[:24]}.json"
+    if path is None:
+        return _practise(subject, cal, interface, operator, n_lifts, seed_seq, trial_s)
+    found = _read(path, key)
+    if found is not None:
+        return found
+    with sim_cache.build_lock(path):
+        found = _read(path, key)
+        if found is not None:
+            return found
+        belief = _practise(subject, cal, interface, operator, n_lifts, seed_seq, trial_s)
+        try:
+            sim_cache.write_atomic(path, json.dumps(
+                {"format": FORMAT, "key": key, "belief": belief.to_dict()}).encode())
+        except OSError:  # an unwritable cache: practise again next time
+            pass
+    return belief
+
+
+def practise(operator: Any, subject: VirtualSubject, cal: Calibration, interface: Interface, *,
+             cal_seq: np.random.SeedSequence, n_lifts: int,
+             seed_seq: np.random.SeedSequence) -> None:
+    """Give ``operator`` (a user who learns) the belief ``n_lifts`` of practice leave.
+
+    :func:`practised_belief` with the trial limit of the user's kind; a user without a
+    belief (one who does not learn) is left as is.
+    """
+    if getattr(operator, "belief", None) is None or n_lifts <= 0:
+        return
+    operator.belief = practised_belief(subject, cal, interface, cal_seq=cal_seq,
+                                       n_lifts=n_lifts, seed_seq=seed_seq,
+                                       trial_s=default_episode_s(operator))
+
+
+def _practise(subject: VirtualSubject, cal: Calibration, interface: Interface, operator: Any,
+              n_lifts: int, seed_seq: np.random.SeedSequence, trial_s: float
+              ) -> ProsthesisBelief:
+    """Run the practice lifts; the operator's belief after them."""
+    obj = interface.practice_object
+    design = grasp_design(obj, interface.controller, interface.control_dt_s,
+                          dict(interface.controller_spec))
+    task = grasp_task(obj, hold_s=PRACTICE_HOLD_S)
+    goal_n = intended_grip_n(obj)
+    timings = dict.fromkeys(("t_semg_s", "t_features_s", "t_estimator_s", "t_operator_s",
+                             "t_controller_s", "t_physics_s"), 0.0)
+    lift_after_s = lift_time_s(trial_s, PRACTICE_HOLD_S)
+    for seqs in seed_seq.spawn(n_lifts):
+        c = interface.calibration
+        trial = run_trial(subject, obj, cal, design, operator, goal_n=goal_n,
+                          seeds=tuple(seqs.spawn(3)), generator=c.generator, episode_s=trial_s,
+                          lift_after_s=lift_after_s, control_dt_s=interface.control_dt_s,
+                          hand_force_at_mvc_n=interface.hand_force_at_mvc_n, timings=timings,
+                          task=task, window_ms=c.window_ms, step_ms=c.step_ms)
+        if trial.failure is not None:
+            raise DivergedError(f"practice lift: physics diverged at "
+                                f"t = {trial.info['time_s']:.3f} s: {trial.failure}")
+    return operator.belief
+
+
+def _read(path: Any, key: str) -> ProsthesisBelief | None:
+    """The belief stored at ``path`` under ``key``; None when absent, stale or corrupt."""
+    try:
+        data = json.loads(path.read_bytes())
+        if data.get("format") != FORMAT or data.get("key") != key:
+            return None
+        return ProsthesisBelief.from_dict(data["belief"])
+    except (OSError, ValueError, TypeError, KeyError, AttributeError):
+        return None
+
+
+@functools.cache
+def _source_digest() -> str:
+    """Every source file a practice lift runs through."""
+    return sim_cache.source_digest(("sim", "estimation", "controllers", "scenarios.runners"))
+
+
+def _key(subject: VirtualSubject, interface: Interface, n_lifts: int,
+         seed_seq: np.random.SeedSequence, trial_s: float,
+         calibration_key: Mapping[str, Any]) -> str:
+    """SHA-256 of everything a practice depends on (module notes)."""
+    with np.printoptions(threshold=sys.maxsize, precision=17):
+        who = repr(subject)
+    body = {
+        "subject": hashlib.sha256(who.encode()).hexdigest(),
+        "calibration": {k: _jsonable(v) for k, v in sorted(calibration_key.items())},
+        "interface": {**{k: _jsonable(getattr(interface, k)) for k in (
+            "controller", "user", "feedback", "control_dt_s", "hand_force_at_mvc_n")},
+            "practice_object": repr(interface.practice_object),
+            "controller_spec": _jsonable(dict(interface.controller_spec)),
+            "params": interface.params.to_dict()},
+        "n_lifts": int(n_lifts), "trial_s": float(trial_s),
+        "seed": [int(x) for x in seed_seq.generate_state(4)],
+        "source": _source_digest(), "format": FORMAT,
+    }
+    return hashlib.sha256(json.dumps(body, sort_keys=True, default=repr).encode()).hexdigest()
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in sorted(value.items(), key=lambda kv: str(kv[0]))}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    return value
