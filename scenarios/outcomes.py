@@ -11,6 +11,9 @@ from typing import Any
 
 #: Outcome categories of a grasp-lift-hold episode, best first.
 OUTCOMES = ("held", "not_lifted", "dropped", "crushed")
+#: The phases of a trial the user paces (:mod:`sim.user.reacting`), as coded in the
+#: ``phase`` trace of an episode (the index in this tuple).
+PHASE_CODES = ("grasp", "liftoff", "lift", "setdown", "release", "done", "hold")
 
 
 def outcome_of(*, lifted: bool, dropped: bool, crushed: bool) -> str:

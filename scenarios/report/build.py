@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from scenarios.outcomes import OUTCOMES, row_outcome
+from scenarios.outcomes import OUTCOMES, PHASE_CODES, row_outcome
 from scenarios.report import data as D
 from scenarios.report import factors as FA
 from scenarios.report import figures as F
@@ -228,13 +228,38 @@ def _subtitle(results: Path, sweep: str | None, rows: Sequence[dict], split: D.S
 # ---------------------------------------------------------------- 5. traces
 
 
+#: Shading of a trial's phases in the trace chart (phases not listed are not shaded).
+PHASE_FILLS = {"liftoff": "#fff3c4", "lift": "#dff2df", "setdown": "#eeeeee",
+               "release": "#eeeeee"}
+
+
+def phase_bands(t_s: np.ndarray, phase: np.ndarray) -> list[tuple[float, float, str, str]]:
+    """Shaded spans of a self-paced trial's phases, each lift-off labelled with its attempt."""
+    codes = np.asarray(phase, dtype=int)
+    starts = np.flatnonzero(np.diff(np.concatenate([[-1], codes])))
+    ends = [*starts[1:], codes.size]
+    dt = float(t_s[1] - t_s[0]) if t_s.size > 1 else 0.0
+    bands, attempt = [], 0
+    for a, b in zip(starts, ends, strict=True):
+        name = PHASE_CODES[codes[a]]
+        if name not in PHASE_FILLS:
+            continue
+        attempt += name == "liftoff"
+        text = f"lift-off {attempt}" if name == "liftoff" else ("lift, hold" if name == "lift"
+                                                                 else "")
+        bands.append((float(t_s[a]), float(t_s[b - 1]) + dt, text, PHASE_FILLS[name]))
+    return bands
+
+
 def trace_chart(traces: Mapping[str, np.ndarray], name: str) -> str:
-    """Inline SVG chart of one episode's intent, reference and grip force against time."""
+    """Inline SVG chart of one episode's intent, reference and grip force against time,
+    over the shaded phases and attempts of a trial the user paced."""
+    bands = phase_bands(traces["t_s"], traces["phase"]) if "phase" in traces else []
     return S.line_chart(traces["t_s"], [("intent", traces["intent_n"], S.GREY),
                                         ("reference", traces["reference_n"], S.ORANGE),
                                         ("grip force", traces["grip_force_n"], S.BLUE)],
                         x_label="time (s)", y_label="force (N)",
-                        label=f"force trace of {name}")
+                        label=f"force trace of {name}", bands=bands)
 
 
 def _traces_section(episodes: Sequence[dict], traces: Mapping[str, Mapping[str, np.ndarray]],
@@ -257,7 +282,10 @@ def _traces_section(episodes: Sequence[dict], traces: Mapping[str, Mapping[str, 
     shown = (f"all {len(episodes)} episodes" if len(chosen) == len(episodes)
              else f"the first {len(chosen)} of {len(episodes)} episodes (store order)")
     body = [note(f"Open a scenario to see its intent, reference and grip force: {shown}, "
-                 "titled by the factors the sweep varies; the seed is in the caption."),
+                 "titled by the factors the sweep varies; the seed is in the caption. In a "
+                 "trial the user paced, each careful lift-off is shaded yellow and numbered "
+                 "(a second one is a new attempt after the object stayed behind), the lift "
+                 "and the hold green, the set-down and the release grey."),
             choices(items)]
     return Section("traces", title, "\n".join(body))
 

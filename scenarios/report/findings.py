@@ -308,6 +308,59 @@ def _rates_table(effects: Sequence[FactorEffect], outcomes: Sequence[str]) -> st
                  "(strongest first)", text_columns=2)
 
 
+def _median_iqr(values: Sequence[float], spec: str) -> str:
+    """``"1.6 [1.5–2.1]"``: the median and the interquartile range (``–`` when empty)."""
+    if not values:
+        return "–"
+    q1, q2, q3 = np.percentile(np.asarray(values, dtype=float), [25, 50, 75])
+    return f"{q2:{spec}} [{q1:{spec}}–{q3:{spec}}]"
+
+
+def trial_rows(episodes: Sequence[Mapping[str, Any]], factor: str | None
+               ) -> list[list[Any]]:
+    """Per level of ``factor`` (all episodes when None): n, held with its interval, time to
+    lift, attempts and safety margin of the trials the user paced."""
+    groups: dict[Any, list[Mapping[str, Any]]] = {}
+    for e in episodes:
+        groups.setdefault(FA.level_key(e, factor) if factor else None, []).append(e)
+    levels = FA.levels(episodes, factor) if factor else [None]
+    rows = []
+    for level in levels:
+        mine = [e["result"] for e in groups.get(level, [])]
+        held = sum(row_outcome(r) == "held" for r in mine)
+        lv = LevelOutcomes(level, len(mine), {o: sum(row_outcome(r) == o for r in mine)
+                                              for o in OUTCOMES})
+        attempts = [r["attempts"] for r in mine if r.get("attempts") is not None]
+        rows.append([FA.level_text(level) if factor else "all", len(mine),
+                     percent(lv, "held") if mine else "–",
+                     _median_iqr([r["time_to_lift_s"] for r in mine
+                                  if r.get("time_to_lift_s") is not None], ".2f"),
+                     f"{np.mean(attempts):.2f}" if attempts else "–",
+                     _median_iqr([r["safety_margin_pct"] for r in mine
+                                  if r.get("safety_margin_pct") is not None], ".0f"),
+                     held])
+    return rows
+
+
+def _trial_table(episodes: Sequence[Mapping[str, Any]], factors: Sequence[str]) -> str:
+    """Success, time to lift, attempts and safety margin by factor (trials the user paced)."""
+    paced = [e for e in episodes if e["result"].get("attempts") is not None]
+    if not paced:
+        return ""
+    rows = []
+    for factor in [*factors, None] if factors else [None]:
+        if factor is not None and len(FA.levels(paced, factor)) < 2:
+            continue
+        for i, row in enumerate(trial_rows(paced, factor)):
+            rows.append([(FA.factor_name(factor) if factor else "all trials") if i == 0
+                         else "", *row[:-1]])
+    return table(["factor", "level", "n", "held % (95 % CI)", "time to lift (s)",
+                  "attempts", "safety margin (%)"], rows,
+                 "Trials the user paced, by factor: held, time from the first contact to "
+                 "a secure lift and safety margin as median [interquartile range], lifts "
+                 "started per trial (mean)", text_columns=2)
+
+
 def _no_episode_sentence(context: ReportContext) -> str:
     rows, split = context.rows, context.split
     where = f"sweep {context.sweep}" if context.sweep else "the store"
@@ -334,6 +387,7 @@ def summary_section(context: ReportContext) -> Section:
     effects = factor_effects(episodes, factors)
     parts = [f'<p class="finding">{esc(findings_sentence(episodes, effects))}</p>']
     if not effects:
+        parts.append(_trial_table(episodes, []))
         return Section("summary", TITLE, "\n".join(parts))
     outcomes = [o for o in OUTCOMES
                 if any(lv.counts[o] for e in effects for lv in e.levels)]
@@ -343,6 +397,8 @@ def summary_section(context: ReportContext) -> Section:
         "outcomes table (0: the same outcome rates at every level; 1: the level decides the "
         "outcome); rates with 95 % Wilson intervals, over every other factor."
         + (f" Same rates at every level: {', '.join(unchanged)}." if unchanged else "")))
+    parts.append(_trial_table(episodes, [e.factor for e in effects]
+                              + [f for f in factors if f not in {e.factor for e in effects}]))
     parts.append(_rates_table(effects, outcomes))
     figures = []
     if FA.CONTROLLER_FACTOR in factors:

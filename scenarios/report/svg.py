@@ -89,7 +89,8 @@ def _path(px: np.ndarray, py: np.ndarray, tol: float) -> str:
 
 def line_chart(x: np.ndarray, series: Sequence[tuple[str, np.ndarray, str]], *,
                x_label: str, y_label: str, width: int = 640, height: int = 210,
-               label: str = "", tol_px: float = 0.35) -> str:
+               label: str = "", tol_px: float = 0.35,
+               bands: Sequence[tuple[float, float, str, str]] = ()) -> str:
     """An inline ``<svg>`` line chart: axes with round ticks, one path per series, a legend.
 
     Parameters
@@ -106,6 +107,9 @@ def line_chart(x: np.ndarray, series: Sequence[tuple[str, np.ndarray, str]], *,
         Accessible name of the chart (``aria-label``).
     tol_px : float
         Simplification tolerance, pixels.
+    bands : sequence of (float, float, str, str)
+        Shaded spans of the abscissa behind the curves: start, end, a label
+        written at the top of the span (empty: none) and a fill colour.
 
     Returns
     -------
@@ -135,6 +139,14 @@ def line_chart(x: np.ndarray, series: Sequence[tuple[str, np.ndarray, str]], *,
            'font-family="sans-serif" font-size="12">',
            f'<rect x="{left}" y="{top}" width="{pw}" height="{ph}" fill="none" '
            'stroke="#999"/>']
+    for b0, b1, text, fill in bands:
+        a, b = float(sx(max(b0, x0))), float(sx(min(b1, x1)))
+        if b > a:
+            out.append(f'<rect x="{a:.1f}" y="{top}" width="{b - a:.1f}" height="{ph}" '
+                       f'fill="{fill}"/>')
+            if text:
+                out.append(f'<text x="{a + 2:.1f}" y="{top + 11}" font-size="10" '
+                           f'fill="#555">{html.escape(text)}</text>')
     grid = []
     for t in nice_ticks(y0, y1):
         py = float(sy(t))

@@ -57,7 +57,7 @@ from controllers.design import ControllerDesign, worst_case
 from controllers.design_cache import grasp_design
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
-from scenarios.outcomes import outcome_of
+from scenarios.outcomes import PHASE_CODES, outcome_of
 from scenarios.rows import WORST_FIELDS, EpisodeRow
 from scenarios.runners.calibration import Calibration, CalibrationSettings
 from scenarios.runners.dispatch import DivergedError
@@ -91,6 +91,7 @@ from scenarios.runners.trial_outcome import hold_window, safety_margin_pct
 from scenarios.schema import Scenario
 from sim.codec import state_space_matrices
 from sim.hand.objects import ObjectSpec, make_object
+from sim.user.belief import ProsthesisBelief
 from sim.user.operator import Operator, OperatorParams
 from sim.user.operators import make_operator
 from sim.user.subjects import VirtualSubject
@@ -220,6 +221,7 @@ sim.user.operator.OperatorError
                 settings, controller, dict(controller_spec or {}), practice_object_for(obj),
                 user, feedback, params, control_dt_s, hand_force_at_mvc_n),
                 cal_seq=cal_seq, n_lifts=practice, seed_seq=practice_seq)
+        belief = getattr(operator, "belief", None)  # what the trial is planned with
         trial = run_trial(subject, obj, cal, design, operator, goal_n=intended_grip_n(obj),
                           seeds=(episode_seq, env_seq, operator_seq), generator=generator,
                           episode_s=episode_s, lift_after_s=lift_after_s,
@@ -231,11 +233,11 @@ sim.user.operator.OperatorError
     row = {"subject_id": subject.subject_id, "seed": int(seed), **_object_fields(obj),
            "controller": controller, "estimator": estimator, "mode": mode,
            "scheduled": bool(design.scheduled), "user": user, "feedback": feedback,
-           "practice": int(practice) if self_paced else 0, **_belief_fields(operator, params),
+           "practice": int(practice) if self_paced else 0, **_belief_fields(belief, params),
            "window_ms": float(window_ms), "step_ms": float(step_ms),
            **_operator_fields(operator)}
     return _episode_result(row, cal, design, trial, obj, timings, target_n=_aim_n(
-        operator, params, obj), lift_after_s=lift_after_s, hold_from_s=episode_s - hold_s,
+        belief, params, obj), lift_after_s=lift_after_s, hold_from_s=episode_s - hold_s,
         control_dt_s=control_dt_s)
 
 
@@ -256,17 +258,15 @@ TIMING_KEYS = ("t_semg_s", "t_features_s", "t_estimator_s", "t_operator_s", "t_c
                "t_physics_s")
 
 
-def _belief_fields(operator: Operator, params: OperatorParams) -> dict[str, Any]:
+def _belief_fields(belief: ProsthesisBelief | None, params: OperatorParams) -> dict[str, Any]:
     """What the user believed of the prosthesis (None for a user who does not learn)."""
-    belief = getattr(operator, "belief", None)
     if belief is None:
         return {"belief_gain": None, "belief_margin_pct": None}
     return {"belief_gain": float(belief.gain), "belief_margin_pct": 100.0 * belief.margin(params)}
 
 
-def _aim_n(operator: Operator, params: OperatorParams, obj: ObjectSpec) -> float:
+def _aim_n(belief: ProsthesisBelief | None, params: OperatorParams, obj: ObjectSpec) -> float:
     """The grip force the user aimed at, N (their margin; the novice's for a user without one)."""
-    belief = getattr(operator, "belief", None)
     return intended_grip_n(obj) if belief is None else intended_grip_n(
         obj, 1.0 + belief.margin(params))
 
@@ -369,8 +369,6 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
     return EpisodeResult(row=row, traces=traces, design=design)
 
 
-#: The phases of a trial, as numbers in the ``phase`` trace (index in this tuple).
-PHASE_CODES = ("grasp", "liftoff", "lift", "setdown", "release", "done", "hold")
 
 
 def _phase_trace(t_s: np.ndarray, phases: list[tuple[float, str]]) -> np.ndarray:

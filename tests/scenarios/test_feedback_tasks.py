@@ -186,23 +186,27 @@ def test_slip_recovery_counts_ten_subjects(slip_results) -> None:
 
 
 @pytest.mark.slow
-def test_slip_vibration_recovers_at_least_90_percent_and_15_points_more(slip_results) -> None:
+@pytest.mark.xfail(strict=True, reason="the losses come with dips of the estimate that the "
+                   "force-tracking hand follows and with contact chatter once the can slides, "
+                   "not with how soon the slip is perceived: README, 'Slip recovery by "
+                   "window'")
+def test_slip_vibration_recovers_at_least_95_percent_and_15_points_more(slip_results) -> None:
     vib, vision = slip_results["slip_vibration"], slip_results["none"]
-    assert vib["recovered_rate"] >= 0.9
+    assert vib["recovered_rate"] >= 0.95
     assert vib["recovered_rate"] >= vision["recovered_rate"] + 0.15
 
 
 @pytest.mark.slow
-def test_eggs_success_falls_with_the_break_force_and_force_feedback_is_no_worse(
+def test_eggs_success_rises_with_the_break_force_and_practised_users_still_break_some(
         tmp_path) -> None:
-    fragile = "0.4,0.56,0.78,2.14,4.2,11.5"
-    modes = _run(tmp_path, ["eggs", "--transfers", "1", "--eggs", fragile])
+    eggs = "0.4,0.78,2.14,4.2,5.87,11.5"
+    modes = _run(tmp_path, ["eggs", "--transfers", "1", "--eggs", eggs])
     for mode in modes.values():
         rates = [e["success"] / e["transfers"] for e in mode["eggs"]]
         assert rates[-1] > rates[3] > rates[0] and rates == sorted(rates)
-    three = [(v["eggs"][i]["success"] for v in (modes["force_vibration"], modes["none"]))
-             for i in range(3)]
-    assert all(fv >= none for fv, none in three)
+        near_6, sturdiest = mode["eggs"][4], mode["eggs"][5]
+        assert near_6["broken"] >= 1  # as surface-EMG users break the 6 N blocks
+        assert sturdiest["broken"] <= near_6["broken"]
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,90 @@
+"""Practice: deterministic, cached per subject and interface, rebuilt when stale or corrupt."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from scenarios.runners import practice as P
+from scenarios.runners.calibration import CalibrationSettings
+from scenarios.runners.episode import run_episode
+from scenarios.runners.trial_outcome import TrialReferee
+from sim.hand.objects import make_object
+from sim.user.belief import ProsthesisBelief
+from sim.user.operator import OperatorParams
+from sim.user.subjects import VirtualSubject
+
+SUBJECT = VirtualSubject.sample(0, 2)
+SETTINGS = CalibrationSettings("oracle", "free_run")
+
+
+def _interface(**kw) -> P.Interface:
+    return P.Interface(SETTINGS, "pid", {}, make_object("can"), "reacting", "none",
+                       OperatorParams(**kw), 0.01, 30.0)
+
+
+def _belief(seed: int = 3, **kw) -> ProsthesisBelief:
+    cal_seq, practice_seq = np.random.SeedSequence(seed).spawn(2)
+    return P.practised_belief(SUBJECT, SETTINGS.fit(SUBJECT, cal_seq), _interface(**kw),
+                              cal_seq=cal_seq, n_lifts=2, seed_seq=practice_seq, trial_s=15.0)
+
+
+def test_practice_is_deterministic_cached_and_rebuilt_when_corrupt(tmp_path, monkeypatch):
+    monkeypatch.setenv("GRIPLOOP_CACHE_DIR", "off")
+    fresh = _belief()
+    assert fresh == _belief() and fresh.lifts == 2
+    monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(tmp_path))
+    built = _belief()
+    files = list((tmp_path / "practice").glob("*.json"))
+    assert built == fresh and len(files) == 1
+    stored = json.loads(files[0].read_text())
+    assert ProsthesisBelief.from_dict(stored["belief"]) == fresh
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("practised again although the cache holds it")
+
+    with monkeypatch.context() as m:
+        m.setattr(P, "_practise", refuse)
+        assert _belief() == fresh  # read from the cache
+    for bad in ("{not json", json.dumps({**stored, "key": "0" * 64}),
+                json.dumps({**stored, "belief": {"gain": "nan", "uncertainty": 1, "lifts": 2}})):
+        files[0].write_text(bad)
+        assert _belief() == fresh  # stale or corrupt: rebuilt, never trusted
+        assert json.loads(files[0].read_text())["key"] == stored["key"]
+    _belief(seed=4)  # another session, and other parameters: practised and stored apart
+    _belief(dwell_s=0.5)
+    assert len(list((tmp_path / "practice").glob("*.json"))) == 3
+
+
+def test_a_user_who_does_not_learn_and_practice_zero_are_the_novice() -> None:
+    novice = run_episode(SUBJECT, make_object("can"), estimator="oracle", seed=1, practice=0)
+    assert novice.row["practice"] == 0 and novice.row["belief_gain"] == 1.0
+    assert novice.row["belief_margin_pct"] == pytest.approx(100 * OperatorParams().novice_margin)
+    scripted = run_episode(SUBJECT, make_object("can"), estimator="oracle", seed=1,
+                           user="scripted")
+    assert scripted.row["practice"] == 0 and scripted.row["belief_gain"] is None
+
+
+def _info(height: float, *, contact: bool = True, out: bool = False,
+          crushed: bool = False) -> dict:
+    return {"object_height_m": height, "thumb_contact": contact, "finger_contact": contact,
+            "object_out_of_hand": out, "crushed": crushed}
+
+
+def test_the_referee_judges_by_the_physics() -> None:
+    ref = TrialReferee(0.08)
+    for t, h in ((0.0, 0.06), (1.0, 0.061), (1.5, 0.09), (1.6, 0.10)):
+        ref.update(t, _info(h))
+    assert ref.secure_lift_s == 1.6 and ref.first_contact_s == 0.0
+    assert ref.outcome == "held" and ref.time_to_lift_s == pytest.approx(1.6)
+    ref.update(2.0, _info(0.06, contact=False, out=True))
+    assert ref.over and ref.outcome == "dropped"
+    behind = TrialReferee(0.08)  # the hand rises, the object stays: not a drop
+    for t, h, out in ((0.0, 0.06, False), (1.0, 0.06, True), (2.0, 0.06, True)):
+        behind.update(t, _info(h, contact=not out, out=out))
+    assert behind.outcome == "not_lifted" and not behind.over
+    crushed = TrialReferee(0.08)
+    crushed.update(0.0, _info(0.06, crushed=True))
+    assert crushed.over and crushed.outcome == "crushed"
