@@ -1,4 +1,4 @@
-"""The hand's rest threshold: set from sustained rest, closed by a contraction, opened by relaxing."""
+"""The hand's rest threshold: set from sustained rest, closed by contracting, opened by relaxing."""
 
 from __future__ import annotations
 

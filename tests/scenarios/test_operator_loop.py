@@ -11,8 +11,8 @@ from scenarios.runners import reference as R
 from scenarios.runners.calibration import calibrate
 from scenarios.runners.dispatch import UnsupportedScenarioError
 from sim.hand.objects import make_object
-from sim.user.scripted import ScriptedOperator
 from sim.user.operators import make_operator
+from sim.user.scripted import ScriptedOperator
 from sim.user.subjects import VirtualSubject
 
 DT = 0.01

@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from sim.user.feedback import ForceVibration, SlipVibration
-from sim.user.belief import ProsthesisBelief
 from sim.user.operator import (
     DelayLine,
     OperatorError,
@@ -16,10 +15,7 @@ from sim.user.operator import (
     OperatorParamsError,
     Plan,
     Scene,
-    TrialMemory,
 )
-from sim.user.reacting import ReactingOperator
-from sim.user.scripted import ScriptedOperator
 from sim.user.operators import (
     UnknownFeedbackError,
     UnknownOperatorError,
@@ -28,6 +24,8 @@ from sim.user.operators import (
     make_operator,
     operator_names,
 )
+from sim.user.reacting import ReactingOperator
+from sim.user.scripted import ScriptedOperator
 
 DT = 0.01
 FS = 200.0
