@@ -62,7 +62,7 @@ class CompiledLibrary:
             lib.griploop_controller_phase.restype = ctypes.c_int32
 
     def state(self, part: str) -> ctypes.Array:
-        """A fresh, zeroed state buffer of ``part`` (``features``, ``estimator``, ``controller``)."""
+        """A zeroed state buffer of ``part`` (``features``, ``estimator``, ``controller``)."""
         size = int(getattr(self.lib, f"griploop_{part}_state_size")())
         return (ctypes.c_uint64 * ((size + 7) // 8))()  # 8-byte aligned
 
