@@ -142,6 +142,7 @@ def run_episode(
     feedback: str = "none",
     operator_params: OperatorParams | None = None,
     estimator_options: Mapping[str, Any] | None = None,
+    compiled: bool = False,
 ) -> EpisodeResult:
     """Calibrate, then run one closed-loop grasp-lift-hold episode.
 
@@ -173,6 +174,9 @@ def run_episode(
     operator_params, estimator_options : optional
         The reacting user's parameters (default :class:`OperatorParams`); the
         estimator's own hyperparameters (a scenario's ``estimator.options``).
+    compiled : bool
+        Run the fitted estimator and the designed controller as C, compiled on the
+        host (:func:`scenarios.deploy.compiled.compiled_pair`).
 
     Returns
     -------
@@ -203,6 +207,10 @@ def run_episode(
                                  identification_fraction=identification_fraction,
                                  calibration_s=calibration_s, options=estimator_options)
         design = grasp_design(obj, controller, control_dt_s, controller_spec)
+        if compiled:
+            from scenarios.deploy.compiled import compiled_pair
+
+            cal, design = compiled_pair(cal, design, hand_force_at_mvc_n=hand_force_at_mvc_n)
         target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
         trial = run_trial(subject, obj, cal, design, operator, goal_n=target_n,
                           seeds=(episode_seq, env_seq, operator_seq), generator=generator,
@@ -515,7 +523,8 @@ def controller_spec(scenario: Scenario) -> dict[str, Any]:
     return spec
 
 
-def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False) -> EpisodeResult:
+def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False,
+                          compiled: bool = False) -> EpisodeResult:
     """:func:`run_episode` with every argument taken from a validated scenario."""
     p, e = scenario.protocol, scenario.estimator
     return run_episode(
@@ -527,7 +536,8 @@ def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False) ->
         episode_s=p.episode_s, hold_s=p.hold_s,
         control_dt_s=1.0 / scenario.controller.control_hz, record_frames=record_frames,
         user=scenario.user.kind, feedback=scenario.user.feedback,
-        operator_params=scenario.user.operator_params(), estimator_options=e.options)
+        operator_params=scenario.user.operator_params(), estimator_options=e.options,
+        compiled=compiled)
 
 
 def run_episode_scenario(scenario: Scenario) -> dict[str, Any]:
