@@ -23,8 +23,12 @@ import numpy as np
 from controllers.base import Observation
 from controllers.drive import HandLoop
 from estimation.features import extract_features
-from scenarios.deploy.library import CompiledController, CompiledFeatures, CompiledLibrary
-from scenarios.deploy.library import CompiledStream
+from scenarios.deploy.library import (
+    CompiledController,
+    CompiledFeatures,
+    CompiledLibrary,
+    CompiledStream,
+)
 from scenarios.runners.reference import reference_from_windows
 from sim.c_source import ExportError
 from sim.hand.grasp_env import GraspEnv

@@ -87,7 +87,7 @@ def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
                                     channels=fitted.channels, window_ms=window.window_ms,
                                     step_ms=window.step_ms,
                                     uses_force=bool(export.estimator.summary["uses_force"]))
-    command_error = None
+    command_error = c_commands = None
     observations: list = []
     if design is not None:
         reference = check.held_reference(replay.estimate_py_n, replay.t_s, to_hand=to_hand,
@@ -106,5 +106,6 @@ def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
     if target is not None:
         from scenarios.deploy.target import run_target
 
-        report["target"] = run_target(export, check_recording, replay, observations)
+        report["target"] = run_target(export, check_recording, replay, observations,
+                                      c_commands=c_commands)
     return export, report
