@@ -31,7 +31,7 @@ from scenarios.deploy.library import (
 )
 from scenarios.runners.reference import reference_from_windows
 from sim.c_source import ExportError
-from sim.hand.grasp_env import GraspEnv
+from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.hand.objects import ObjectSpec
 from sim.recording import Recording
 
@@ -146,6 +146,9 @@ def hand_observations(design: Any, obj: ObjectSpec, reference_n: np.ndarray, *,
                       seed: int = 0) -> tuple[list[Observation], np.ndarray]:
     """What the design's Python controller saw and commanded holding the hand on a reference.
 
+    The hand closes on the object standing on the table and holds it (the wrist does
+    not lift), so the run covers closing, approach, force control and release.
+
     Parameters
     ----------
     design : controllers.design.ControllerDesign
@@ -162,7 +165,9 @@ def hand_observations(design: Any, obj: ObjectSpec, reference_n: np.ndarray, *,
     """
     dt = float(design.core.dt_s)
     n = int(reference_n.size)
-    env = GraspEnv(obj, 0.0, control_dt_s=dt, episode_s=n * dt)
+    # the hand grasps and holds on the table (no lift: the run follows the reference whole)
+    env = GraspEnv(obj, 0.0, control_dt_s=dt, episode_s=n * dt,
+                   schedule=WristSchedule(lift_after_s=n * dt + 1.0))
     recorder = _Recorder(design.controller)
     loop = HandLoop(env, recorder)
     try:

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from controllers.base import Observation
-from scenarios.deploy.build import C_FLAGS, run_compiler
+from scenarios.deploy.build import C_FLAGS, CompilerMissingError, run_compiler
 from scenarios.deploy.check import EstimatorReplay, int8_frames
 from sim.c_source import c_table, render
 from sim.errors import GriploopError
@@ -41,7 +41,7 @@ CLOCK_HZ = 80e6
 TARGET_INSTALL = "apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm"
 
 
-class TargetToolsMissingError(GriploopError, RuntimeError):
+class TargetToolsMissingError(CompilerMissingError):
     """The cross compiler or the emulator is not installed; says what to install."""
 
 
