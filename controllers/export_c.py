@@ -88,6 +88,20 @@ def c_exportable_controllers() -> tuple[str, ...]:
     return _EMITTERS.names()
 
 
+def check_controller_exportable(kind: str) -> None:
+    """Refuse a controller kind without a C export (before anything is designed).
+
+    Raises
+    ------
+    ControllerNotExportableError
+        The message lists the kinds that have one.
+    """
+    if kind not in _EMITTERS:
+        raise ControllerNotExportableError(
+            f"controller {kind!r} cannot be exported to C; exportable controllers: "
+            f"{', '.join(c_exportable_controllers())}")
+
+
 def pid_bank(core: ScheduledController) -> BankTables:
     """The ``"interpolate"`` bank: grid gains of PID designs, the runner's filter and limits."""
     if core.blend != "interpolate" or not all(isinstance(d, PID) for d in core.designs):
@@ -210,10 +224,7 @@ def controller_context(design: Any) -> tuple[dict[str, np.ndarray], dict[str, An
         non-finite coefficients, or an unstable compensator.
     """
     kind = design.kind
-    if kind not in _EMITTERS:
-        raise ControllerNotExportableError(
-            f"controller {kind!r} cannot be exported to C; exportable controllers: "
-            f"{', '.join(c_exportable_controllers())}")
+    check_controller_exportable(kind)
     reflex, gate, core = _layers(design)
     bank = _EMITTERS.get(kind)(core)
     forces = np.asarray(core.forces_n, float)

@@ -12,6 +12,7 @@ from estimation.export_c.estimators import (
     EstimatorTables,
     NotExportableError,
     c_exportable_estimators,
+    check_exportable,
     estimator_tables,
     export_estimator,
     lti_tables,
@@ -26,5 +27,5 @@ from estimation.export_c.features import (
 )
 
 __all__ = ["EstimatorTables", "FeatureWindow", "NotExportableError", "c_exportable_estimators",
-           "estimator_tables", "export_estimator", "export_features", "feature_window",
-           "lti_tables", "mlp_tables", "paper_window_ms", "register_c_export"]
+           "check_exportable", "estimator_tables", "export_estimator", "export_features",
+           "feature_window", "lti_tables", "mlp_tables", "paper_window_ms", "register_c_export"]

@@ -173,6 +173,20 @@ for _name in ("mlp", "transfer_mlp"):
     register_c_export(_name, mlp_tables)
 
 
+def check_exportable(name: str) -> None:
+    """Refuse an estimator name without a C export (before anything is fitted).
+
+    Raises
+    ------
+    NotExportableError
+        The message lists the estimators that have one.
+    """
+    if name not in _EMITTERS:
+        raise NotExportableError(
+            f"estimator {name!r} cannot be exported to C; exportable estimators: "
+            f"{', '.join(c_exportable_estimators())}")
+
+
 def estimator_tables(pipeline: Any, name: str, mode: str) -> EstimatorTables:
     """The registered emitter's tables for a fitted pipeline, checked.
 
@@ -183,10 +197,7 @@ def estimator_tables(pipeline: Any, name: str, mode: str) -> EstimatorTables:
     ExportError
         Non-finite coefficients, or a state matrix with spectral radius >= 1.
     """
-    if name not in _EMITTERS:
-        raise NotExportableError(
-            f"estimator {name!r} cannot be exported to C; exportable estimators: "
-            f"{', '.join(c_exportable_estimators())}")
+    check_exportable(name)
     out = _EMITTERS.get(name)(pipeline, mode)
     who = f"estimator {name} ({mode})"
     check_finite(who, out.tables)

@@ -63,8 +63,13 @@ def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
     report : dict
         ``{"files": [...], "check": {...}, "target": {...}}`` (keys present as asked).
     """
+    from controllers.export_c import check_controller_exportable
+    from estimation.export_c import check_exportable
     from scenarios.live.recorded import fit_calibration
 
+    check_exportable(estimator)  # refused before the fit and the design
+    if controller is not None:
+        check_controller_exportable(controller)
     fitted = fit_calibration(calibration, estimator, mode=mode, channels=channels, seed=seed)
     cal = fitted.calibration
     design = obj = None
