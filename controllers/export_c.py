@@ -38,7 +38,15 @@ from controllers.lead_lag import LinearController
 from controllers.pid import PID
 from controllers.reflex import SlipReflex
 from controllers.schedule import ScheduledController
-from sim.c_source import CModel, ExportError, check_finite, check_stable, model_digest, render
+from sim.c_source import (
+    CModel,
+    ExportError,
+    check_exportable_name,
+    check_finite,
+    check_stable,
+    model_digest,
+    render,
+)
 from sim.registry import Registry
 
 
@@ -96,10 +104,7 @@ def check_controller_exportable(kind: str) -> None:
     ControllerNotExportableError
         The message lists the kinds that have one.
     """
-    if kind not in _EMITTERS:
-        raise ControllerNotExportableError(
-            f"controller {kind!r} cannot be exported to C; exportable controllers: "
-            f"{', '.join(c_exportable_controllers())}")
+    check_exportable_name(_EMITTERS, kind, "controller", ControllerNotExportableError)
 
 
 def pid_bank(core: ScheduledController) -> BankTables:

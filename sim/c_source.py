@@ -34,6 +34,21 @@ class ExportError(GriploopError, ValueError):
     """A model or controller cannot be exported to C (kind, coefficients or stability)."""
 
 
+def check_exportable_name(registry: Any, name: str, what: str,
+                          error: type[Exception]) -> None:
+    """Refuse ``name`` unless ``registry`` (a :class:`sim.registry.Registry` of emitters) has it.
+
+    Raises
+    ------
+    error
+        One line naming what can be exported: ``estimator 'narx' cannot be exported to C;
+        exportable estimators: ss_kf, ...``.
+    """
+    if name not in registry:
+        raise error(f"{what} {name!r} cannot be exported to C; exportable {what}s: "
+                    f"{', '.join(registry.names())}")
+
+
 def griploop_version() -> str:
     """The installed griploop version, or ``unknown``."""
     from importlib import metadata

@@ -33,7 +33,15 @@ from typing import Any
 
 import numpy as np
 
-from sim.c_source import CModel, ExportError, check_finite, check_stable, model_digest, render
+from sim.c_source import (
+    CModel,
+    ExportError,
+    check_exportable_name,
+    check_finite,
+    check_stable,
+    model_digest,
+    render,
+)
 from sim.registry import Registry
 
 
@@ -181,10 +189,7 @@ def check_exportable(name: str) -> None:
     NotExportableError
         The message lists the estimators that have one.
     """
-    if name not in _EMITTERS:
-        raise NotExportableError(
-            f"estimator {name!r} cannot be exported to C; exportable estimators: "
-            f"{', '.join(c_exportable_estimators())}")
+    check_exportable_name(_EMITTERS, name, "estimator", NotExportableError)
 
 
 def estimator_tables(pipeline: Any, name: str, mode: str) -> EstimatorTables:

@@ -23,6 +23,7 @@ from estimation.features import PAPER_CHANNELS
 from scenarios.deploy.build import build_export
 from scenarios.deploy.library import CompiledController, CompiledLibrary, CompiledStream
 from scenarios.deploy.writer import export_c
+from sim.c_source import ExportError
 
 #: The armband of the virtual subjects: 8 channels at 200 Hz.
 ARMBAND_CHANNELS = 8
@@ -86,10 +87,13 @@ def compiled_pair(calibration: Any, design: Any, *, hand_force_at_mvc_n: float,
     ------
     estimation.export_c.NotExportableError, controllers.export_c.ControllerNotExportableError
         The estimator or the controller kind has no C export.
+    sim.c_source.ExportError
+        The oracle (nothing to compile), or coefficients that cannot be exported.
     scenarios.deploy.build.CompilerMissingError, scenarios.deploy.build.BuildError
     """
     if calibration.pipeline is None:
-        raise_oracle()
+        raise ExportError("estimator oracle: the oracle is the user's true force, not a model; "
+                          "expected a fitted estimator to compile")
     window = feature_window(ARMBAND_FS_HZ, ARMBAND_CHANNELS, [c - 1 for c in PAPER_CHANNELS])
     with tempfile.TemporaryDirectory(prefix="griploop-compiled-") as tmp:
         out = Path(build_dir) if build_dir is not None else Path(tmp)
@@ -108,9 +112,9 @@ def compiled_pair(calibration: Any, design: Any, *, hand_force_at_mvc_n: float,
     return dataclasses.replace(calibration, pipeline=pipeline), compiled_design
 
 
-def raise_oracle() -> None:
-    """Refuse the oracle: it is no estimator, there is nothing to compile."""
-    from sim.c_source import ExportError
-
-    raise ExportError("estimator oracle: the oracle is the user's true force, not a model; "
-                      "expected a fitted estimator to compile")
+def maybe_compiled(compiled: bool, calibration: Any, design: Any,
+                   hand_force_at_mvc_n: float) -> tuple[Any, Any]:
+    """:func:`compiled_pair` when ``compiled``, else the calibration and design unchanged."""
+    if not compiled:
+        return calibration, design
+    return compiled_pair(calibration, design, hand_force_at_mvc_n=hand_force_at_mvc_n)

@@ -49,6 +49,7 @@ from controllers.design_cache import grasp_design
 from controllers.drive import HandLoop
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
+from scenarios.deploy.compiled import maybe_compiled
 from scenarios.outcomes import outcome_of
 from scenarios.rows import WORST_FIELDS, EpisodeRow
 from scenarios.runners.calibration import Calibration, shared_calibration
@@ -141,8 +142,7 @@ def run_episode(
     user: str = "reacting",
     feedback: str = "none",
     operator_params: OperatorParams | None = None,
-    estimator_options: Mapping[str, Any] | None = None,
-    compiled: bool = False,
+    estimator_options: Mapping[str, Any] | None = None, compiled: bool = False,
 ) -> EpisodeResult:
     """Calibrate, then run one closed-loop grasp-lift-hold episode.
 
@@ -171,12 +171,9 @@ def run_episode(
         User kind (:mod:`sim.user.operators`: ``reacting``, the default, sees
         the hand and corrects; ``scripted`` follows the intent profile) and a
         reacting user's feedback (``none``, ``force_vibration``, ``slip_vibration``).
-    operator_params, estimator_options : optional
-        The reacting user's parameters (default :class:`OperatorParams`); the
-        estimator's own hyperparameters (a scenario's ``estimator.options``).
-    compiled : bool
-        Run the fitted estimator and the designed controller as C, compiled on the
-        host (:func:`scenarios.deploy.compiled.compiled_pair`).
+    operator_params, estimator_options, compiled : optional
+        The reacting user's parameters (default :class:`OperatorParams`); the estimator's
+        ``estimator.options``; run both as C compiled here (:mod:`scenarios.deploy.compiled`).
 
     Returns
     -------
@@ -207,10 +204,7 @@ def run_episode(
                                  identification_fraction=identification_fraction,
                                  calibration_s=calibration_s, options=estimator_options)
         design = grasp_design(obj, controller, control_dt_s, controller_spec)
-        if compiled:
-            from scenarios.deploy.compiled import compiled_pair
-
-            cal, design = compiled_pair(cal, design, hand_force_at_mvc_n=hand_force_at_mvc_n)
+        cal, design = maybe_compiled(compiled, cal, design, hand_force_at_mvc_n)
         target_n = intended_grip_n(obj, float((controller_spec or {}).get("safety_factor", 1.5)))
         trial = run_trial(subject, obj, cal, design, operator, goal_n=target_n,
                           seeds=(episode_seq, env_seq, operator_seq), generator=generator,

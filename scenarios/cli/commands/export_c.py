@@ -95,8 +95,6 @@ def run(args: argparse.Namespace) -> int:
               f"{t['matches_host']}")
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        out = {k: v for k, v in report.items() if k != "models"}
-        out["models"] = report["models"]
-        args.json.write_text(json.dumps(out, indent=1) + "\n")
+        args.json.write_text(json.dumps(report, indent=1) + "\n")
         print(f"wrote {args.json}")
     return 0
