@@ -57,6 +57,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "evaluate": ("scenarios.cli.commands.evaluate",
                  "fit and score every force estimator on one recording"),
     "export": ("scenarios.cli.commands.export", "write a results store as Parquet and CSV tables"),
+    "export-c": ("scenarios.cli.commands.export_c",
+                 "write the fitted estimator and the designed controller as C99 for a "
+                 "microcontroller"),
     "force-matching": ("scenarios.cli.commands.force_matching",
                        "hold target grip forces: absolute error and CV, feedback modes side by "
                        "side"),

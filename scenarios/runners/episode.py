@@ -57,6 +57,7 @@ from controllers.design import ControllerDesign, worst_case
 from controllers.design_cache import grasp_design
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
+from scenarios.deploy.compiled import maybe_compiled
 from scenarios.outcomes import PHASE_CODES, outcome_of
 from scenarios.rows import WORST_FIELDS, EpisodeRow
 from scenarios.runners.calibration import Calibration, CalibrationSettings
@@ -160,10 +161,8 @@ def run_episode(
     user: str = "reacting",
     feedback: str = "none",
     operator_params: OperatorParams | None = None,
-    estimator_options: Mapping[str, Any] | None = None,
-    practice: int = DEFAULT_PRACTICE,
-    window_ms: float = WINDOW_MS,
-    step_ms: float = STEP_MS,
+    estimator_options: Mapping[str, Any] | None = None, practice: int = DEFAULT_PRACTICE,
+    window_ms: float = WINDOW_MS, step_ms: float = STEP_MS, compiled: bool = False,
 ) -> EpisodeResult:
     """Calibrate, let the user practise, then run one closed-loop grasp-lift-hold trial.
 
@@ -189,10 +188,11 @@ def run_episode(
         and moves their own arm; ``scripted`` follows the intent profile) and feedback.
     operator_params, estimator_options : optional
         The user's parameters (default :class:`OperatorParams`); the estimator's own.
-    practice : int
-        Practice lifts of the object's class first (a user who learns; 0: the novice).
-    window_ms, step_ms : float
-        The feature window and its increment, ms (the paper's 400 and 125).
+    practice, window_ms, step_ms : int, float, float
+        Practice lifts of the object's class first (a user who learns; 0: the novice);
+        the feature window and its increment, ms (the paper's 400 and 125).
+    compiled : bool
+        Run the trial's estimator and controller as C (:mod:`scenarios.deploy.compiled`).
 
     Raises
     ------
@@ -221,6 +221,7 @@ sim.user.operator.OperatorError
                 settings, controller, dict(controller_spec or {}), practice_object_for(obj),
                 user, feedback, params, control_dt_s, hand_force_at_mvc_n),
                 cal_seq=cal_seq, n_lifts=practice, seed_seq=practice_seq)
+        cal, design = maybe_compiled(compiled, cal, design, hand_force_at_mvc_n)
         belief = getattr(operator, "belief", None)  # what the trial is planned with
         trial = run_trial(subject, obj, cal, design, operator, goal_n=intended_grip_n(obj),
                           seeds=(episode_seq, env_seq, operator_seq), generator=generator,
@@ -399,7 +400,8 @@ def controller_spec(scenario: Scenario) -> dict[str, Any]:
     return spec
 
 
-def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False) -> EpisodeResult:
+def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False,
+                          compiled: bool = False) -> EpisodeResult:
     """:func:`run_episode` with every argument taken from a validated scenario."""
     p, e = scenario.protocol, scenario.estimator
     return run_episode(
@@ -412,7 +414,8 @@ def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False) ->
         control_dt_s=1.0 / scenario.controller.control_hz, record_frames=record_frames,
         user=scenario.user.kind, feedback=scenario.user.feedback,
         operator_params=scenario.user.operator_params(), estimator_options=e.options,
-        practice=scenario.user.practice, window_ms=e.window_ms, step_ms=e.step_ms)
+        practice=scenario.user.practice, window_ms=e.window_ms, step_ms=e.step_ms,
+        compiled=compiled)
 
 
 def run_episode_scenario(scenario: Scenario) -> dict[str, Any]:

@@ -130,8 +130,10 @@ def operating_forces(traces: Mapping[str, np.ndarray], design: ControllerDesign,
                      hold: np.ndarray | None = None) -> tuple[float | None, list[float]]:
     """The force an episode held and the forces it visited, N.
 
-    The held force is the median grip in the in-air hold (from ``hold_from_s``,
-    or the steps of ``hold``);
+    The held force is the mean grip in the in-air hold (from ``hold_from_s``,
+    or the steps of ``hold``; the mean, not the median: a grip that follows a
+    fluctuating estimate spreads over a few newtons, and its median jumps between
+    clusters with a change in the last digit of the command);
     the visited forces are the design grid points between the 5th and 95th
     percentiles of the grip once both sides touched, plus the held force. Both
     are clamped into the analysed range and rounded to 0.1 N.
@@ -148,7 +150,7 @@ def operating_forces(traces: Mapping[str, np.ndarray], design: ControllerDesign,
     def clamp(f: float) -> float:
         return float(np.clip(round(f, 1), lo_range, hi_range))
 
-    held = clamp(float(np.median(grip[hold])))
+    held = clamp(float(np.mean(grip[hold])))
     p5, p95 = np.percentile(grip[after], [5, 95])
     visited = {clamp(f) for f in design.family.forces_n if p5 <= f <= p95} | {held}
     return held, sorted(visited)

@@ -105,9 +105,9 @@ def hold_window(t_s: np.ndarray, wrist_height_m: np.ndarray, secure_lift_s: floa
 
 
 def safety_margin_pct(grip_n: np.ndarray, hold: np.ndarray, obj: ObjectSpec) -> float | None:
-    """Held grip over the slip force, minus 1, in percent: the median grip of the hold over
-    ``m g / (2 mu)`` (None without a hold)."""
+    """Held grip over the slip force, minus 1, in percent: the mean grip of the hold (as the
+    held force) over ``m g / (2 mu)`` (None without a hold)."""
     if not hold.any():
         return None
-    return float(100.0 * (np.median(grip_n[hold]) / slip_threshold_n(obj.mass_kg, obj.friction)
+    return float(100.0 * (np.mean(grip_n[hold]) / slip_threshold_n(obj.mass_kg, obj.friction)
                           - 1.0))

@@ -66,6 +66,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_user_options(p)
     add_practice_window_options(p)
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write JSON here")
+    p.add_argument("--compiled", action="store_true",
+                   help="run the fitted estimator and the designed controller as C compiled on "
+                   "this machine (docs/DEPLOY.md); the metrics are the same as without")
     p.add_argument("--video", type=Path, default=None, metavar="FILE",
                    help="also render the episode to an animated GIF (.gif)")
     p.add_argument("--recording", type=Path, default=None, metavar="FILE",
@@ -109,9 +112,12 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--recording and --calibration go together; found only "
                          + ("--recording" if args.calibration is None else "--calibration"))
     if args.recording is not None:
+        if args.compiled:
+            raise UsageError("--compiled runs a virtual subject's episode; found --recording")
         return _run_recorded(args)
     scenario = scenario_from_args(args)
-    result = episode_from_scenario(scenario, record_frames=args.video is not None)
+    result = episode_from_scenario(scenario, record_frames=args.video is not None,
+                                   compiled=args.compiled)
     row, design = result.row, result.design
     visited = sorted(_visited(row))
     analyses = design.analyse_many(visited)
@@ -133,6 +139,7 @@ def run(args: argparse.Namespace) -> int:
         "design": {"spec": design.spec, "plant_family": design.family.summary()},
         "metrics": {k: row[k] for k in METRIC_KEYS},
         "phase_codes": list(PHASE_CODES),
+        "compiled": _compiled_digests(result) if args.compiled else None,
         "row": row,
         "traces": {k: np.asarray(v).tolist() for k, v in result.traces.items()
                    if k in ("t_s", "intent_n", "reference_n", "grip_force_n", "command",
@@ -187,6 +194,11 @@ def _run_recorded(args: argparse.Namespace) -> int:
                                    "object_height_m")}}
         _write_json(args.json, out)
     return _write_video(args, result)
+
+
+def _compiled_digests(result: Any) -> dict[str, str | None]:
+    """The digests of the compiled controller (and so of the export) an episode ran."""
+    return {"controller_digest": getattr(result.design.controller, "digest", None)}
 
 
 def _write_json(path: Path, out: dict[str, Any]) -> None:

@@ -1,0 +1,204 @@
+"""Replays through C and Python, sample for sample: features, estimate, controller command.
+
+:func:`replay_estimator` pushes every int8 frame of a recording through the C feature
+window and the C estimator, and the same recording through
+:func:`estimation.features.extract_features` and the fitted pipeline's stream; each
+feeds its own features to its own estimator (``one_step``: both get the recording's
+force at the previous window's end). :func:`hand_observations` records what a
+designed Python controller saw and commanded while it held the MuJoCo hand on a
+reference; :func:`replay_controller` feeds those observations to the C controller
+and compares the commands. Tolerances (docs/DEPLOY.md): features within one unit in
+the last place of float32 (the C divides and takes square roots in float32, Python
+in float64), estimate and command within 1e-3 (N, command units).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from controllers.base import Observation
+from controllers.drive import HandLoop
+from estimation.features import extract_features
+from scenarios.deploy.library import (
+    CompiledController,
+    CompiledFeatures,
+    CompiledLibrary,
+    CompiledStream,
+)
+from scenarios.runners.reference import reference_from_windows
+from sim.c_source import ExportError
+from sim.hand.grasp_env import GraspEnv, WristSchedule
+from sim.hand.objects import ObjectSpec
+from sim.recording import Recording
+
+#: What the equivalence tests and ``export-c --check`` accept.
+ESTIMATE_TOLERANCE_N = 1e-3
+COMMAND_TOLERANCE = 1e-3
+FEATURE_TOLERANCE_ULPS = 1.0
+
+
+@dataclass
+class EstimatorReplay:
+    """A recording through C and Python.
+
+    Attributes
+    ----------
+    samples, windows : int
+        Frames pushed, feature windows compared.
+    features_c, features_py : ndarray, shape (windows, n_features)
+    estimate_c_n, estimate_py_n : ndarray, shape (windows,)
+    t_s : ndarray, shape (windows,)
+        Each window's end, s.
+    """
+
+    samples: int
+    windows: int
+    features_c: np.ndarray
+    features_py: np.ndarray
+    estimate_c_n: np.ndarray
+    estimate_py_n: np.ndarray
+    t_s: np.ndarray
+
+    @property
+    def feature_ulps(self) -> float:
+        """Largest feature difference in units of the last place of the float32 Python value."""
+        ulp = np.spacing(np.abs(self.features_py).astype(np.float32)).astype(np.float64)
+        return float(np.max(np.abs(self.features_c - self.features_py) / ulp, initial=0.0))
+
+    @property
+    def feature_error(self) -> float:
+        """Largest absolute feature difference (feature units)."""
+        return float(np.max(np.abs(self.features_c - self.features_py), initial=0.0))
+
+    @property
+    def estimate_error_n(self) -> float:
+        """Largest absolute estimate difference, N."""
+        return float(np.max(np.abs(self.estimate_c_n - self.estimate_py_n), initial=0.0))
+
+
+def int8_frames(recording: Recording) -> np.ndarray:
+    """The recording's sEMG as int8 frames (n_samples, n_channels).
+
+    Raises
+    ------
+    ExportError
+        Samples that are not whole 8-bit counts: the C window reads int8.
+    """
+    emg = np.asarray(recording.emg)
+    if emg.dtype == np.int8:
+        return emg
+    as_int = np.rint(emg)
+    if not (np.all(as_int == emg) and as_int.min() >= -128 and as_int.max() <= 127):
+        raise ExportError(f"{recording.source}: the C feature window reads signed 8-bit counts; "
+                          f"found {emg.dtype} samples outside them")
+    return as_int.astype(np.int8)
+
+
+def replay_estimator(library: CompiledLibrary, recording: Recording, pipeline: Any, mode: str,
+                     *, channels: Sequence[int | str] | None, window_ms: float, step_ms: float,
+                     uses_force: bool) -> EstimatorReplay:
+    """Replay ``recording`` through the compiled and the Python feature window and estimator.
+
+    Raises
+    ------
+    ExportError
+        The recording's samples are not 8-bit counts.
+    """
+    frames = int8_frames(recording)
+    fs = extract_features(recording, channels=channels, window_ms=window_ms, step_ms=step_ms)
+    c_features = CompiledFeatures(library, fs.X.shape[1]).run(frames)
+    stream = pipeline.streaming(mode)
+    stream.reset()
+    c_stream = CompiledStream(library, mode=mode, uses_force=uses_force)
+    n = fs.n_windows
+    py, cc = np.empty(n), np.empty(n)
+    for k in range(n):
+        y_prev = (float(fs.y[k - 1]) if k > 0 else 0.0) if uses_force else None
+        py[k] = stream.step(fs.X[k], y_prev)
+        cc[k] = c_stream.step(c_features[k], y_prev)
+    return EstimatorReplay(int(frames.shape[0]), n, c_features.astype(np.float64), fs.X, cc, py,
+                          fs.t_s)
+
+
+class _Recorder:
+    """A controller that records what it saw and commanded."""
+
+    def __init__(self, inner: Any) -> None:
+        self.inner = inner
+        self.observations: list[Observation] = []
+        self.commands: list[float] = []
+
+    def reset(self) -> None:
+        self.inner.reset()
+
+    def act(self, observation: Observation) -> float:
+        u = float(self.inner.act(observation))
+        self.observations.append(observation)
+        self.commands.append(u)
+        return u
+
+
+def hand_observations(design: Any, obj: ObjectSpec, reference_n: np.ndarray, *,
+                      seed: int = 0) -> tuple[list[Observation], np.ndarray]:
+    """What the design's Python controller saw and commanded holding the hand on a reference.
+
+    The hand closes on the object standing on the table and holds it (the wrist does
+    not lift), so the run covers closing, approach, force control and release.
+
+    Parameters
+    ----------
+    design : controllers.design.ControllerDesign
+    obj : ObjectSpec
+    reference_n : ndarray, shape (n_steps,)
+        Grip-force reference at each control step, N.
+    seed : int
+        The environment's seed.
+
+    Returns
+    -------
+    observations : list of Observation
+    commands : ndarray, shape (n_run,)
+    """
+    dt = float(design.core.dt_s)
+    n = int(reference_n.size)
+    # the hand grasps and holds on the table (no lift: the run follows the reference whole)
+    env = GraspEnv(obj, 0.0, control_dt_s=dt, episode_s=n * dt,
+                   schedule=WristSchedule(lift_after_s=n * dt + 1.0))
+    recorder = _Recorder(design.controller)
+    loop = HandLoop(env, recorder)
+    try:
+        loop.reset(seed=seed)
+        for ref in reference_n:
+            env.set_reference(float(ref))
+            if loop.step(float(ref))[2]:
+                break
+    finally:
+        env.close()
+    return recorder.observations, np.asarray(recorder.commands)
+
+
+def replay_controller(library: CompiledLibrary, design: Any,
+                      observations: Sequence[Observation]) -> np.ndarray:
+    """The compiled controller's commands for an observation sequence (from a reset)."""
+    c = CompiledController(library, dt_s=design.core.dt_s, name=design.kind)
+    return np.array([c.act(o) for o in observations])
+
+
+def held_reference(estimate_n: np.ndarray, window_t_s: np.ndarray, *, to_hand: float,
+                   reference_max_n: float, control_dt_s: float, duration_s: float
+                   ) -> np.ndarray:
+    """The hand reference an episode holds from window estimates, from 1 s before the grasp.
+
+    Starts 1 s before the first window whose reference exceeds 0.5 N (so a calibration
+    recording's rest is skipped) and lasts ``duration_s`` (shorter if the record ends).
+    """
+    values = np.clip(estimate_n * to_hand, 0.0, reference_max_n)
+    above = np.flatnonzero(values > 0.5)
+    start = max(0.0, float(window_t_s[above[0]]) - 1.0) if above.size else 0.0
+    end = min(start + duration_s, float(window_t_s[-1]))
+    t = start + np.arange(int(round((end - start) / control_dt_s))) * control_dt_s
+    return reference_from_windows(values, window_t_s, t)

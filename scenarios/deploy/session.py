@@ -1,0 +1,117 @@
+"""``griploop export-c`` from start to end: fit, export, build, replay, and the target.
+
+:func:`export_session` fits the estimator on a calibration recording
+(:func:`scenarios.live.recorded.fit_calibration`, as ``evaluate`` and ``live`` fit it),
+designs the controller for the object (:func:`controllers.design_cache.grasp_design`,
+as an episode does), writes the C files, and with ``check`` replays a recording
+through C and Python (:mod:`scenarios.deploy.check`); with ``target`` it also runs the
+replay on the emulated Cortex-M4F (:mod:`scenarios.deploy.target`). It returns the
+JSON contract of ``export-c --json`` (docs/FORMAT.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from estimation.export_c import feature_window
+from scenarios.deploy import check
+from scenarios.deploy.build import build_export
+from scenarios.deploy.library import CompiledLibrary
+from scenarios.deploy.writer import CExport, export_c
+from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
+from sim.recording import Recording
+
+#: Length of the hand run whose observations check the controller, s.
+CONTROLLER_CHECK_S = 6.0
+
+
+def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
+                   channels: Sequence[int | str] | None, mode: str = "free_run",
+                   controller: str | None = None, object_name: str | None = None,
+                   check_recording: Recording | None = None, target: str | None = None,
+                   seed: int = 0, control_dt_s: float = 0.01) -> tuple[CExport, dict[str, Any]]:
+    """Export (and check) an estimator fitted on ``calibration`` and a controller for an object.
+
+    Parameters
+    ----------
+    calibration : Recording
+        sEMG with the measured force (any recording ``evaluate`` reads).
+    estimator : str
+        A registered estimator with a C export.
+    out_dir : Path
+    channels : sequence or None
+        Channels the estimator uses (``None``: all).
+    mode : {"free_run", "one_step"}
+    controller, object_name : str, optional
+        A controller kind and the object it is designed for (both or neither).
+    check_recording : Recording, optional
+        Replayed through C and Python (host build).
+    target : {"cortex-m4"}, optional
+        Also run the replay on the emulated board (needs ``check_recording``).
+    seed : int
+        Seeds the estimator's fit and the hand.
+    control_dt_s : float
+        Control period of the design, s.
+
+    Returns
+    -------
+    export : CExport
+    report : dict
+        ``{"files": [...], "check": {...}, "target": {...}}`` (keys present as asked).
+    """
+    from controllers.export_c import check_controller_exportable
+    from estimation.export_c import check_exportable
+    from scenarios.live.recorded import fit_calibration
+
+    check_exportable(estimator)  # refused before the fit and the design
+    if controller is not None:
+        check_controller_exportable(controller)
+    fitted = fit_calibration(calibration, estimator, mode=mode, channels=channels, seed=seed)
+    cal = fitted.calibration
+    design = obj = None
+    if controller is not None:
+        from controllers.design_cache import grasp_design
+        from sim.hand.objects import make_object
+
+        obj = make_object(object_name)
+        design = grasp_design(obj, controller, control_dt_s, None)
+    window = feature_window(calibration.fs_hz, calibration.n_channels, fitted.channel_index)
+    to_hand = HAND_FORCE_AT_MVC_N / cal.mvc_cal_n
+    export = export_c(cal.pipeline, estimator, mode, window, out_dir, design=design,
+                      to_hand=to_hand, reference_max_n=1.2 * HAND_FORCE_AT_MVC_N,
+                      rest_on_n=cal.rest_on_n, rest_off_n=cal.rest_off_n)
+    report: dict[str, Any] = {"files": [str(p) for p in export.files],
+                              "models": export.summary()}
+    if check_recording is None:
+        return export, report
+    library = CompiledLibrary(build_export(export)[0])
+    replay = check.replay_estimator(library, check_recording, cal.pipeline, mode,
+                                    channels=fitted.channels, window_ms=window.window_ms,
+                                    step_ms=window.step_ms,
+                                    uses_force=bool(export.estimator.summary["uses_force"]))
+    command_error = c_commands = None
+    observations: list = []
+    if design is not None:
+        reference = check.held_reference(replay.estimate_py_n, replay.t_s, to_hand=to_hand,
+                                         reference_max_n=1.2 * HAND_FORCE_AT_MVC_N,
+                                         control_dt_s=control_dt_s,
+                                         duration_s=CONTROLLER_CHECK_S)
+        observations, commands = check.hand_observations(design, obj, reference, seed=seed)
+        c_commands = check.replay_controller(library, design, observations)
+        command_error = float(np.max(np.abs(c_commands - commands), initial=0.0))
+    report["check"] = {"samples": replay.samples, "windows": replay.windows,
+                       "control_steps": len(observations),
+                       "max_abs_error": {"features": replay.feature_error,
+                                         "estimate_n": replay.estimate_error_n,
+                                         "command": command_error},
+                       "features_max_ulps": replay.feature_ulps}
+    if target is not None:
+        from scenarios.deploy.target import run_target
+
+        report["target"] = run_target(export, check_recording, replay, observations,
+                                      c_commands=c_commands)
+    return export, report

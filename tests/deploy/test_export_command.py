@@ -1,0 +1,64 @@
+"""``griploop export-c``: files, the JSON contract, the host check and refusals in one line."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from scenarios.cli import main
+from scenarios.deploy.check import COMMAND_TOLERANCE, ESTIMATE_TOLERANCE_N
+
+
+@pytest.fixture(scope="module")
+def files(sessions, tmp_path_factory):
+    fit, replay = sessions
+    folder = tmp_path_factory.mktemp("recordings")
+    fit.save(folder / "cal.npz")
+    replay.save(folder / "check.npz")
+    return folder / "cal.npz", folder / "check.npz"
+
+
+def test_export_c_writes_the_files_and_checks_them(c_compiler, files, tmp_path, capsys):
+    cal, replay = files
+    out = tmp_path / "c"
+    report = tmp_path / "export.json"
+    assert main(["export-c", "--calibration", str(cal), "--estimator", "ss_kf", "--controller",
+                 "lead_lag", "--object", "can", "--out", str(out), "--check", str(replay),
+                 "--json", str(report)]) == 0
+    data = json.loads(report.read_text())
+    assert set(data) >= {"files", "check"} and "target" not in data
+    assert {p.split("/")[-1] for p in data["files"]} == {
+        "griploop.h", "griploop_types.h", "griploop_runtime.c", "griploop_features.h",
+        "griploop_features.c", "griploop_estimator.h", "griploop_estimator.c",
+        "griploop_controller.h", "griploop_controller.c"}
+    err = data["check"]["max_abs_error"]
+    assert data["check"]["samples"] > 10000
+    assert err["estimate_n"] <= ESTIMATE_TOLERANCE_N
+    assert err["command"] is not None and err["command"] <= COMMAND_TOLERANCE
+    assert "max |C - Python|" in capsys.readouterr().out
+
+
+def test_export_c_without_check_has_no_check_key(files, tmp_path):
+    cal, _ = files
+    report = tmp_path / "export.json"
+    assert main(["export-c", "--calibration", str(cal), "--estimator", "latent_kf", "--out",
+                 str(tmp_path / "c"), "--json", str(report)]) == 0
+    data = json.loads(report.read_text())
+    assert "check" not in data and "target" not in data and len(data["files"]) == 7
+
+
+@pytest.mark.parametrize(("args", "expected"), [
+    (["--estimator", "gbt"], "exportable estimators: ss_kf"),
+    (["--estimator", "ss_kf", "--controller", "mpc", "--object", "can"],
+     "exportable controllers: pid, lead_lag"),
+    (["--estimator", "ss_kf", "--controller", "pid"], "--controller and --object go together"),
+    (["--estimator", "ss_kf", "--target", "cortex-m4"], "found no --check"),
+])
+def test_export_c_refuses_in_one_line(files, tmp_path, capsys, args, expected):
+    cal, _ = files
+    assert main(["export-c", "--calibration", str(cal), "--out", str(tmp_path / "c"),
+                 *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert expected in err and "\n" not in err
+    assert not (tmp_path / "c").exists()

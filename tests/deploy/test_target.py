@@ -1,0 +1,27 @@
+"""The replay on the emulated Cortex-M4F: the same bits as the host build, sizes, instructions."""
+
+from __future__ import annotations
+
+import pytest
+
+from scenarios.deploy.session import export_session
+
+pytestmark = pytest.mark.target
+
+@pytest.mark.parametrize(("estimator", "controller"), [("ss_kf", "pid"), ("mlp", "lead_lag")])
+def test_the_target_replay_equals_the_host_build(arm_tools, c_compiler, sessions, tmp_path,
+                                                 estimator, controller):
+    fit, replay = sessions
+    _, report = export_session(fit, estimator, tmp_path, channels=[6, 7, 8],
+                               controller=controller, object_name="can",
+                               check_recording=replay, target="cortex-m4")
+    t = report["target"]
+    assert t["matches_host"], t["max_abs_difference_from_host"]
+    assert t["outputs_compared"] > 5000
+    ipu = t["instructions_per_update"]
+    assert 0 < ipu["controller"] < 2000
+    if estimator == "ss_kf":  # the paper's estimator with its features: the issue's goal
+        assert ipu["features"] + ipu["estimator"] < 20_000
+        assert t["ram_bytes"] < 8 * 1024
+        # a window of 25 frames costs more than 25 pushes' bookkeeping: it is counted
+        assert ipu["features"] > 25 * 20
