@@ -222,3 +222,36 @@ def test_a_store_with_nothing_to_compare_says_so_in_one_sentence(tmp_path, capsy
     if failed:
         ((caption, _, rows),) = tables(section(html, "failed"))
         assert caption == f"{failed} failed row(s)" and len(rows) == failed
+
+
+def test_the_trial_table_gives_held_time_to_lift_attempts_and_margin_by_level() -> None:
+    from scenarios.report.findings import trial_rows
+
+    def episode(i: int, level: str, outcome: str, ttl: float | None, attempts: int,
+                margin: float | None) -> dict:
+        return {"hash": f"h{i}", "config": {"controller": {"kind": level}, "seed": i},
+                "result": {"outcome": outcome, "controller": level, "attempts": attempts,
+                           "time_to_lift_s": ttl, "safety_margin_pct": margin}}
+
+    episodes = [episode(0, "pid", "held", 1.0, 1, 40.0), episode(1, "pid", "held", 2.0, 2, 60.0),
+                episode(2, "pid", "not_lifted", None, 3, None),
+                episode(3, "mpc", "held", 1.5, 1, 80.0)]
+    rows = {r[0]: r for r in trial_rows(episodes, "controller.kind")}
+    pid = rows["pid"]
+    assert pid[1] == 3 and pid[6] == 2
+    assert pid[2].startswith("67 %") and pid[4] == "2.00"  # held 2 of 3; mean attempts
+    lo, hi = wilson(2, 3)
+    assert f"({100 * lo:.0f}–{100 * hi:.0f} %)" in pid[2]
+    assert pid[3] == "1.50 [1.25–1.75]" and pid[5] == "50 [45–55]"  # medians, quartiles
+    assert rows["mpc"][3] == "1.50 [1.50–1.50]"
+
+
+def test_trace_bands_shade_the_phases_and_number_the_lift_offs() -> None:
+    from scenarios.outcomes import PHASE_CODES
+    from scenarios.report.build import phase_bands
+
+    names = ["grasp"] * 3 + ["liftoff"] * 2 + ["grasp"] * 2 + ["liftoff"] * 2 + ["lift"] * 3
+    t = np.arange(len(names)) * 0.1
+    bands = phase_bands(t, np.array([PHASE_CODES.index(n) for n in names]))
+    assert [b[2] for b in bands] == ["lift-off 1", "lift-off 2", "lift, hold"]
+    assert bands[0][:2] == pytest.approx((0.3, 0.5)) and bands[2][1] == pytest.approx(1.2)
