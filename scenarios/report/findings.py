@@ -248,6 +248,23 @@ def overall_counts(episodes: Sequence[Mapping[str, Any]]) -> str:
             + (f" (none {missing})" if none else ""))
 
 
+def session_text(episodes: Sequence[Mapping[str, Any]]) -> str:
+    """``"3 subjects in 3 sessions"``: how many independent draws the episodes rest on.
+
+    A session is a subject with a seed (its calibration, practice and sEMG noise); the
+    episodes of one session are paired, not independent, so an interval over them says
+    little about other people.
+    """
+    pairs = {(e["result"].get("subject_id"), e["result"].get("seed", e["config"].get("seed")))
+             for e in episodes}
+    subjects = {p[0] for p in pairs}
+    text = (f"{len(subjects)} subject{'s' if len(subjects) != 1 else ''} in {len(pairs)} "
+            f"session{'s' if len(pairs) != 1 else ''}")
+    if len(pairs) < 3:
+        text += " (the intervals describe these sessions, not a population)"
+    return text
+
+
 def findings_sentence(episodes: Sequence[Mapping[str, Any]],
                       effects: Sequence[FactorEffect]) -> str:
     """One sentence: the factor that changes the outcome most and by how much.
@@ -393,9 +410,10 @@ def summary_section(context: ReportContext) -> Section:
                 if any(lv.counts[o] for e in effects for lv in e.levels)]
     unchanged = [e.name for e in effects if e.cramers_v == 0.0]
     parts.append(note(
-        f"{overall_counts(episodes)}. Factors ranked by Cramér's V of their levels x "
-        "outcomes table (0: the same outcome rates at every level; 1: the level decides the "
-        "outcome); rates with 95 % Wilson intervals, over every other factor."
+        f"{overall_counts(episodes)}, from {session_text(episodes)}. Factors ranked by "
+        "Cramér's V of their levels x outcomes table (0: the same outcome rates at every "
+        "level; 1: the level decides the outcome); rates with 95 % Wilson intervals, over "
+        "every other factor."
         + (f" Same rates at every level: {', '.join(unchanged)}." if unchanged else "")))
     parts.append(_trial_table(episodes, [e.factor for e in effects]
                               + [f for f in factors if f not in {e.factor for e in effects}]))

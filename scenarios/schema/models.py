@@ -304,7 +304,10 @@ class ControllerConfig(_Model):
         QP solver of the kinds that solve one (``mpc``): ``daqp`` (default, with the
         checked unconstrained fast path), ``osqp`` or ``proxqp``.
     safety_factor : float
-        Grip force over the slip threshold the reference aims at.
+        Grip force over the sensed slip threshold that a kind with a slip bound
+        keeps (the MPC's ``safety x load / (2 mu_hat)``). The user's own aim is
+        theirs (a novice 1.5x; a practised user what practice taught:
+        :mod:`sim.user.belief`), not this.
     control_hz : float
         Control-loop rate, Hz: 100 to 500, so that the control period is a
         whole number of the hand's 2 ms physics steps.

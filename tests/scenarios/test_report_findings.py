@@ -246,6 +246,19 @@ def test_the_trial_table_gives_held_time_to_lift_attempts_and_margin_by_level() 
     assert rows["mpc"][3] == "1.50 [1.50–1.50]"
 
 
+def test_the_summary_counts_the_sessions_the_episodes_rest_on() -> None:
+    from scenarios.report.findings import session_text
+
+    def episode(subject: int, seed: int) -> dict:
+        return {"config": {"seed": seed}, "result": {"subject_id": subject, "seed": seed}}
+
+    one = [episode(1, 0) for _ in range(27)]  # 27 episodes of one calibration session
+    assert session_text(one) == ("1 subject in 1 session (the intervals describe these "
+                                 "sessions, not a population)")
+    many = [episode(s, 100 + s) for s in (1, 2, 3) for _ in range(4)] + [episode(1, 7)]
+    assert session_text(many) == "3 subjects in 4 sessions"
+
+
 def test_trace_bands_shade_the_phases_and_number_the_lift_offs() -> None:
     from scenarios.outcomes import PHASE_CODES
     from scenarios.report.build import phase_bands
