@@ -209,3 +209,12 @@ def ci_text(ci: list[float | None] | None, spec: str = ".2f", scale: float = 1.0
     if not ci or ci[0] is None:
         return "-"
     return f"[{fmt(ci[0], spec, scale)}, {fmt(ci[1], spec, scale)}]"
+
+
+def with_intact(result: Mapping[str, Any], key: str = "by_feedback") -> dict[str, Any]:
+    """``result[key]`` per feedback mode, then (with ``--intact``) the intact hand's as
+    ``"intact (touch)"``: the rows a table prints."""
+    rows = dict(result[key])
+    for mode, value in result.get("intact", {}).get(key, {}).items():
+        rows[f"intact ({mode})"] = value
+    return rows

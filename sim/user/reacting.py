@@ -34,7 +34,9 @@ its moves to the hand's commanded wrist)::
              if it does not open (an estimate that does not fall to zero at
              rest keeps the hand closed: :attr:`released` is then false).
 
-A plan without a lift (holding a force on the table) stays in one hold phase.
+A plan without a lift (holding a force on the table) stays in one hold phase. There a
+slip felt before the hand has held the object for ``touch_dwell_s`` is the object
+pushed by the closing digits, not a slip of a held object: it is not answered.
 
 **Corrections** (while lifting and holding, and on the table):
 
@@ -58,6 +60,7 @@ coefficient of variation ``motor_noise_cv`` (force SD grows with mean force).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -165,6 +168,7 @@ class ReactingOperator:
         full = np.flatnonzero(self._shape >= 0.99)
         self._ready_s = float(full[0] / plan.fs_hz) if full.size else 0.0
         self._still_since: float | None = None
+        self._contact_since: float | None = None  # on the table: contact perceived since
         self._seen_sum, self._seen_n = 0.0, 0
         self._phase_end_s = math.inf
         self._lift_end_s = math.inf
@@ -276,7 +280,25 @@ class ReactingOperator:
         else:  # "hold": a force held on the table
             if seen is not None and seen.contact and self._anchor is None:
                 self._anchor = slide
+            holding = self._holding(t, seen, felt)  # tracked every step
+            if felt is not None and felt.slip and not holding:
+                felt = replace(felt, slip=False)  # the object pushed as the hand closes on it
             self._correct(t, seen, slide, felt)
+
+    def _holding(self, t: float, seen: Scene | None, felt: Any) -> bool:
+        """The hand has held the object for ``touch_dwell_s`` (its grip formed), as perceived.
+
+        Contact is felt (touch) or seen; a slip felt before the grip formed is the
+        object pushed by the closing digits, which no one answers with a squeeze.
+        """
+        touching = (bool(felt.contact) if felt is not None and felt.contact is not None
+                    else seen is not None and seen.contact)
+        if not touching:
+            self._contact_since = None
+        elif self._contact_since is None:
+            self._contact_since = t
+        return self._contact_since is not None and t - self._contact_since >= \
+            self.params.touch_dwell_s
 
     def _grasp(self, t: float, seen: Scene | None, slide: float | None, felt: Any) -> None:
         """Closing on the object: lift once it looks (or feels) secure (module notes)."""

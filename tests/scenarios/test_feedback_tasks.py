@@ -236,3 +236,25 @@ def test_user_kind_and_feedback_are_report_factors() -> None:
     assert FA.swept_factors(episodes) == ["user.feedback"]
     assert FA.factor_name("user.feedback") == "feedback" and FA.factor_name("user.kind") == "user"
     assert FA.factor_value(episodes[1], "user.feedback") == "slip_vibration"
+
+
+def test_the_tables_print_the_intact_hand_after_the_feedback_modes() -> None:
+    from scenarios.cli.commands.force_matching import format_force_matching
+    from scenarios.cli.commands.slip_recovery import format_slip_recovery
+
+    slip = aggregate("slip_recovery", [{"feedback": "none", "n": 3, "recovered": 1,
+                                        "not_lifted": 0, "no_slip": 1}])
+    slip["intact"] = aggregate("slip_recovery", [{"feedback": "touch", "n": 3, "recovered": 3,
+                                                  "not_lifted": 0, "no_slip": 0}])
+    lines = format_slip_recovery(slip).splitlines()
+    assert lines[1].split()[:3] == ["none", "3", "1"]
+    assert lines[2].split()[:5] == ["intact", "(touch)", "3", "3", "100"]
+    force = aggregate("force_matching", [
+        {"feedback": "none", "target_fraction": 0.4, "abs_error_n": 2.0, "cv": 0.2,
+         "user_cv": 0.05}])
+    force["intact"] = aggregate("force_matching", [
+        {"feedback": "touch", "target_fraction": 0.4, "abs_error_n": 0.3, "cv": 0.05,
+         "user_cv": 0.05}])
+    rows = [line.split() for line in format_force_matching(force).splitlines()[1:3]]
+    assert rows[0][1] == "none" and rows[1][1:3] == ["intact", "(touch)"]
+    assert float(rows[1][3]) == pytest.approx(0.3)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -92,6 +94,24 @@ def test_touch_lifts_without_a_careful_lift_off() -> None:
     assert "liftoff" not in _phases(op) and op.attempts == 1
     t_lift = op.phase_log[1][0]
     assert t_lift == pytest.approx(1.5 + QUIET.touch_delay_s + QUIET.touch_dwell_s, abs=2 * DT)
+
+
+@pytest.mark.parametrize("slip_at_s, answered", [(1.5, False), (3.0, True)])
+def test_on_the_table_a_slip_as_the_hand_closes_is_not_a_slip_of_a_held_object(
+        slip_at_s: float, answered: bool) -> None:
+    """Force matching: the closing digits push the object (a burst at contact); later a
+    slip of the object the hand holds is squeezed for, as in the air."""
+
+    class Pushed(_World):
+        def scene(self, t: float) -> Scene:
+            s = super().scene(t)
+            fast = slip_at_s <= t < slip_at_s + 0.05
+            return dataclasses.replace(s, slip_speed_m_s=0.05 if fast else 0.0)
+
+    op, world = ReactingOperator(QUIET, feedback="touch"), Pushed()
+    world.run(op, _plan(lift_height_m=None, hold_s=5.0), seconds=5.0)
+    assert _phases(op) == ["hold"]
+    assert op.corrections == (1 if answered else 0)
 
 
 def test_a_hand_that_does_not_close_is_squeezed_for() -> None:

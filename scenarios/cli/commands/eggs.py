@@ -6,7 +6,14 @@ import argparse
 from typing import Any
 
 from scenarios.cli.errors import UsageError
-from scenarios.cli.feedback_tasks import add_common_options, ci_text, comma_list, fmt, run_task
+from scenarios.cli.feedback_tasks import (
+    add_common_options,
+    ci_text,
+    comma_list,
+    fmt,
+    run_task,
+    with_intact,
+)
 
 HELP = "Virtual Eggs Test: transfer 11 fragile blocks, feedback modes side by side"
 
@@ -46,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
 
 def format_eggs(result: dict[str, Any]) -> str:
     """Success rate per mode, then success / broken / dropped per egg and mode."""
-    modes = result["by_feedback"]
+    modes = with_intact(result)
     lines = [f"{'feedback':<18}{'success rate':>13}{'95 % CI':>18}{'transfers':>11}"]
     for mode, m in modes.items():
         lines.append(f"{mode:<18}{fmt(m['success_rate'], '.0f', 100) + ' %':>13}"

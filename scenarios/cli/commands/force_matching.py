@@ -6,7 +6,14 @@ import argparse
 from typing import Any
 
 from scenarios.cli.errors import UsageError
-from scenarios.cli.feedback_tasks import add_common_options, ci_text, comma_list, fmt, run_task
+from scenarios.cli.feedback_tasks import (
+    add_common_options,
+    ci_text,
+    comma_list,
+    fmt,
+    run_task,
+    with_intact,
+)
 
 HELP = "hold target grip forces: absolute error and CV, feedback modes side by side"
 
@@ -40,7 +47,7 @@ def format_force_matching(result: dict[str, Any]) -> str:
     """Absolute error and CV per target and mode, with their intervals."""
     lines = [f"{'target':>7}  {'feedback':<18}{'abs error N':>12}{'95 % CI':>16}{'CV %':>7}"
              f"{'95 % CI':>16}{'user CV %':>10}{'n':>4}"]
-    rows = [(t["target_fraction"], mode, t) for mode, m in result["by_feedback"].items()
+    rows = [(t["target_fraction"], mode, t) for mode, m in with_intact(result).items()
             for t in m["targets"]]
     for frac, mode, t in sorted(rows, key=lambda r: r[0]):
         lines.append(f"{frac:>7.0%}  {mode:<18}{fmt(t['abs_error_n']):>12}"

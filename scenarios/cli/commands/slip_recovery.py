@@ -6,7 +6,7 @@ import argparse
 from typing import Any
 
 from scenarios.cli.errors import UsageError
-from scenarios.cli.feedback_tasks import add_common_options, ci_text, fmt, run_task
+from scenarios.cli.feedback_tasks import add_common_options, ci_text, fmt, run_task, with_intact
 
 HELP = "recover an object whose load rises until it slips, feedback modes side by side"
 
@@ -39,11 +39,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def format_slip_recovery(result: dict[str, Any]) -> str:
-    """Recovered rate per mode with its interval, and the trials left out."""
+    """Recovered rate per mode with its interval, and the trials left out (intact hand last)."""
     lines = [f"{'feedback':<18}{'n':>5}{'recovered':>11}{'rate':>8}{'95 % CI':>16}"
              f"{'not lifted':>12}{'no slip':>9}"]
-    for mode, m in result["by_feedback"].items():
-        ex = result["excluded"][mode]
+    excluded = with_intact(result, "excluded")
+    for mode, m in with_intact(result).items():
+        ex = excluded[mode]
         lines.append(f"{mode:<18}{m['n']:>5}{m['recovered']:>11}"
                      f"{fmt(m['recovered_rate'], '.0f', 100) + ' %':>8}"
                      f"{ci_text(m['ci95'], '.0f', 100):>16}{ex['not_lifted']:>12}"
