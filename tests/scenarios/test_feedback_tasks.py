@@ -189,7 +189,7 @@ def test_slip_recovery_counts_ten_subjects(slip_results) -> None:
 @pytest.mark.xfail(strict=True, reason="the losses come with dips of the estimate that the "
                    "force-tracking hand follows and with contact chatter once the can slides, "
                    "not with how soon the slip is perceived: README, 'Slip recovery by "
-                   "window'")
+                   "feature window'")
 def test_slip_vibration_recovers_at_least_95_percent_and_15_points_more(slip_results) -> None:
     vib, vision = slip_results["slip_vibration"], slip_results["none"]
     assert vib["recovered_rate"] >= 0.95
@@ -223,7 +223,7 @@ def test_force_vibration_lowers_the_absolute_error(force_results) -> None:
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="the hand's CV includes the estimator's fluctuation: "
-                   "README, 'Feedback benchmarks: where the model disagrees'")
+                   "README, 'Benchmarks that read like clinical tests', force matching")
 def test_force_matching_cv_at_the_middle_target_is_3_to_8_percent(force_results) -> None:
     assert 0.03 <= force_results["none"]["targets"][0]["cv"] <= 0.08
 
