@@ -7,7 +7,7 @@ export MUJOCO_GL ?= egl
 export PYOPENGL_PLATFORM ?= egl
 export MPLBACKEND ?= Agg
 
-.PHONY: demo test bench lint clean pretrained
+.PHONY: demo test test-dispatch bench lint clean pretrained
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -24,6 +24,18 @@ TEST_WORKERS ?= auto
 test: $(STAMP)
 	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks
 	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile
+
+# the tests that compare values computed through different shapes, chunkings or code paths
+# (marker "portable", tests/portable.py), again with numpy's vector loops limited to AVX2
+# and to SSE4.2: numpy rounds some elements differently with their place in an array on
+# some CPUs, and a test promising more than the last bits across paths fails here too
+DISPATCH_LEVELS ?= "X86_V4 AVX512_ICL AVX512_SPR" "X86_V3 X86_V4 AVX512_ICL AVX512_SPR"
+test-dispatch: $(STAMP)
+	@for level in $(DISPATCH_LEVELS); do \
+	  echo "NPY_DISABLE_CPU_FEATURES=\"$$level\""; \
+	  NPY_DISABLE_CPU_FEATURES="$$level" $(PY) -m pytest -q -m portable -n $(TEST_WORKERS) \
+	    --dist loadfile -p no:cacheprovider || exit 1; \
+	done
 
 # every benchmarks/bench_*.py in its own process, then the table of their GOAL lines
 BENCH_ARGS ?= --markdown bench_results.md

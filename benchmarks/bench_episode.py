@@ -39,8 +39,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _timing import goal_line  # noqa: E402
 
@@ -55,45 +53,61 @@ HELP_LIMIT_S = 0.5
 def episode_loop(user: str = "reacting") -> float:
     """Real-time factor of the episode loop with ``user``, printing the split by stage."""
     from scenarios.runners.episode import run_episode
+    from sim.errors import GriploopError
     from sim.hand.objects import make_object
     from sim.user.subjects import VirtualSubject
 
     subject = VirtualSubject.sample(0, 1)
     can = make_object("can", mass_kg=0.4, friction=0.5)
-    run_episode(subject, can, estimator="ss_kf", controller="pid", seed=0, user=user)  # warm
     totals = dict.fromkeys(STAGES, 0.0)
     simulated = wall = 0.0
-    seeds = range(1, 9)
-    for seed in seeds:
+    timed: list[int] = []
+    failed: list[str] = []
+    warm = False
+    for seed in range(9):  # the first episode that runs warms the caches, untimed
         start = time.perf_counter()
-        row = run_episode(subject, can, estimator="ss_kf", controller="pid", seed=seed,
-                          user=user).row
+        try:
+            row = run_episode(subject, can, estimator="ss_kf", controller="pid", seed=seed,
+                              user=user).row
+        except GriploopError as err:  # an unstable fit, a diverged episode: say so, go on
+            failed.append(f"seed {seed}: {err}")
+            continue
+        if not warm:
+            warm = True
+            continue
         wall += time.perf_counter() - start
         simulated += row["simulated_s"]
+        timed.append(seed)
         for k in STAGES:
             totals[k] += row[k]
+    for line in failed:
+        print(f"  not timed, {line}")
+    if not timed:
+        print(f"{user} user: no episode ran")
+        return float("nan")
     loop = sum(totals.values())
-    print(f"{user} user: {len(seeds)} episodes, {simulated:.1f} s simulated, ss_kf free_run + "
-          "PID at 100 Hz")
+    print(f"{user} user: {len(timed)} episodes (seeds {', '.join(map(str, timed))}), "
+          f"{simulated:.1f} s simulated, ss_kf free_run + PID at 100 Hz")
     for k in STAGES:
-        print(f"  {k[2:-2]:<11} {totals[k] * 1e3 / len(seeds):8.1f} ms/episode "
+        print(f"  {k[2:-2]:<11} {totals[k] * 1e3 / len(timed):8.1f} ms/episode "
               f"({100 * totals[k] / loop:4.1f} %)")
     print(f"episode loop: {simulated / loop:6.1f}x real time (goal >= 50x)")
     print(f"whole call incl. calibration session and fit: {simulated / wall:6.1f}x real time")
     print(f"per control step: {1e6 * loop / (simulated / 0.01):.0f} us "
           f"(physics {1e6 * totals['t_physics_s'] / (simulated / 0.01):.0f} us)")
-    assert np.isfinite(loop)
     return simulated / loop
 
 
 def process_s(argv: list[str], env: dict[str, str]) -> float:
-    """Wall time of one ``python argv`` process of this tree, s (fails loudly)."""
+    """Wall time of one ``python argv`` process of this tree, s; NaN (said) if it failed."""
     t0 = time.perf_counter()
     out = subprocess.run([sys.executable, *argv], cwd=ROOT, env=env, capture_output=True,
                          text=True)
     elapsed = time.perf_counter() - t0
     if out.returncode != 0:
-        raise SystemExit(f"{shlex.join(argv)} failed ({out.returncode}):\n{out.stderr}")
+        last = out.stderr.strip().splitlines()[-1:] or ["(no output)"]
+        print(f"  {shlex.join(argv)} failed ({out.returncode}): {last[0]}")
+        return float("nan")
     return elapsed
 
 
@@ -117,11 +131,13 @@ def processes(repeat: int) -> dict[str, float]:
         for _ in range(repeat):
             for label, (argv, e) in configs.items():
                 times[label].append(process_s(argv, e))
-    best = {k: min(v) for k, v in times.items()}
+    ran = {k: [t for t in v if t == t] for k, v in times.items()}  # the runs that did not fail
+    best = {k: min(v, default=float("nan")) for k, v in ran.items()}
     print(f"processes, best of {repeat} (interleaved), load average "
           f"{os.getloadavg()[0]:.2f}:")
     for label, t in best.items():
-        print(f"  {label:<32} {t:6.2f} s   (median {statistics.median(times[label]):.2f} s)")
+        print(f"  {label:<32} {t:6.2f} s   (median "
+              f"{statistics.median(ran[label]) if ran[label] else float('nan'):.2f} s)")
     print("  command: " + shlex.join(["python", "-m", "scenarios.cli", *EPISODE]))
     return best
 
@@ -137,7 +153,7 @@ def main() -> int:
     scripted = episode_loop("scripted")
     goal_line("episode loop >= 50x real time", factor, "x", limit=50.0, better="higher",
               reference=f"reacting user (the default); scripted user {scripted:.1f}x; ss_kf "
-              "free_run + PID at 100 Hz, 8 episodes of 6 s")
+              "free_run + PID at 100 Hz, the trials of seeds 1-8 that run")
     goal_line(f"griploop episode process <= {EPISODE_LIMIT_S:g} s (warm cache)",
               med["episode (warm cache)"], "s", limit=EPISODE_LIMIT_S,
               reference=f"design cache off {med['episode (design cache off)']:.2f} s; imports "

@@ -4,7 +4,8 @@
   loaded), resolving a stream by name, the session's outlets and the recording player
   behind ``griploop stream``;
 - :mod:`scenarios.live.windowing`: MAV/RMS/WL windows updated one sample at a time,
-  bit-identical to :func:`estimation.features.extract_features` on the same samples;
+  equal to :func:`estimation.features.extract_features` on the same samples (int8
+  counts bit for bit);
 - :mod:`scenarios.live.recorded`: an estimator fitted on a calibration recording, a
   virtual subject's grasp recording, and the offline episode driven by a given recording
   (the reference a live session is compared with);

@@ -7,9 +7,9 @@ episode (:func:`scenarios.live.recorded.episode_on_recording`): the estimator's
 stream fitted on the calibration recording, the cached controller design, the
 :class:`~sim.hand.grasp_env.GraspEnv` with the episode's wrist schedule driven by
 :class:`~controllers.drive.HandLoop`, and the episode's metrics. Only the windowing
-is incremental (:class:`~scenarios.live.windowing.IncrementalFeatures`, bit-identical
-to the offline features), so a stream that delivers every sample gives the offline
-episode's grasp. :func:`run_session` feeds it from an LSL inlet.
+is incremental (:class:`~scenarios.live.windowing.IncrementalFeatures`, equal to the
+offline features), so a stream that delivers every sample gives the offline episode's
+grasp. :func:`run_session` feeds it from an LSL inlet.
 
 Time base. Sample ``n`` of the stream is at session time ``n / fs_hz``, where ``n``
 counts from the first sample and includes lost samples (a jump between consecutive

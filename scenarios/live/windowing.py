@@ -5,12 +5,14 @@ prefix sums; a live session receives one sample at a time and needs each window'
 features the moment its last sample arrives. :class:`IncrementalFeatures` keeps the
 same prefix sums (|x|, x^2 and |x(k) - x(k-1)|, per channel) in a ring of
 ``window + 1`` entries and issues a feature row whenever a window completes, so that
-on the same samples it gives the same rows **bit for bit**:
+on the same samples it gives the same rows (integer counts bit for bit, float samples to
+the last bits):
 
 - integer counts (MYO int8) are summed exactly as integers, so a window sum is the
   same integer ``extract_features`` gets from its int32 prefix sums;
-- float samples are accumulated sequentially in float64 exactly as ``numpy.cumsum``
-  does, and a window sum is the same difference of two prefix values.
+- float samples are accumulated sequentially in float64 as ``numpy.cumsum`` does, and a
+  window sum is the same difference of two prefix values (the tests allow the last
+  bits, as for any two code paths: ``tests/portable.py``).
 
 Window ``j`` covers samples ``[j*step, j*step + win)`` counted from the last
 :meth:`IncrementalFeatures.reset` (paper: 400 ms every 125 ms, 80/25 samples at

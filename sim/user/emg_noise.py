@@ -272,7 +272,8 @@ class NoiseEmgGenerator:
 
         The shaped carrier noise of all ``n_samples`` is drawn here, as
         :meth:`generate` draws it for a drive of ``n_samples``; chunks fed the
-        same drive give :meth:`generate`'s output bit for bit.
+        same drive give :meth:`generate`'s output to the last bits (numpy's vector loops
+        may round an element differently with its place in a chunk on some CPUs).
         """
         noise, amp = _carrier(int(n_samples), muscles, front_end, fs_hz, rng)
         return CausalNoiseMuscles(noise, amp, muscles, fs_hz)

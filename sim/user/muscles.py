@@ -292,7 +292,7 @@ def slow_fluctuation(
 
 
 class CausalDelay:
-    """:func:`fractional_delay` applied chunk by chunk, bit for bit.
+    """:func:`fractional_delay` applied chunk by chunk, to the last bits.
 
     Holds the last samples of the input between calls, so that feeding a
     signal in consecutive chunks gives exactly the samples
@@ -342,7 +342,7 @@ class CausalDelay:
 
 
 class CausalActivation:
-    """:func:`activation_dynamics` applied chunk by chunk, bit for bit.
+    """:func:`activation_dynamics` applied chunk by chunk, to the last bits.
 
     The filter state is carried between chunks (``scipy.signal.lfilter`` with
     ``zi``); it starts at rest at the first chunk's first value, as the batch

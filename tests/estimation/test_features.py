@@ -92,6 +92,7 @@ def test_bad_input_is_named() -> None:
         window_samples(1.0, 400, 125)
 
 
+@pytest.mark.portable
 def test_int8_prefix_sums_stay_exact_past_int32_overflow() -> None:
     # 150k full-scale samples: the running sum of squares (2.5e9) exceeds int32.
     n = 150_000

@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+from portable import assert_nested_close_across_paths
 
 from estimation.registry import ESTIMATOR_NAMES
 from estimation.reproduce import format_report, write_csv
@@ -53,15 +54,16 @@ def test_results_are_in_plausible_bands(result: dict) -> None:
     assert result["order_selection"]["chosen_orders"][0] in (1, 2, 3, 4)
 
 
-def test_same_seed_gives_identical_results_on_any_number_of_workers(result: dict) -> None:
+@pytest.mark.portable
+def test_same_seed_gives_the_same_results_on_any_number_of_workers(result: dict) -> None:
     # run again with the subjects on two forked processes (after this process ran the
     # gradient boosting's OpenMP threads above, which a forked child must not wait for)
     again = run_reproduction(2, 0, nn_params={"max_epochs": 5}, orders=(1, 2, 3, 4),
                              workers=2)
-    assert again["estimators"] == result["estimators"]
-    assert again["model"] == result["model"]
+    # the same computations, on other processes and thread counts: equal to PATH_RTOL
     untimed = {k: v for k, v in result.items() if k != "timing"}
-    assert {k: v for k, v in again.items() if k != "timing"} == untimed
+    assert_nested_close_across_paths({k: v for k, v in again.items() if k != "timing"},
+                                     untimed)
 
 
 def test_report_and_csv(result: dict, tmp_path) -> None:

@@ -106,6 +106,7 @@ def test_plain_ss_one_step_uses_measured_states() -> None:
     np.testing.assert_allclose(y_hat[k], x_prev @ est.A_[0] + U[k - 1] @ est.B_[0], atol=1e-10)
 
 
+@pytest.mark.portable
 @pytest.mark.parametrize("kalman", [True, False])
 @pytest.mark.parametrize("mode", ["one_step", "free_run"])
 def test_batch_prediction_equals_streaming(kalman: bool, mode: str) -> None:

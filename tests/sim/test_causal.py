@@ -1,14 +1,22 @@
-"""The causal sEMG path: chunk by chunk it gives VirtualSubject.record's recording exactly."""
+"""The causal sEMG path: chunk by chunk it gives VirtualSubject.record's recording.
+
+Floats agree to ``PATH_RTOL`` and the int8 sEMG sample for sample but where a float fell
+within its last bits of a rounding boundary (``tests/portable.py``): the chunks are other
+array shapes, which numpy's vector loops may round differently on some CPUs.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from portable import assert_close_across_paths, assert_rounded_close_across_paths
 
 from sim.user.causal import CausalSession, NotCausalError
 from sim.user.intent import grasp_lift_hold, paper_protocol
 from sim.user.muscles import CausalActivation, CausalDelay, activation_dynamics, fractional_delay
 from sim.user.subjects import VirtualSubject
+
+pytestmark = pytest.mark.portable
 
 
 def _chunks(n: int, rng: np.random.Generator, largest: int = 40):
@@ -24,7 +32,7 @@ def _chunks(n: int, rng: np.random.Generator, largest: int = 40):
     (2, {"fatigue_per_min": 0.2}),
     (3, {"electrode_shift": 0.4, "extra_noise_lsb": 3.0}),
 ])
-def test_chunked_session_equals_record_bit_for_bit(subject_id, scenario) -> None:
+def test_chunked_session_equals_record(subject_id, scenario) -> None:
     subject = VirtualSubject.sample(0, subject_id).with_scenario(**scenario)
     profile = grasp_lift_hold(np.random.default_rng(5), hold_level=0.45, hold_s=5.0)
     recording = subject.record(profile, rng=np.random.default_rng(9))
@@ -36,9 +44,9 @@ def test_chunked_session_equals_record_bit_for_bit(subject_id, scenario) -> None
         if rng.random() < 0.3:  # forces read now and then: the same numbers
             session.read_forces()
     grip_n, force_n = session.read_forces()
-    np.testing.assert_array_equal(np.concatenate(emg), recording.emg)
-    np.testing.assert_array_equal(grip_n, recording.intent_force_n)
-    np.testing.assert_array_equal(force_n, recording.force_n)
+    assert_rounded_close_across_paths(np.concatenate(emg), recording.emg)
+    assert_close_across_paths(grip_n, recording.intent_force_n)
+    assert_close_across_paths(force_n, recording.force_n)
 
 
 def test_a_longer_session_matches_the_paper_protocol_too() -> None:
@@ -48,8 +56,8 @@ def test_a_longer_session_matches_the_paper_protocol_too() -> None:
     session = CausalSession(subject, profile.n_samples, rng=np.random.default_rng(2))
     emg = np.concatenate([session.advance(profile.intent[i:i + 25])
                           for i in range(0, profile.n_samples, 25)])
-    np.testing.assert_array_equal(emg, recording.emg)
-    np.testing.assert_array_equal(session.read_forces()[1], recording.force_n)
+    assert_rounded_close_across_paths(emg, recording.emg)
+    assert_close_across_paths(session.read_forces()[1], recording.force_n)
 
 
 def test_causal_filters_equal_the_batch_ones() -> None:
@@ -64,8 +72,8 @@ def test_causal_filters_equal_the_batch_ones() -> None:
     for i0, i1 in _chunks(500, rng, 30):
         out_d.append(delayed.step(x[i0:i1]))
         out_f.append(filtered.step(x[i0:i1]))
-    np.testing.assert_array_equal(np.concatenate(out_d), fractional_delay(x, delay_s, 200.0))
-    np.testing.assert_array_equal(np.concatenate(out_f), activation_dynamics(x, 200.0, cutoff))
+    assert_close_across_paths(np.concatenate(out_d), fractional_delay(x, delay_s, 200.0))
+    assert_close_across_paths(np.concatenate(out_f), activation_dynamics(x, 200.0, cutoff))
 
 
 def test_session_refuses_to_run_past_its_length() -> None:
