@@ -273,6 +273,51 @@ def fit_and_score(
     return results, params
 
 
+def inner_scores(features: FeatureSet, estimators: Sequence[str], *,
+                 rng: np.random.Generator | int | None, order: int = PAPER_ORDER,
+                 nn_params: Mapping[str, object] | None = None,
+                 fraction: float = IDENTIFICATION_FRACTION,
+                 options: Mapping[str, Mapping[str, object]] | None = None
+                 ) -> dict[str, float | None]:
+    """free_run R^2 of every estimator on the *inner* split of the identification half.
+
+    The identification half (the first ``fraction`` of the windows) is evaluated on its
+    own, as a recording of its own would be: its first ``fraction`` fits, the rest
+    validates. What a person's own calibration data can say about an estimator before it
+    is deployed; :func:`sim.user.difficulty.inner_outer` sets it beside the usual (outer)
+    figure.
+
+    Parameters
+    ----------
+    features : FeatureSet
+        The whole recording's features, ``X`` shape (n_windows, n_inputs), ``y`` in N.
+    estimators : sequence of str
+        Registry names (seeded from ``rng`` as :func:`fit_and_score` seeds them).
+    rng : numpy.random.Generator, int or None
+    order : int
+        State-space order.
+    nn_params : mapping, optional
+        Overrides for the networks' hyperparameters.
+    fraction : float
+        Identification fraction, of the recording and of its identification half.
+    options : mapping, optional
+        Per-estimator hyperparameters (:func:`estimator_params`).
+
+    Returns
+    -------
+    dict
+        Estimator name -> inner free_run R^2, or None where it did not run (unstable,
+        unsupported) or has no free_run mode.
+    """
+    n_id = split_index(features.n_windows, fraction)
+    params = estimator_params(estimators, np.random.default_rng(rng), order, nn_params,
+                              dt_s=features.dt_s, options=options)
+    with one_blas_thread():
+        res = evaluate_subject(features.X[:n_id], features.y[:n_id], params,
+                               dt_s=features.dt_s, fraction=fraction, time_steps=False)
+    return {name: r["modes"].get("free_run", {}).get("r2") for name, r in res.items()}
+
+
 def _mean_sd(values: list[float]) -> tuple[float | None, float | None]:
     if not values:
         return None, None

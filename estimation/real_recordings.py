@@ -3,13 +3,18 @@
 The recordings themselves cannot be shipped (their licence forbids it); these are the
 derived figures of ``shared/REAL_RECORDINGS.md``: ten real subjects (S1-S10, the paper's
 volunteers, from the first author's public data log), each evaluated with
-``griploop evaluate --recording FILE --channels all --json OUT`` on griploop 0.3.0
-(validation half, R^2 of the force). They are the yardstick of the virtual population:
-a simulator whose estimation verdicts differ from these is not a proxy for real people.
+``griploop evaluate --recording FILE --channels all --json OUT`` on griploop 0.3.0 and on
+main after 0.4.0 (validation half, R^2 of the force; identical for every estimator that
+existed in 0.3.0, ``transfer_mlp`` on main after 0.4.0). They are the yardstick of the
+virtual population: a simulator whose estimation verdicts differ from these is not a proxy
+for real people.
 
 :func:`transfer_agreement` compares a virtual table with them the way issue 18 defines
 agreement: over every estimator whose mean R^2 reaches 0.5 on either side, the Spearman
-rank correlation of the means, the mean absolute difference and the largest one.
+rank correlation of the means, the mean absolute difference and the largest one; and
+(issue 28) the order of every pair of estimators the real people separate
+(:data:`SEPARATED_PAIRS`). An estimator that learns from virtual subjects enters with its
+out-of-population figure.
 """
 
 from __future__ import annotations
@@ -38,14 +43,21 @@ FREE_RUN_PER_SUBJECT: dict[str, tuple[float, ...]] = {
     "features_rms": (0.84, 0.76, 0.94, 0.90, -0.01, 0.96, 0.93, 0.91, 0.81, 0.91),
     "ss_sim": (0.19, 0.66, -0.09, -1.05, -0.67, 0.87, 0.84, 0.72, 0.31, 0.50),
     "ss_kf": (0.65, 0.38, 0.38, 0.11, -0.93, 0.91, 0.83, 0.84, 0.41, 0.00),
+    # pretrained on the virtual population of main after 0.4.0 (issue 18's calibration) and
+    # fine-tuned 5 epochs: the one estimator that learns from virtual subjects
+    "transfer_mlp": (0.69, 0.89, 0.94, 0.48, 0.73, 0.62, 0.92, 0.96, 0.90, 0.95),
 }
 
 #: free_run means as published (three decimals; the per-subject values are rounded).
 FREE_RUN_MEAN: dict[str, float] = {
     "mlp": 0.898, "gbt": 0.867, "ridge": 0.854, "features_mav": 0.851, "features_wl": 0.848,
     "lda_qpf": 0.829, "latent_kf": 0.818, "narx": 0.818, "features_rms": 0.796,
-    "ss_sim": 0.227, "ss_kf": 0.359,
+    "ss_sim": 0.227, "ss_kf": 0.359, "transfer_mlp": 0.808,
 }
+
+#: Estimators of the real table that learn from virtual subjects (pretraining on a corpus,
+#: settings chosen on virtual subjects): their virtual figure is the out-of-population one.
+SIM_TRAINED = ("transfer_mlp",)
 
 #: one_step (the measured force up to k-1 enters), all 8 channels: estimator -> S1..S10.
 ONE_STEP_PER_SUBJECT: dict[str, tuple[float, ...]] = {
@@ -70,9 +82,65 @@ RECORDING_STATISTICS: dict[str, tuple[float, ...]] = {
     "nonlin": (0.0453, 0.0231, 0.0284, 0.114, 0.0101, 0.00541, 0.091, 0.0229, 0.0406, 0.0334),
 }
 
-#: Agreement thresholds of issue 18 (over estimators reaching ``AGREEMENT_FLOOR`` on a side).
+#: Choosing per person on the identification half (shared/REAL_RECORDINGS.md, "Choosing per
+#: person on the identification half"): each recording's identification half evaluated on its
+#: own (its first half fits, its second half validates: the *inner* split) against the usual
+#: *outer* figure, over the ten estimators above that reach R^2 0.5 (transfer_mlp included).
+#: Per subject S1..S10: Spearman of inner and outer over the estimators, the estimator with
+#: the best inner figure (the pick), its outer R^2, and the best outer R^2.
+INNER_OUTER_SPEARMAN = (0.47, -0.59, 0.04, 0.45, -0.56, 0.04, 0.76, -0.66, 0.43, 0.33)
+INNER_OUTER_PICK = ("mlp", "mlp", "transfer_mlp", "latent_kf", "features_mav", "features_mav",
+                    "mlp", "features_rms", "features_mav", "features_mav")
+INNER_OUTER_PICK_OUTER = (0.83, 0.84, 0.94, 0.86, 0.58, 0.95, 0.96, 0.91, 0.82, 0.93)
+INNER_OUTER_BEST_OUTER = (0.84, 0.93, 0.96, 0.91, 0.78, 0.97, 0.96, 0.96, 0.90, 0.95)
+#: Inner R^2 (free_run, all 8 channels) of the two estimators the document lists: S1..S10.
+INNER_FREE_RUN_PER_SUBJECT: dict[str, tuple[float, ...]] = {
+    "mlp": (0.85, 0.35, 0.65, -0.31, -0.34, 0.76, 0.97, 0.78, 0.77, 0.94),
+    "transfer_mlp": (0.73, 0.02, 0.83, 0.28, -0.05, 0.61, 0.87, 0.78, 0.84, 0.94),
+}
+
+
+def real_inner_outer() -> list[dict]:
+    """Per real subject, the rows of ``sim.user.difficulty.inner_outer`` (mlp the reference).
+
+    Returns
+    -------
+    list of dict
+        ``spearman``, ``pick``, ``pick_outer``, ``best_outer``, ``regret`` and ``gain``
+        (the pick's outer R^2 minus the MLP's), S1..S10.
+    """
+    mlp = FREE_RUN_PER_SUBJECT["mlp"]
+    return [{"spearman": rho, "pick": pick, "pick_outer": po, "best_outer": bo,
+             "regret": round(bo - po, 2), "gain": round(po - m, 2)}
+            for rho, pick, po, bo, m in zip(INNER_OUTER_SPEARMAN, INNER_OUTER_PICK,
+                                            INNER_OUTER_PICK_OUTER, INNER_OUTER_BEST_OUTER,
+                                            mlp, strict=True)]
+
+
+#: Pairs of estimators the real people separate, (better, worse): paired over S1-S10 in
+#: :data:`FREE_RUN_PER_SUBJECT`, Wilcoxon signed-rank p < 0.05 (``scipy.stats.wilcoxon``,
+#: two-sided, zero differences dropped); ``tests/estimation/test_real_recordings.py``
+#: recomputes them. Every other pair is within what ten people can tell apart: the MLP is
+#: better than RIDGE, F_WL, LATENT_KF, NARX and F_RMS, GBT better than LATENT_KF, and every
+#: estimator reaching 0.5 better than the paper's state-space models in free run.
+SEPARATED_PAIRS: tuple[tuple[str, str], ...] = (
+    ("mlp", "ridge"), ("mlp", "features_wl"), ("mlp", "latent_kf"), ("mlp", "narx"),
+    ("mlp", "features_rms"), ("mlp", "ss_sim"), ("mlp", "ss_kf"), ("gbt", "latent_kf"),
+    ("gbt", "ss_sim"), ("gbt", "ss_kf"), ("ridge", "ss_sim"), ("ridge", "ss_kf"),
+    ("features_mav", "ss_sim"), ("features_mav", "ss_kf"), ("features_wl", "ss_sim"),
+    ("features_wl", "ss_kf"), ("lda_qpf", "ss_sim"), ("lda_qpf", "ss_kf"),
+    ("latent_kf", "ss_sim"), ("latent_kf", "ss_kf"), ("narx", "ss_sim"), ("narx", "ss_kf"),
+    ("features_rms", "ss_sim"), ("features_rms", "ss_kf"), ("transfer_mlp", "ss_sim"),
+    ("transfer_mlp", "ss_kf"))
+#: Significance level of :data:`SEPARATED_PAIRS`.
+PAIR_ALPHA = 0.05
+
+#: Agreement thresholds (over estimators reaching ``AGREEMENT_FLOOR`` on a side): issue 18's
+#: mean and largest difference; issue 28's rank correlation (0.6: ten people rank the close
+#: estimators too unsteadily for issue 18's 0.8, README "How far the virtual verdicts hold")
+#: and the order of every pair in :data:`SEPARATED_PAIRS`.
 AGREEMENT_FLOOR = 0.5
-MIN_SPEARMAN = 0.8
+MIN_SPEARMAN = 0.6
 MAX_MEAN_ABS_DIFF = 0.04
 MAX_ABS_DIFF = 0.10
 
@@ -104,8 +172,11 @@ def transfer_agreement(virtual_mean: Mapping[str, float | None],
     dict
         ``names`` (compared, in real order), ``rows`` (name, virtual, real, difference),
         ``spearman``, ``mean_abs_diff``, ``max_abs_diff``, ``worst`` (name of the largest
-        difference), ``n`` and ``agrees`` (all three thresholds met). With fewer than
-        three comparable estimators the statistics are ``None`` and ``agrees`` is False.
+        difference), ``n``, ``pairs`` (every pair of :data:`SEPARATED_PAIRS` with both
+        virtual figures: ``better``, ``worse``, ``same_order``), ``pairs_reversed`` (those
+        the virtual means order the other way) and ``agrees`` (all thresholds met, every
+        pair in order). With fewer than three comparable estimators the statistics are
+        ``None`` and ``agrees`` is False.
     """
     from scipy.stats import spearmanr
 
@@ -115,7 +186,14 @@ def transfer_agreement(virtual_mean: Mapping[str, float | None],
              and (virtual_mean[n] >= floor or real_mean[n] >= floor)]
     rows = [{"estimator": n, "virtual": float(virtual_mean[n]), "real": float(real_mean[n]),
              "difference": float(virtual_mean[n]) - float(real_mean[n])} for n in names]
+    pairs = [{"better": a, "worse": b,
+              "same_order": bool(float(virtual_mean[a]) > float(virtual_mean[b]))}
+             for a, b in SEPARATED_PAIRS
+             if virtual_mean.get(a) is not None and virtual_mean.get(b) is not None]
     out: dict = {"names": names, "rows": rows, "n": len(names), "floor": floor,
+                 "pairs": pairs,
+                 "pairs_reversed": [(p["better"], p["worse"]) for p in pairs
+                                    if not p["same_order"]],
                  "thresholds": {"spearman": MIN_SPEARMAN, "mean_abs_diff": MAX_MEAN_ABS_DIFF,
                                 "max_abs_diff": MAX_ABS_DIFF}}
     if len(names) < 3:
@@ -129,5 +207,6 @@ def transfer_agreement(virtual_mean: Mapping[str, float | None],
     out.update(spearman=rho, mean_abs_diff=float(d.mean()), max_abs_diff=float(d.max()),
                worst=names[int(np.argmax(d))])
     out["agrees"] = bool(rho >= MIN_SPEARMAN and out["mean_abs_diff"] <= MAX_MEAN_ABS_DIFF
-                         and out["max_abs_diff"] <= MAX_ABS_DIFF)
+                         and out["max_abs_diff"] <= MAX_ABS_DIFF
+                         and not out["pairs_reversed"])
     return out

@@ -37,7 +37,8 @@ def channels_phrase(channels: str | Sequence[str] | None) -> str:
 
 def recommend(free_run: Mapping[str, Mapping[str, Any]], *,
               channels: str | Sequence[str] | None = None,
-              one_step_reference: float | None = None) -> dict[str, Any] | None:
+              one_step_reference: float | None = None,
+              where: str = "") -> dict[str, Any] | None:
     """The recommended estimator and why.
 
     Parameters
@@ -49,6 +50,9 @@ def recommend(free_run: Mapping[str, Mapping[str, Any]], *,
         The channel set of the figures (for the sentence and the contract).
     one_step_reference : float, optional
         The paper's SS_KF one_step mean, for context in the sentence.
+    where : str
+        Which subjects the figures come from, for the sentence (e.g. ``" on 10 virtual
+        subjects none of them was trained on (...)"``).
 
     Returns
     -------
@@ -69,7 +73,7 @@ def recommend(free_run: Mapping[str, Mapping[str, Any]], *,
     e = full[pick]
     reason = (f"A deployed prosthesis has no force sensor, so it should use {_label(pick)} "
               f"in free_run{channels_phrase(channels)}: mean R2 {e['r2_mean']:.3f} and worst "
-              f"subject {e['r2_min']:.3f}")
+              f"subject {e['r2_min']:.3f}{where}")
     if runner is not None:
         r = full[runner]
         reason += (f"; the next best mean is {_label(runner)}'s ({r['r2_mean']:.3f}, worst "

@@ -15,6 +15,7 @@ ridge         ridge on sqrt-compressed features, lags, smoother chosen on valida
 gbt           ridge plus boosted trees on its residuals (deployable)
 ss_sim        paper SS structure refined on the free-run simulation error (free_run)
 transfer_mlp  MLP ensemble pretrained on virtual subjects, fine-tuned on the person (deployable)
+adaptive_mlp  the person's MLP averaged with the pretrained ensemble adapted to them (deployable)
 ============  ==============================================================
 
 Every estimator is a scikit-learn regressor (:class:`estimation.base.ForceEstimator`):
@@ -67,6 +68,9 @@ class EstimatorKind(Capabilities):
         It takes ``random_state``; the feature period ``dt_s``; the network options.
     paper, deployable : bool
         A column of the paper's tables; built to be deployed (no force sensor).
+    sim_trained : bool
+        It learns from virtual subjects (a pretraining corpus, settings chosen on virtual
+        subjects): it is judged only on subjects of a population it never saw.
     label : str
         Short upper-case label of printed tables.
     """
@@ -79,6 +83,7 @@ class EstimatorKind(Capabilities):
     neural: bool
     paper: bool
     deployable: bool
+    sim_trained: bool
     label: str
 
 
@@ -97,6 +102,7 @@ def register_estimator(
     neural: bool = False,
     paper: bool = False,
     deployable: bool = False,
+    sim_trained: bool = False,
     label: str | None = None,
     replace: bool = False,
 ) -> None:
@@ -126,6 +132,9 @@ def register_estimator(
         A column of the paper's Tables 2 and 3 (in registration order).
     deployable : bool
         Needs no force sensor at run time and is built to be deployed.
+    sim_trained : bool
+        Learns from virtual subjects (pretraining, a corpus, settings chosen on them):
+        ``griploop reproduce`` judges it on a population it never saw (issue 28).
     label : str, optional
         Short upper-case label of printed tables (default: ``name.upper()``).
     replace : bool
@@ -146,7 +155,7 @@ def register_estimator(
         name, factory, replace=replace, modes=tuple(modes), params=dict(params or {}),
         order_params=tuple(order_params), takes_seed=bool(takes_seed), takes_dt=bool(takes_dt),
         neural=bool(neural), paper=bool(paper), deployable=bool(deployable),
-        label=label or name.upper(),
+        sim_trained=bool(sim_trained), label=label or name.upper(),
     )
 
 
@@ -179,6 +188,11 @@ def paper_estimators() -> tuple[str, ...]:
 def deployable_estimators() -> tuple[str, ...]:
     """Estimators that need no force sensor at run time and are built to be deployed."""
     return _REGISTRY.where(deployable=True)
+
+
+def sim_trained_estimators() -> tuple[str, ...]:
+    """Estimators that learn from virtual subjects (judged out of population)."""
+    return _REGISTRY.where(sim_trained=True)
 
 
 def estimator_label(name: str) -> str:
@@ -244,4 +258,6 @@ register_estimator("gbt", "estimation.deployable:BoostedLogRidge", takes_seed=Tr
 register_estimator("ss_sim", "estimation.ss_sim:SimulationErrorSS", modes=("free_run",),
                    takes_dt=True, deployable=True, label="SS_SIM")
 register_estimator("transfer_mlp", "estimation.transfer:TransferMLP", takes_seed=True,
-                   takes_dt=True, deployable=True, label="TRANSFER")
+                   takes_dt=True, deployable=True, sim_trained=True, label="TRANSFER")
+register_estimator("adaptive_mlp", "estimation.adaptive:AdaptiveMLP", takes_seed=True,
+                   takes_dt=True, deployable=True, sim_trained=True, label="ADAPT")

@@ -30,19 +30,25 @@ from pathlib import Path
 import numpy as np
 
 from estimation.errors import EstimationInputError
-from estimation.evaluation import aggregate, fit_and_score, split_index
+from estimation.evaluation import aggregate, fit_and_score, inner_scores, split_index
 from estimation.features import PAPER_CHANNELS, FeatureSet, extract_features
 from estimation.order import select_order
 from estimation.paper import PAPER_ORDER, SECTION_4_2, TABLE2_SUMMARY, TABLE3
-from estimation.real_recordings import SOURCE as REAL_SOURCE
-from estimation.real_recordings import real_free_run, transfer_agreement
-from estimation.recommendation import recommend
 from estimation.registry import (
     deployable_estimators,
     estimator_info,
     estimator_label,
     estimator_names,
     paper_estimators,
+)
+from estimation.verdicts import (  # noqa: F401  (recommendation, transfer_table re-exported)
+    _fmt,
+    format_deployable,
+    format_inner_outer,
+    format_out_of_population,
+    format_transfer,
+    recommendation,
+    transfer_table,
 )
 from sim.recording import Recording
 
@@ -143,12 +149,16 @@ class SubjectScore:
     order_curve : dict or None
         The AIC over candidate orders (:func:`order_curve`), when ``ss_kf`` was fitted
         and orders were asked for.
+    inner : dict or None
+        Estimator name -> free_run R^2 on the inner split of the identification half
+        (:func:`estimation.evaluation.inner_scores`), when asked for.
     """
 
     results: dict
     params: dict[str, dict]
     info: dict = field(default_factory=dict)
     order_curve: dict | None = None
+    inner: dict | None = None
 
 
 def score_recording(
@@ -161,6 +171,7 @@ def score_recording(
     nn_params: Mapping[str, object] | None = None,
     orders: Sequence[int] | None = None,
     subject_id: int | None = None,
+    inner: bool = False,
 ) -> tuple[SubjectScore, FeatureSet]:
     """The paper's protocol on one recording: features, then fit-then-score.
 
@@ -182,6 +193,9 @@ def score_recording(
         Candidate orders for the AIC curve (needs ``ss_kf``); ``None``: no curve.
     subject_id : int, optional
         For the score's ``info``.
+    inner : bool
+        Also score every estimator on the inner split of the identification half, with
+        the same seeds (``SubjectScore.inner``).
 
     Returns
     -------
@@ -190,18 +204,26 @@ def score_recording(
         The recording's features, ``X`` shape (n_windows, n_inputs).
     """
     fs = extract_features(recording, channels=channels)
-    results, params = fit_and_score(fs, estimators, rng=rng, order=order, nn_params=nn_params)
+    seeds = np.random.default_rng(rng)
+    seed_state = seeds.bit_generator.state
+    results, params = fit_and_score(fs, estimators, rng=seeds, order=order, nn_params=nn_params)
     n_id = split_index(fs.n_windows)
     info = {"subject_id": subject_id, "n_windows": fs.n_windows, "n_identification": n_id,
             "duration_s": recording.duration_s}
     curve = None
     if orders is not None and "ss_kf" in results and "_pipeline" in results["ss_kf"]:
         curve = order_curve(subject_id, results["ss_kf"]["_pipeline"], fs, n_id, orders)
-    return SubjectScore(results, params, info, curve), fs
+    inner_r2 = None
+    if inner:
+        seeds.bit_generator.state = seed_state  # the outer fits' seeds, as on the real halves
+        inner_r2 = inner_scores(fs, estimators, rng=seeds, order=order, nn_params=nn_params)
+    return SubjectScore(results, params, info, curve, inner_r2), fs
 
 
 def population_result(scores: Sequence[SubjectScore], *, config: dict,
-                      order: int = PAPER_ORDER) -> dict:
+                      order: int = PAPER_ORDER,
+                      judged: Sequence[SubjectScore] | None = None,
+                      judge: Mapping[str, object] | None = None) -> dict:
     """The JSON contract of a population's scores (see the module docstring).
 
     Parameters
@@ -214,6 +236,11 @@ def population_result(scores: Sequence[SubjectScore], *, config: dict,
         are read from it).
     order : int
         The SS order the tables use.
+    judged : sequence of SubjectScore, optional
+        The same estimators on subjects of a population none of them was trained on:
+        ``out_of_population`` (:mod:`estimation.verdicts` judges with it).
+    judge : mapping, optional
+        What ``judged`` is: ``population``, ``description``, ``generator``, ``seed``.
 
     Returns
     -------
@@ -237,6 +264,10 @@ def population_result(scores: Sequence[SubjectScore], *, config: dict,
     result["nn_epochs"] = {name: [r[name]["info"].get("n_epochs") for r in per_subject]
                            for name in config["estimators"] if estimator_info(name)["neural"]}
     result["training"] = training_settings(scores[0].params, _pipelines(scores[0].results))
+    if judged:
+        result["out_of_population"] = dict(judge or {}, n_subjects=len(judged),
+                                           estimators=aggregate([j.results for j in judged])[
+                                               "estimators"])
     result["recommendation"] = recommendation(result)
     result["transfer"] = transfer_table(result)
     return to_jsonable(result)
@@ -282,10 +313,6 @@ def _properties(per_subject: Sequence[dict]) -> dict:
 
 
 # ------------------------------------------------------------------ formatting
-def _fmt(value: float | None, width: int = 8, digits: int = 4) -> str:
-    return f"{'n/a':>{width}}" if value is None else f"{value:>{width}.{digits}f}"
-
-
 def format_table2(result: dict, mode: str) -> str:
     """Paper Table 2 (per-subject R^2 / NRMSE) in one mode, with the paper's rows below."""
     est = result["estimators"]
@@ -375,98 +402,6 @@ def format_table3(result: dict) -> str:
     return "\n".join(lines)
 
 
-def free_run_summary(result: dict) -> dict[str, dict]:
-    """``{name: {"r2_mean", "r2_min", "n_ok", "n"}}`` of every estimator with a free_run mode."""
-    est = result["estimators"]
-    return {n: {"r2_mean": est[n]["free_run"]["r2_mean"], "r2_min": est[n]["free_run"]["r2_min"],
-                "n_ok": est[n]["free_run"]["n_ok"], "n": len(est[n]["free_run"]["per_subject"])}
-            for n in est if "free_run" in est[n]}
-
-
-def recommendation(result: dict) -> dict | None:
-    """The JSON contract's ``recommendation`` (:func:`estimation.recommendation.recommend`)."""
-    channels = result.get("config", {}).get("channels", result.get("recording", {}).get(
-        "channels"))
-    ref = result["estimators"].get("ss_kf", {}).get("one_step", {}).get("r2_mean")
-    return recommend(free_run_summary(result), channels=channels, one_step_reference=ref)
-
-
-def transfer_table(result: dict) -> dict | None:
-    """Virtual next to real per estimator (free_run), with the agreement of issue 18.
-
-    Only for all 8 channels, the real recordings' setting; None otherwise.
-    """
-    if result.get("config", {}).get("channels") != "all":
-        return None
-    summary = free_run_summary(result)
-    agreement = transfer_agreement({n: e["r2_mean"] for n, e in summary.items()})
-    rows = []
-    for n in summary:
-        real = real_free_run(n)
-        rows.append({"estimator": n, "virtual_mean": summary[n]["r2_mean"],
-                     "virtual_min": summary[n]["r2_min"],
-                     "real_mean": None if real is None else real["r2_mean"],
-                     "real_min": None if real is None else real["r2_min"]})
-    rows.sort(key=lambda r: -(r["real_mean"] if r["real_mean"] is not None else -9.0))
-    return {"source": REAL_SOURCE, "rows": rows, "agreement": agreement}
-
-
-def format_transfer(result: dict) -> str:
-    """The virtual-vs-real table and the agreement line (empty without ``transfer``)."""
-    tr = result.get("transfer")
-    if not tr:
-        return ""
-    lines = ["Virtual subjects next to real people (free_run, all 8 channels; real: "
-             f"{tr['source']})",
-             f"  {'estimator':13s}{'virtual mean':>13s}{'(worst)':>9s}{'real mean':>11s}"
-             f"{'(worst)':>9s}{'difference':>12s}"]
-    for r in tr["rows"]:
-        real, vm = r["real_mean"], r["virtual_mean"]
-        diff = None if real is None or vm is None else vm - real
-        lines.append(f"  {r['estimator']:13s}{_fmt(vm, 13, 3)}{_fmt(r['virtual_min'], 9, 2)}"
-                     f"{_fmt(real, 11, 3)}{_fmt(r['real_min'], 9, 2)}"
-                     f"{'' if diff is None else f'{diff:+12.3f}'}")
-    a = tr["agreement"]
-    if a["spearman"] is None:
-        lines.append(f"  agreement: fewer than 3 estimators reach {a['floor']} on either side")
-    else:
-        lines.append(
-            f"  agreement over the {a['n']} estimators reaching R2 {a['floor']} on either side: "
-            f"Spearman {a['spearman']:.2f} (goal >= {a['thresholds']['spearman']}), mean "
-            f"|virtual - real| {a['mean_abs_diff']:.3f} (<= {a['thresholds']['mean_abs_diff']}),"
-            f" largest {a['max_abs_diff']:.3f} for {a['worst']} "
-            f"(<= {a['thresholds']['max_abs_diff']})")
-    return "\n".join(lines)
-
-
-def format_deployable(result: dict) -> str:
-    """Deployable (sEMG-only) estimators: free_run mean, SD, worst subject, timing, verdict."""
-    est, timing = result["estimators"], result["timing"]
-    lines = ["Deployable estimators (free_run: sEMG only) -- R2 mean +/- SD, worst subject, "
-             "training ms (median), step us (median)"]
-    names = [n for n in est if "free_run" in est[n]]
-    names.sort(key=lambda n: -(est[n]["free_run"]["r2_mean"] or -np.inf))
-    for n in names:
-        e, t = est[n]["free_run"], timing[n]
-        tag = " *" if n in DEPLOYABLE_ESTIMATORS else ""
-        lines.append(f"  {estimator_label(n) + tag:12s} R2 {_fmt(e['r2_mean'], 7)} +/- "
-                     f"{_fmt(e['r2_sd'], 6)}  min {_fmt(e.get('r2_min'), 7)}  "
-                     f"n_ok {e['n_ok']}/{len(e['per_subject'])}  train "
-                     f"{_fmt(t['train_ms_median'], 8, 1)} ms  step "
-                     f"{_fmt(t['step_us_median'], 6, 1)} us")
-    for n in ("ss_kf", "persistence", "narx"):
-        if n in est and "one_step" in est[n]:
-            e = est[n]["one_step"]
-            lines.append(f"  reference {estimator_label(n):9s} one_step R2 {_fmt(e['r2_mean'], 7)} "
-                         f"(min {_fmt(e.get('r2_min'), 6, 3)}; needs the measured force)")
-    lines.append("  (* built for deployment: all settings chosen on a validation split of the "
-                 "identification half)")
-    rec = result.get("recommendation") or recommendation(result)
-    lines.append(rec["reason"] if rec else "No estimator ran in free_run on every subject; "
-                 "none can be recommended.")
-    return "\n".join(lines)
-
-
 def format_report(result: dict) -> str:
     """Every table of the reproduction as plain text."""
     parts = []
@@ -474,8 +409,10 @@ def format_report(result: dict) -> str:
         parts += [format_table2(result, mode), format_others(result, mode)]
     parts.append(format_table3(result))
     parts.append(format_deployable(result))
-    if result.get("transfer"):
-        parts.append(format_transfer(result))
+    for extra in (format_out_of_population(result), format_transfer(result),
+                  format_inner_outer(result)):
+        if extra:
+            parts.append(extra)
     sel = result.get("order_selection", {})
     if sel.get("chosen_orders"):
         parts.append(f"AIC order per subject (1..12): {sel['chosen_orders']}; tables use "

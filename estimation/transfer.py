@@ -68,6 +68,8 @@ VALIDATION_SUBJECTS = 12
 FINETUNE_RATES = (3e-4, 1e-3)
 EPOCH_STAGE = 5
 MAX_FINETUNE_EPOCHS = 30
+#: Population variant of ``transfer_mlp``'s corpus: the one it was measured on real people with.
+TRANSFER_POPULATION = "default"
 #: Pretraining mini-batch and Adam step size (about 20 s for 3 networks on 40 subjects).
 PRETRAIN_BATCH = 128
 PRETRAIN_RATE = 2e-3
@@ -91,9 +93,11 @@ def register_corpus(name: str, builder: Callable[..., Corpus] | str, *,
     name : str
         Name used by ``TransferMLP(corpus=name)``.
     builder : callable or str
-        ``builder(*, n_inputs, n_subjects, seed) -> [(U, y, n_id), ...]``: per subject,
-        normalized features ``U`` (n_windows, n_inputs), normalized force ``y`` and the
-        number of identification windows; or its ``"module:attribute"`` reference.
+        ``builder(*, n_inputs, n_subjects, seed, population) -> [(U, y, n_id), ...]``: per
+        subject, normalized features ``U`` (n_windows, n_inputs), normalized force ``y`` and
+        the number of identification windows; ``population`` names the population variant
+        the subjects come from (``sim.user.populations``; a builder that has no variants
+        accepts ``"default"``). Or its ``"module:attribute"`` reference.
     replace : bool
         Allow replacing an existing registration.
     """
@@ -237,8 +241,10 @@ _MEMO: dict[str, Pretrained] = {}
 
 
 def _settings(n_inputs: int, corpus: str, n_subjects: int, seed: int, hidden: Sequence[int],
-              lags: int, n_networks: int, epochs: int, validation_subjects: int) -> dict:
+              lags: int, n_networks: int, epochs: int, validation_subjects: int,
+              population: str) -> dict:
     return {"format": FORMAT, "n_inputs": int(n_inputs), "corpus": corpus,
+            "population": str(population),
             "pretrain_subjects": int(n_subjects), "pretrain_seed": int(seed),
             "hidden": [int(h) for h in hidden], "lags": int(lags),
             "n_networks": int(n_networks), "pretrain_epochs": int(epochs),
@@ -261,10 +267,11 @@ def build_pretrained(settings: dict) -> Pretrained:
     lags, hidden = settings["lags"], settings["hidden"]
     with one_blas_thread():
         train = builder(n_inputs=settings["n_inputs"], n_subjects=settings["pretrain_subjects"],
-                        seed=settings["pretrain_seed"])
+                        seed=settings["pretrain_seed"], population=settings["population"])
         validation = builder(n_inputs=settings["n_inputs"],
                              n_subjects=settings["validation_subjects"],
-                             seed=settings["pretrain_seed"] + 1)
+                             seed=settings["pretrain_seed"] + 1,
+                             population=settings["population"])
         X = np.vstack([lagged(U, lags) for U, _, _ in train])
         y = np.concatenate([t for _, t, _ in train])
         networks = []
@@ -283,7 +290,8 @@ def build_pretrained(settings: dict) -> Pretrained:
 def pretrained(n_inputs: int, *, corpus: str = "virtual", n_subjects: int = 40,
                seed: int = PRETRAIN_SEED, hidden: Sequence[int] = (32, 16), lags: int = 2,
                n_networks: int = 3, epochs: int = 60,
-               validation_subjects: int = VALIDATION_SUBJECTS) -> Pretrained:
+               validation_subjects: int = VALIDATION_SUBJECTS,
+               population: str = "default") -> Pretrained:
     """The pretrained ensemble for ``n_inputs`` features: memory, shipped, disk, else built.
 
     A stored file (shipped in the package, or in the cache) is used only if its JSON
@@ -294,7 +302,7 @@ def pretrained(n_inputs: int, *, corpus: str = "virtual", n_subjects: int = 40,
     <reason>"``).
     """
     settings = _settings(n_inputs, corpus, n_subjects, seed, hidden, lags, n_networks, epochs,
-                         validation_subjects)
+                         validation_subjects, population)
     key = _key(settings)
     if key in _MEMO:
         return _MEMO[key]
@@ -324,15 +332,19 @@ def pretrained(n_inputs: int, *, corpus: str = "virtual", n_subjects: int = 40,
 #: Feature layouts whose default ensembles ship: all 8 channels and channels 6-8 (MAV, RMS
 #: and WL of each; ``scenarios.runners.pretraining.LAYOUTS``).
 SHIPPED_LAYOUTS = (24, 9)
+#: Population variants whose default ensembles ship: ``transfer_mlp``'s, which
+#: ``adaptive_mlp`` adapts too (:data:`estimation.adaptive.ADAPT_POPULATION`).
+SHIPPED_POPULATIONS = (TRANSFER_POPULATION,)
 
 
-def ship_default_networks(n_inputs: Sequence[int] = SHIPPED_LAYOUTS) -> list[Path]:
-    """Write the default ensembles (all 8 channels, and channels 6-8) as the shipped ones.
+def ship_default_networks(n_inputs: Sequence[int] = SHIPPED_LAYOUTS,
+                          populations: Sequence[str] = SHIPPED_POPULATIONS) -> list[Path]:
+    """Write the default ensembles (all 8 channels and channels 6-8, of each population).
 
     ``make pretrained`` runs this after a change to what builds them (the key's source
     digest); each is read from the cache or built first. Returns the stems written.
     """
-    return store.ship([pretrained(n) for n in n_inputs])
+    return store.ship([pretrained(n, population=p) for p in populations for n in n_inputs])
 
 
 def clear_memory() -> None:
@@ -363,6 +375,10 @@ class TransferMLP(ForceEstimator):
     validation_subjects : int
         Virtual subjects (population ``pretrain_seed + 1``) on which the fine-tuning
         length and step size are chosen.
+    population : str
+        The population variant of the corpus (``sim.user.populations``; the default one
+        is what these networks were pretrained on when they were measured on real
+        recordings: free_run 0.808, worst 0.48, shared/REAL_RECORDINGS.md).
     dt_s : float
         Window increment in seconds; streams refuse a shorter ``period_s``.
     random_state : numpy.random.Generator, int or None
@@ -383,7 +399,8 @@ class TransferMLP(ForceEstimator):
     def __init__(self, *, n_networks: int = 3, hidden: tuple[int, ...] = (32, 16),
                  lags: int = 2, corpus: str = "virtual", pretrain_subjects: int = 40,
                  pretrain_seed: int = PRETRAIN_SEED, pretrain_epochs: int = 60,
-                 validation_subjects: int = VALIDATION_SUBJECTS, dt_s: float = 0.125,
+                 validation_subjects: int = VALIDATION_SUBJECTS,
+                 population: str = TRANSFER_POPULATION, dt_s: float = 0.125,
                  random_state: np.random.Generator | int | None = None) -> None:
         self.n_networks = n_networks
         self.hidden = hidden
@@ -393,6 +410,7 @@ class TransferMLP(ForceEstimator):
         self.pretrain_seed = pretrain_seed
         self.pretrain_epochs = pretrain_epochs
         self.validation_subjects = validation_subjects
+        self.population = population
         self.dt_s = dt_s
         self.random_state = random_state
 
@@ -428,7 +446,8 @@ class TransferMLP(ForceEstimator):
         model = pretrained(U.shape[1], corpus=self.corpus, n_subjects=self.pretrain_subjects,
                            seed=self.pretrain_seed, hidden=tuple(self.hidden), lags=self.lags,
                            n_networks=self.n_networks, epochs=self.pretrain_epochs,
-                           validation_subjects=self.validation_subjects)
+                           validation_subjects=self.validation_subjects,
+                           population=self.population)
         seeds = np.random.default_rng(self.random_state).integers(0, 2**31 - 1, self.n_networks)
         X = lagged(U, self.lags)
         self.networks_ = tuple(

@@ -72,20 +72,31 @@ def _deployment_sentence(scores: RD.ScoreTable, channels: Any = None) -> str:
     """Which estimator a deployed prosthesis (no force sensor) should use, from the numbers.
 
     The same rule and sentence as ``griploop reproduce`` (:func:`estimation.recommendation.
-    recommend`): the worst subject weighs, not only the mean.
+    recommend`): the worst subject weighs, not only the mean. A sweep's subjects come from
+    the population the estimators that learn from virtual subjects were trained on
+    (``sim_trained`` in :mod:`estimation.registry`), so those are left out of the choice
+    and the sentence says so (``griploop reproduce`` judges them out of population).
     """
     from estimation.recommendation import recommend
+    from estimation.verdicts import sim_trained
 
     free = scores.get("free_run", {})
     n_subjects = len({s for e in free.values() for s in e.per_subject})
+    learners = [n for n in free if sim_trained(n)]
     summary = {n: {"r2_mean": e.r2_mean if e.per_subject else None,
                    "r2_min": min((r for r, _ in e.per_subject.values()), default=None),
-                   "n_ok": len(e.per_subject), "n": n_subjects} for n, e in free.items()}
+                   "n_ok": len(e.per_subject), "n": n_subjects} for n, e in free.items()
+               if n not in learners}
     ref = scores.get("one_step", {}).get("ss_kf")
     rec = recommend(summary, channels=channels,
                     one_step_reference=None if ref is None else ref.r2_mean)
-    return rec["reason"] if rec else ("No estimator ran in free_run on every subject: none "
+    text = rec["reason"] if rec else ("No estimator ran in free_run on every subject: none "
                                       "can be recommended.")
+    if learners:
+        text += (f" Left out of this choice: {', '.join(learners)}, which learn from virtual "
+                 "subjects of this population (griploop reproduce judges them on subjects "
+                 "of a population they never saw).")
+    return text
 
 
 def _transfer_table(tr: Any) -> str:

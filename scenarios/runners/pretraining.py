@@ -1,11 +1,11 @@
 """Corpora of virtual subjects for pretrained estimators (:mod:`estimation.transfer`).
 
 The ``"virtual"`` corpus records the paper's calibration session (one to three rounds of
-three squeezes, by the rig) from ``n_subjects`` subjects of ``make_population(n_subjects, seed)``
-with the noise generator, extracts the same features as the person's (all 8 channels or
-the paper's 6-8, from the number of inputs), and normalizes each subject as every
-estimator is normalized: min-max on the subject's own identification half (the first
-50 % of its windows).
+three squeezes, by the rig) from ``n_subjects`` subjects of
+``make_population(n_subjects, seed, variant=population)`` with the noise generator,
+extracts the same features as the person's (all 8 channels or the paper's 6-8, from the
+number of inputs), and normalizes each subject as every estimator is normalized: min-max
+on the subject's own identification half (the first 50 % of its windows).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ def channels_for(n_inputs: int) -> tuple[int, ...] | None:
     return LAYOUTS[n_inputs]
 
 
-def virtual_corpus(*, n_inputs: int, n_subjects: int, seed: int,
+def virtual_corpus(*, n_inputs: int, n_subjects: int, seed: int, population: str = "default",
                    generator: str = "noise") -> list[tuple[np.ndarray, np.ndarray, int]]:
     """Normalized features and force of ``n_subjects`` virtual calibration sessions.
 
@@ -58,6 +58,8 @@ def virtual_corpus(*, n_inputs: int, n_subjects: int, seed: int,
         Population size.
     seed : int
         Population seed (sessions are seeded from it too).
+    population : str
+        Population variant (:mod:`sim.user.populations`).
     generator : str
         sEMG generator.
 
@@ -70,7 +72,8 @@ def virtual_corpus(*, n_inputs: int, n_subjects: int, seed: int,
     channels = channels_for(n_inputs)
     children = np.random.SeedSequence([seed, 0xC0FFEE]).spawn(n_subjects)
     out = []
-    for subject, child in zip(make_population(n_subjects, seed), children, strict=True):
+    subjects = make_population(n_subjects, seed, variant=population)
+    for subject, child in zip(subjects, children, strict=True):
         g = np.random.default_rng(child)
         rounds = int(g.choice(ROUNDS))
         rec = subject.record(paper_protocol(g, rounds=rounds), generator=generator, rng=g,

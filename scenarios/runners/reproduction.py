@@ -10,6 +10,14 @@ makes the JSON contract. :func:`run_reproduction_scenario` is the runner of scen
 Seeding: subject ``i`` of ``run_reproduction(n, seed)`` draws its session and its
 estimators' seeds from the two children of ``SeedSequence([seed, 0x5EED]).spawn(n)[i]``;
 a ``reproduction`` scenario from the two children of ``SeedSequence(scenario.seed)``.
+
+Out of population (issue 28): when an estimator that learns from virtual subjects is
+among those evaluated, every estimator is also scored on ``n`` subjects of the
+:data:`JUDGE_POPULATION` variant (``sim.user.populations``), population seed
+``seed + JUDGE_SEED_OFFSET``, recorded with the other sEMG generator
+(:func:`judge_generator`): people none of the estimators learned from. The
+recommendation and the virtual-real agreement use those figures
+(:mod:`estimation.verdicts`).
 """
 
 from __future__ import annotations
@@ -22,7 +30,8 @@ import numpy as np
 from estimation.evaluation import split_index
 from estimation.features import PAPER_CHANNELS, FeatureSet
 from estimation.paper import PAPER_ORDER
-from estimation.registry import estimator_names
+from estimation.real_recordings import real_inner_outer
+from estimation.registry import estimator_info, estimator_names
 from estimation.reproduce import channel_label, parse_channels, population_result, score_recording
 from estimation.threads import one_blas_thread
 from scenarios.rows import ReproductionRow
@@ -30,10 +39,25 @@ from scenarios.runners.calibration import fit_one
 from scenarios.runners.dispatch import ResultRow, UnsupportedScenarioError
 from scenarios.runners.subject import calibration_session, subject_for
 from scenarios.schema import Scenario
+from sim.user.difficulty import inner_outer, summarize_inner_outer
+from sim.user.populations import population_description
 from sim.user.subjects import make_population
 
 #: Mixed into the population seed to seed the subjects' sessions and estimators.
 SESSION_SALT = 0x5EED
+#: The population variant an estimator that learns from virtual subjects is judged on.
+JUDGE_POPULATION = "wide"
+#: Added to the population seed for the judge's subjects (far from the corpora's seeds).
+JUDGE_SEED_OFFSET = 1_000_003
+#: Estimators whose inner split is compared with the real recordings' (issue 28): those of
+#: the real table reaching R^2 0.5 that do not learn from virtual subjects.
+INNER_OUTER_ESTIMATORS = ("mlp", "gbt", "ridge", "features_mav", "features_wl", "lda_qpf",
+                          "latent_kf", "narx", "features_rms")
+
+
+def judge_generator(generator: str) -> str:
+    """The sEMG generator of the judge's subjects: the other of ``noise`` and ``motor_units``."""
+    return "motor_units" if generator == "noise" else "noise"
 
 
 def run_reproduction(
@@ -47,6 +71,8 @@ def run_reproduction(
     nn_params: Mapping[str, object] | None = None,
     channels: str | Sequence[int | str] | None = PAPER_CHANNELS,
     workers: int = 1,
+    judge: str | None = JUDGE_POPULATION,
+    inner: bool = False,
 ) -> dict:
     """Run the paper's protocol on ``n_subjects`` virtual subjects.
 
@@ -73,6 +99,13 @@ def run_reproduction(
         Subjects evaluated at once, each in a process forked from this one (default 1:
         in this process). Every subject has its own seeds, so the figures do not depend
         on it; only the training times do, when the processes share cores.
+    judge : str or None
+        Population variant of the out-of-population subjects, scored when an estimator
+        that learns from virtual subjects is evaluated (``None``: never; the
+        recommendation then leaves such estimators out).
+    inner : bool
+        Also score the inner split of every identification half and compare the choice
+        it makes with the real recordings' (``inner_outer`` in the result).
 
     Returns
     -------
@@ -83,27 +116,67 @@ def run_reproduction(
     estimators = estimator_names() if estimators is None else tuple(estimators)
     if int(workers) < 1:
         raise UnsupportedScenarioError(f"workers: expected at least 1, found {workers}")
+    learners = [e for e in estimators if estimator_info(e)["sim_trained"]]
+    if judge is not None:
+        population_description(judge)  # an unknown variant is refused before any work
     with one_blas_thread():
-        subjects = make_population(n=n_subjects, seed=seed)
-        children = np.random.SeedSequence([seed, SESSION_SALT]).spawn(n_subjects)
-        jobs = [(subject, child, generator, estimators, channels, order, nn_params, orders)
-                for subject, child in zip(subjects, children, strict=True)]
+        jobs = _jobs(make_population(n=n_subjects, seed=seed), seed, generator, estimators,
+                     channels, order, nn_params, orders, inner)
         scores = _map_subjects(jobs, int(workers))
         config = {"n_subjects": n_subjects, "seed": seed, "generator": generator,
                   "order": order, "channels": channel_label(channels),
                   "identification_fraction": 0.5, "estimators": list(estimators),
-                  "nn_params": dict(nn_params or {})}
-        return population_result(scores, config=config, order=order)
+                  "nn_params": dict(nn_params or {}), "judge": judge}
+        judged, described = None, None
+        if learners and judge is not None:
+            judge_seed = int(seed) + JUDGE_SEED_OFFSET
+            described = {"population": judge, "description": population_description(judge),
+                         "generator": judge_generator(generator), "seed": judge_seed}
+            judged = _map_subjects(_jobs(make_population(n_subjects, judge_seed, variant=judge),
+                                         judge_seed, described["generator"], estimators,
+                                         channels, order, nn_params, None, False),
+                                   int(workers))
+        result = population_result(scores, config=config, order=order, judged=judged,
+                                   judge=described)
+    if inner:
+        result["inner_outer"] = inner_outer_result(scores, result["estimators"])
+    return result
+
+
+def _jobs(subjects: Sequence[Any], seed: int, generator: str, estimators: Sequence[str],
+          channels: Any, order: int, nn_params: Any, orders: Any, inner: bool) -> list[tuple]:
+    """One job per subject for :func:`_score_subject`, seeded from ``[seed, SESSION_SALT]``."""
+    children = np.random.SeedSequence([seed, SESSION_SALT]).spawn(len(subjects))
+    return [(subject, child, generator, estimators, channels, order, nn_params, orders, inner)
+            for subject, child in zip(subjects, children, strict=True)]
+
+
+def inner_outer_result(scores: Sequence[Any], estimators: Mapping[str, Any]) -> dict:
+    """The inner -> outer statistics of a population beside the real recordings' (issue 28).
+
+    Over :data:`INNER_OUTER_ESTIMATORS` that were evaluated (per subject:
+    :func:`sim.user.difficulty.inner_outer`, MLP the reference), summarized as
+    :func:`sim.user.difficulty.summarize_inner_outer`; ``real`` is the same summary of
+    S1-S10 (:func:`estimation.real_recordings.real_inner_outer`).
+    """
+    names = [n for n in INNER_OUTER_ESTIMATORS if n in estimators]
+    rows = []
+    for i, score in enumerate(scores):
+        outer = {n: estimators[n]["free_run"]["per_subject"][i]["r2"] for n in names}
+        rows.append(dict(inner_outer({n: score.inner.get(n) for n in names}, outer),
+                         inner={n: score.inner.get(n) for n in names}))
+    return {"estimators": names, "per_subject": rows, "summary": summarize_inner_outer(rows),
+            "real": summarize_inner_outer(real_inner_outer())}
 
 
 def _score_subject(job: tuple) -> Any:
     """One subject of :func:`run_reproduction`: its paper session, scored by every estimator."""
-    subject, child, generator, estimators, channels, order, nn_params, orders = job
+    subject, child, generator, estimators, channels, order, nn_params, orders, inner = job
     session_ss, est_ss = child.spawn(2)
     rec = subject.paper_session(rng=np.random.default_rng(session_ss), generator=generator)
     score, _ = score_recording(rec, estimators, rng=np.random.default_rng(est_ss),
                                channels=channels, order=order, nn_params=nn_params,
-                               orders=orders, subject_id=subject.subject_id)
+                               orders=orders, subject_id=subject.subject_id, inner=inner)
     return score
 
 

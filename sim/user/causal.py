@@ -8,9 +8,10 @@ does it without changing a single sample:
 1. everything that does not depend on the intent is drawn up front, for the
    whole session, from the session's generator and *in the order* ``record``
    draws it: the drive fluctuation ``eta`` (Ornstein-Uhlenbeck) and the
-   co-contraction drift, the generator's carrier noise and its Laplace mixture
-   (:meth:`sim.user.emg.CausalEmgGenerator.causal`), the sEMG gain fluctuation
-   ``xi``, the electrodes' noise (drifting floor and contact bursts,
+   co-contraction drift (both turned into targets by
+   :func:`sim.user.muscles.drive_targets`, as ``record`` does), the generator's carrier
+   noise and its Laplace mixture (:meth:`sim.user.emg.CausalEmgGenerator.causal`), the
+   sEMG gain fluctuation ``xi``, the electrodes' noise (drifting floor and contact bursts,
    :meth:`sim.user.armband.Armband.electrode_noise_lsb`), the FSR's contact fluctuation and
    its ADC noise (the rig's stream lag applies to calibration recordings only);
 2. each chunk of intent then becomes drive and muscle sEMG, mixed and
@@ -36,7 +37,7 @@ from sim.errors import GriploopError
 from sim.user.armband import INT8_MAX, INT8_MIN
 from sim.user.emg import is_causal
 from sim.user.generators import make_generator
-from sim.user.muscles import N_MUSCLES, slow_fluctuation
+from sim.user.muscles import N_MUSCLES, drive_targets, slow_fluctuation
 from sim.user.subjects import VirtualSubject
 
 
@@ -109,8 +110,8 @@ class CausalSession:
         self._cocontraction = None
         if m.cocontraction_drift_std > 0:
             std = np.full(int(self._others.sum()), m.cocontraction_drift_std)
-            self._cocontraction = np.clip(1.0 + slow_fluctuation(
-                n, fs_hz, std, m.cocontraction_drift_time_s, rng), 0.2, None)
+            self._cocontraction = slow_fluctuation(n, fs_hz, std, m.cocontraction_drift_time_s,
+                                                   rng)
         self._muscles = gen.causal(n, m, subject.armband.front_end, fs_hz=fs_hz, rng=rng)
         self._gain = np.maximum(1.0 + slow_fluctuation(n, fs_hz, m.array("emg_gain_std"),
                                                        m.emg_gain_time_s, rng), 0.0)
@@ -168,11 +169,8 @@ class CausalSession:
         i0, i1 = self._n, self._n + u.size
         if i1 > self.n_samples:
             raise ValueError(f"causal session of {self.n_samples} samples asked for sample {i1}")
-        target = np.minimum(np.maximum(
-            self._synergy[None, :] * u[:, None] * self._one_eta[i0:i1], 0), 1)
-        if self._cocontraction is not None:
-            others = self._others
-            target[:, others] = np.clip(target[:, others] * self._cocontraction[i0:i1], 0, 1)
+        drift = None if self._cocontraction is None else self._cocontraction[i0:i1]
+        target = drive_targets(self.subject.muscles, u, self._one_eta[i0:i1], drift)
         grid, curve = self._grid, self._curve
         if self._shared_curve:  # one curve for all muscles (noise): one call, same values
             drive = np.interp(target.ravel(), curve[:, 0], grid[:, 0]).reshape(target.shape)

@@ -21,7 +21,7 @@ The same definitions as the statistics of the real recordings in
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -135,3 +135,74 @@ def summarize(rows: Sequence[dict[str, float]]) -> dict[str, dict[str, float]]:
         out[key] = {"median": float(np.nanmedian(v)), "mean": float(np.nanmean(v)),
                     "min": float(np.nanmin(v)), "max": float(np.nanmax(v))}
     return out
+
+
+# ------------------------------------------------------------------ inner -> outer
+#: Statistics of choosing an estimator per person on the identification half (see
+#: :func:`inner_outer`): per recording, then summarized over recordings by
+#: :func:`summarize_inner_outer`.
+INNER_OUTER_STATISTICS = ("spearman", "regret", "gain")
+
+
+def inner_outer(inner: Mapping[str, float | None], outer: Mapping[str, float | None], *,
+                reference: str = "mlp") -> dict[str, float | str]:
+    """How well the inner split of one recording's identification half guides the choice.
+
+    The *inner* figure of an estimator is its R^2 when the identification half is split in
+    time (its first half fits, its second half validates); the *outer* figure the usual one
+    (fit on the identification half, score on the evaluation half). Choosing per person
+    means picking the estimator with the best inner figure.
+
+    Parameters
+    ----------
+    inner, outer : mapping
+        Estimator name -> R^2 (free_run). Estimators whose inner or outer figure is missing
+        or not finite (an unstable model) take no part.
+    reference : str
+        The estimator the pick is compared with (the one a prosthetist would use anyway).
+
+    Returns
+    -------
+    dict
+        ``spearman``: rank correlation of inner and outer over the estimators; ``pick``: the
+        estimator with the best inner figure; ``pick_outer``: its outer figure; ``best_outer``;
+        ``regret = best_outer - pick_outer``; ``gain = pick_outer - outer[reference]``
+        (NaN without the reference).
+
+    Raises
+    ------
+    ValueError
+        Fewer than 3 estimators with both figures.
+    """
+    from scipy.stats import spearmanr
+
+    names = [n for n in inner if n in outer and inner[n] is not None and outer[n] is not None
+             and np.isfinite(inner[n]) and np.isfinite(outer[n])]
+    if len(names) < 3:
+        raise ValueError(f"inner_outer: expected at least 3 estimators with both figures, "
+                         f"found {names}")
+    i = np.array([inner[n] for n in names], dtype=float)
+    o = np.array([outer[n] for n in names], dtype=float)
+    pick = names[int(np.argmax(i))]
+    ref = outer.get(reference)
+    return {"spearman": float(spearmanr(i, o).statistic), "pick": pick,
+            "pick_outer": float(outer[pick]), "best_outer": float(o.max()),
+            "regret": float(o.max() - outer[pick]),
+            "gain": float(outer[pick] - ref) if ref is not None else float("nan")}
+
+
+def summarize_inner_outer(rows: Sequence[Mapping[str, float]]) -> dict[str, float]:
+    """The summary of issue 28 over recordings (rows of :func:`inner_outer`).
+
+    Returns
+    -------
+    dict
+        ``spearman_median``, ``spearman_min``, ``spearman_max``, ``regret_mean``,
+        ``gain_mean`` and ``gain_min`` (the pick's worst loss against the reference).
+    """
+    rho = np.array([r["spearman"] for r in rows], dtype=float)
+    regret = np.array([r["regret"] for r in rows], dtype=float)
+    gain = np.array([r["gain"] for r in rows], dtype=float)
+    return {"spearman_median": float(np.nanmedian(rho)), "spearman_min": float(np.nanmin(rho)),
+            "spearman_max": float(np.nanmax(rho)), "regret_mean": float(np.nanmean(regret)),
+            "gain_mean": float(np.nanmean(gain)), "gain_min": float(np.nanmin(gain))}

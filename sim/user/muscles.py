@@ -97,6 +97,12 @@ class MuscleParams:
         squeeze to the next while the grip does not. 0 = a fixed synergy.
     cocontraction_drift_time_s : float
         Correlation time of that fluctuation, seconds.
+    cocontraction_power : float
+        How steeply the muscles that do not grip join in with grip force: their mean drive
+        target is ``synergy_m u ** cocontraction_power`` (1, the default population's: in
+        proportion to the intent ``u``; above 1 they stay quiet in light squeezes and
+        stiffen the wrist in strong ones). The ``wide`` population
+        (``sim.user.populations``) draws it.
     anatomy_seed : int
         Seed of the subject's fixed motor-unit anatomy (MUAP shapes, sizes),
         so that every session of a subject uses the same motor units.
@@ -118,6 +124,7 @@ class MuscleParams:
     carrier_laplace: float = 0.0
     cocontraction_drift_std: float = 0.0
     cocontraction_drift_time_s: float = 8.0
+    cocontraction_power: float = 1.0
     anatomy_seed: int = 0
 
     def __post_init__(self) -> None:
@@ -142,10 +149,12 @@ class MuscleParams:
                 f"found {self.fatigue_per_min}, {self.fluctuation_time_s}, "
                 f"{self.emg_gain_time_s}, {self.cocontraction_drift_time_s}"
             )
-        if not 0.0 <= self.carrier_laplace <= 1.0 or self.cocontraction_drift_std < 0:
+        if not 0.0 <= self.carrier_laplace <= 1.0 or self.cocontraction_drift_std < 0 \
+                or not 1.0 <= self.cocontraction_power <= 5.0:
             raise MuscleParamsError(
-                "MuscleParams: expected carrier_laplace in 0..1 and cocontraction_drift_std "
-                f">= 0, found {self.carrier_laplace}, {self.cocontraction_drift_std}"
+                "MuscleParams: expected carrier_laplace in 0..1, cocontraction_drift_std "
+                f">= 0 and cocontraction_power in 1..5, found {self.carrier_laplace}, "
+                f"{self.cocontraction_drift_std}, {self.cocontraction_power}"
             )
 
     def array(self, name: str) -> np.ndarray:
@@ -259,6 +268,47 @@ def fractional_delay(x: np.ndarray, delay_s: np.ndarray | float, fs_hz: float) -
             out[w + 1:, j] += f * x[: n - w - 1, j]
             out[w, j] += f * x[0, j]
     return out
+
+
+def drive_targets(muscles: MuscleParams, u: np.ndarray, one_eta: np.ndarray,
+                  drift: np.ndarray | None = None) -> np.ndarray:
+    """Each muscle's force target for the intent, 0..1.
+
+    The muscles that grip aim at ``synergy_m u (1 + eta_m)``; the others (antagonists and
+    stabilizers) at ``synergy_m u (1 + eta_m) max(u ** (p - 1) + c_m, 0.2 u ** (p - 1))``,
+    ``p`` the subject's ``cocontraction_power`` (their mean grows as ``u ** p``) and ``c_m``
+    the slow co-contraction drift, in proportion to the grip. With ``p = 1`` (the default
+    population) this is ``u (1 + eta) max(1 + c, 0.2)``, computed in the order it always
+    was. The batch recording and the causal session both call this, so their targets are
+    the same numbers.
+
+    Parameters
+    ----------
+    muscles : MuscleParams
+    u : ndarray, shape (n_samples,)
+        Intent, 0..1.
+    one_eta : ndarray, shape (n_samples, n_muscles)
+        ``1 + eta``: the force-steadiness fluctuation.
+    drift : ndarray, shape (n_samples, n_others), optional
+        The co-contraction drift ``c`` of the muscles that do not grip (None: none).
+
+    Returns
+    -------
+    ndarray, shape (n_samples, n_muscles)
+    """
+    target = muscles.array("synergy")[None, :] * u[:, None] * one_eta
+    power = muscles.cocontraction_power
+    if power == 1.0:
+        target = np.minimum(np.maximum(target, 0.0), 1.0)
+        if drift is not None:
+            others = muscles.array("grip_share") == 0
+            target[:, others] = np.clip(target[:, others] * np.clip(1.0 + drift, 0.2, None),
+                                        0, 1)
+        return target
+    others = muscles.array("grip_share") == 0
+    mean = u[:, None] ** (power - 1.0)
+    target[:, others] *= mean if drift is None else np.maximum(mean + drift, 0.2 * mean)
+    return np.minimum(np.maximum(target, 0.0), 1.0)
 
 
 def slow_fluctuation(

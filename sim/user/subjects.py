@@ -44,6 +44,7 @@ from sim.user.muscles import (
     MUSCLES,
     N_MUSCLES,
     MuscleParams,
+    drive_targets,
     slow_fluctuation,
 )
 
@@ -114,6 +115,9 @@ class VirtualSubject:
         Bluetooth and the FSR over the Arduino's serial line, logged by one PC), seconds.
         Applied to calibration sessions (:meth:`paper_session`, ``record(rig=True)``), not
         to the prosthesis' own sEMG path.
+    protocol_rounds : int
+        Rounds of three squeezes this subject's calibration sessions hold
+        (:meth:`paper_session`; the real recordings hold two, 6-9 squeezes).
     """
 
     subject_id: int
@@ -125,13 +129,15 @@ class VirtualSubject:
     contact_std: float = 0.23
     contact_time_s: float = 0.15
     rig_lag_s: float = 0.0
+    protocol_rounds: int = PROTOCOL_ROUNDS
 
     def __post_init__(self) -> None:
-        if not 0.0 <= self.rig_lag_s <= 2.0 or self.contact_std < 0 or self.contact_time_s <= 0:
+        if not 0.0 <= self.rig_lag_s <= 2.0 or self.contact_std < 0 or self.contact_time_s <= 0 \
+                or int(self.protocol_rounds) != self.protocol_rounds or self.protocol_rounds < 1:
             raise SubjectParamsError(
-                f"VirtualSubject: expected rig_lag_s in 0..2 s, contact_std >= 0 and "
-                f"contact_time_s > 0, found {self.rig_lag_s}, {self.contact_std}, "
-                f"{self.contact_time_s}")
+                f"VirtualSubject: expected rig_lag_s in 0..2 s, contact_std >= 0, "
+                f"contact_time_s > 0 and protocol_rounds >= 1, found {self.rig_lag_s}, "
+                f"{self.contact_std}, {self.contact_time_s}, {self.protocol_rounds}")
 
     # -------------------------------------------------------------- creation
     @classmethod
@@ -252,6 +258,7 @@ class VirtualSubject:
             "contact_std": self.contact_std,
             "contact_time_s": self.contact_time_s,
             "rig_lag_s": self.rig_lag_s,
+            "protocol_rounds": self.protocol_rounds,
         }
 
     # -------------------------------------------------------------- recording
@@ -266,7 +273,9 @@ class VirtualSubject:
 
         Each muscle aims at the force ``target_m = synergy_m u (1 + eta_m)``
         (``eta_m`` an independent Ornstein-Uhlenbeck fluctuation; the muscles that do not
-        grip also vary their co-contraction slowly, ``cocontraction_drift_std``); the drive
+        grip also vary their co-contraction slowly, ``cocontraction_drift_std``, and follow
+        ``u ** cocontraction_power``, 1 in the default population:
+        :func:`sim.user.muscles.drive_targets`); the drive
         is the inverse of the generator's steady force-drive curve at that
         target (identity for the noise generator, the convex recruitment and
         rate-coding curve for motor units), clipped to 0..1.
@@ -275,14 +284,14 @@ class VirtualSubject:
         u = np.clip(np.asarray(intent, dtype=float), 0.0, 1.0)
         eta = slow_fluctuation(u.size, fs_hz, self.muscles.array("fluctuation_std"),
                                self.muscles.fluctuation_time_s, rng)
-        target = np.clip(self.muscles.array("synergy")[None, :] * u[:, None] * (1.0 + eta), 0, 1)
+        drift = None
         if self.muscles.cocontraction_drift_std > 0:
             # co-contraction of the muscles that do not grip varies from squeeze to squeeze
             others = self.muscles.array("grip_share") == 0
             std = np.full(int(others.sum()), self.muscles.cocontraction_drift_std)
             drift = slow_fluctuation(u.size, fs_hz, std, self.muscles.cocontraction_drift_time_s,
                                      rng)
-            target[:, others] = np.clip(target[:, others] * np.clip(1.0 + drift, 0.2, None), 0, 1)
+        target = drive_targets(self.muscles, u, 1.0 + eta, drift)
         grid = np.repeat(np.linspace(0.0, 1.0, 257)[:, None], N_MUSCLES, axis=1)
         curve = np.maximum.accumulate(gen.steady_force(grid, self.muscles), axis=0)
         return np.stack(
@@ -373,26 +382,39 @@ class VirtualSubject:
         *,
         generator: str | EmgGenerator = "noise",
         fs_hz: float = 200.0,
-        rounds: int = PROTOCOL_ROUNDS,
+        rounds: int | None = None,
     ) -> Recording:
         """A whole paper-protocol calibration session (two rounds, about 45-75 s), by the rig.
 
         The protocol's timing and levels and the session noise both come from
-        ``rng`` (``None``: the subject's reproducible :meth:`session_rng`).
+        ``rng`` (``None``: the subject's reproducible :meth:`session_rng`); ``rounds``
+        defaults to the subject's :attr:`protocol_rounds`.
         """
         g = self.session_rng() if rng is None else as_rng(rng)
+        rounds = self.protocol_rounds if rounds is None else rounds
         profile = paper_protocol(g, fs_hz=fs_hz, rounds=rounds)
         return self.record(profile, generator=generator, fs_hz=fs_hz, rng=g, rig=True)
 
 
-def make_population(n: int = 10, seed: int = 0) -> list[VirtualSubject]:
+def make_population(n: int = 10, seed: int = 0, *,
+                    variant: str = "default") -> list[VirtualSubject]:
     """``n`` distinct virtual subjects, numbered 1..n, reproducible from ``seed``.
+
+    ``variant`` names another population (:mod:`sim.user.populations`: ``"wide"`` draws
+    the band's placement, co-contraction and the protocol's rounds from wider ranges, to
+    judge an estimator that learned from the default one out of population).
 
     Raises
     ------
     ValueError
         If ``n < 1``.
+    sim.user.populations.UnknownPopulationError
+        An unregistered ``variant``.
     """
+    if variant != "default":
+        from sim.user.populations import population
+
+        return population(n, seed, variant)
     if int(n) < 1:
         raise ValueError(f"population size must be at least 1, found {n}")
     return [VirtualSubject.sample(int(seed), i) for i in range(1, int(n) + 1)]

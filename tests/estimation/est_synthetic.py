@@ -74,7 +74,7 @@ def toy_recording(*, fs_hz: float = 200.0, duration_s: float = 30.0, seed: int =
                      metadata={"toy": True, "seed": seed}, source=f"toy{seed}")
 
 
-def synthetic_corpus(*, n_inputs: int, n_subjects: int, seed: int,
+def synthetic_corpus(*, n_inputs: int, n_subjects: int, seed: int, population: str = "default",
                      n_windows: int = 160) -> list[tuple[np.ndarray, np.ndarray, int]]:
     """A pretraining corpus for any number of inputs (``estimation.transfer`` tests).
 

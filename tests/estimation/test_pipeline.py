@@ -24,7 +24,8 @@ def features():
 def test_registry_names_and_unknown_name() -> None:
     assert set(ESTIMATOR_NAMES) == {"ss_kf", "ss", "mlp", "narx", "lda_qpf", "latent_kf",
                                     "persistence", "features_mav", "features_rms",
-                                    "features_wl", "ridge", "gbt", "ss_sim", "transfer_mlp"}
+                                    "features_wl", "ridge", "gbt", "ss_sim", "transfer_mlp",
+                                    "adaptive_mlp"}
     with pytest.raises(UnknownEstimatorError, match="ss_kf, ss, mlp"):
         make_estimator("kalman")
     assert isinstance(make_estimator("ss_kf", normalize=False), SSEstimator)

@@ -13,6 +13,7 @@ from sklearn.exceptions import NotFittedError
 from sklearn.model_selection import KFold, cross_val_score
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
+from estimation.adaptive import AdaptiveMLP
 from estimation.baselines import NARXBaseline, Persistence
 from estimation.errors import InsufficientDataError, ModeError, UnstableModelError
 from estimation.features import extract_features
@@ -29,11 +30,14 @@ from estimation.transfer import TransferMLP
 # transfer_mlp pretrains on a small synthetic corpus that fits any number of inputs (the
 # virtual corpus makes 24 or 9); tests/scenarios/test_transfer_to_real.py runs the real one.
 register_synthetic_corpus()
+SMALL_ADAPTIVE = {k.replace("hidden", "transfer_hidden"): v for k, v in SMALL_TRANSFER.items()}
+SMALL_ADAPTIVE.update(max_epochs=20, finetune_epochs=5, min_adapt_windows=8)
 FAST = {"mlp": {"max_epochs": 20, "random_state": 0},
         "narx": {"max_epochs": 20, "random_state": 0},
-        "transfer_mlp": dict(SMALL_TRANSFER, random_state=0)}
+        "transfer_mlp": dict(SMALL_TRANSFER, random_state=0),
+        "adaptive_mlp": dict(SMALL_ADAPTIVE, random_state=0)}
 CHECK_PARAMS = {"mlp": {"max_epochs": 5}, "narx": {"max_epochs": 5}, "gbt": {"max_trees": 5},
-                "transfer_mlp": SMALL_TRANSFER,
+                "transfer_mlp": SMALL_TRANSFER, "adaptive_mlp": dict(SMALL_ADAPTIVE, max_epochs=5),
                 "features_mav": {"features": ("mav",)}, "features_rms": {"features": ("rms",)},
                 "features_wl": {"features": ("wl",)}}
 
@@ -51,7 +55,7 @@ def expected_failed_checks(est: object) -> dict[str, str]:
     """Checks that cannot apply to ``est``, with the reason (reported as xfail)."""
     inner = est.estimator if isinstance(est, ForcePipeline) else est
     out: dict[str, str] = {}
-    if isinstance(inner, (SSEstimator, NARXBaseline, LatentKalman, TransferMLP)):
+    if isinstance(inner, (SSEstimator, NARXBaseline, LatentKalman, TransferMLP, AdaptiveMLP)):
         out["check_methods_sample_order_invariance"] = ORDER
         out["check_methods_subset_invariance"] = ORDER
     if isinstance(inner, SSEstimator):

@@ -166,12 +166,18 @@ def test_the_shipped_networks_are_those_this_code_builds(tmp_path, monkeypatch):
     monkeypatch.setattr(transfer, "build_pretrained", lambda settings: pytest.fail(
         f"no shipped networks for {settings['n_inputs']} inputs of this source: run "
         "`make pretrained`"))
-    for n_inputs in transfer.SHIPPED_LAYOUTS:  # the defaults, as TransferMLP asks for them
-        model = pretrained(n_inputs)
-        assert model.info["cache"] == "shipped" and len(model.networks) == 3
-        assert model.epochs % EPOCH_STAGE == 0
+    # the defaults, as TransferMLP and AdaptiveMLP ask for them
+    from estimation.adaptive import ADAPT_POPULATION
+
+    assert set(transfer.SHIPPED_POPULATIONS) == {transfer.TRANSFER_POPULATION, ADAPT_POPULATION}
+    for population in transfer.SHIPPED_POPULATIONS:
+        for n_inputs in transfer.SHIPPED_LAYOUTS:
+            model = pretrained(n_inputs, population=population)
+            assert model.info["cache"] == "shipped" and len(model.networks) == 3
+            assert model.epochs % EPOCH_STAGE == 0
     assert not (tmp_path / "pretrained").exists()  # nothing copied into the cache
-    assert len(list(store.SHIPPED_DIR.glob("*.npz"))) == len(transfer.SHIPPED_LAYOUTS)
+    assert len(list(store.SHIPPED_DIR.glob("*.npz"))) == (
+        len(transfer.SHIPPED_LAYOUTS) * len(transfer.SHIPPED_POPULATIONS))
 
 
 def test_shipped_networks_are_trusted_only_for_their_own_settings(tmp_path, monkeypatch):

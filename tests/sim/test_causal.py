@@ -7,6 +7,8 @@ array shapes, which numpy's vector loops may round differently on some CPUs.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from portable import assert_close_across_paths, assert_rounded_close_across_paths
@@ -14,7 +16,7 @@ from portable import assert_close_across_paths, assert_rounded_close_across_path
 from sim.user.causal import CausalSession, NotCausalError
 from sim.user.intent import grasp_lift_hold, paper_protocol
 from sim.user.muscles import CausalActivation, CausalDelay, activation_dynamics, fractional_delay
-from sim.user.subjects import VirtualSubject
+from sim.user.subjects import VirtualSubject, make_population
 
 pytestmark = pytest.mark.portable
 
@@ -47,6 +49,25 @@ def test_chunked_session_equals_record(subject_id, scenario) -> None:
     assert_rounded_close_across_paths(np.concatenate(emg), recording.emg)
     assert_close_across_paths(grip_n, recording.intent_force_n)
     assert_close_across_paths(force_n, recording.force_n)
+
+
+def test_co_contraction_growing_with_grip_is_the_same_in_both_paths() -> None:
+    # a subject of the wide population (sim.user.populations): cocontraction_power > 1
+    subject = make_population(4, 2, variant="wide")[3]
+    subject = dataclasses.replace(subject, muscles=dataclasses.replace(
+        subject.muscles, cocontraction_power=2.7))
+    profile = paper_protocol(np.random.default_rng(3))
+    recording = subject.record(profile, rng=np.random.default_rng(4))
+    session = CausalSession(subject, profile.n_samples, rng=np.random.default_rng(4))
+    emg = np.concatenate([session.advance(profile.intent[i:i + 30])
+                          for i in range(0, profile.n_samples, 30)])
+    assert_rounded_close_across_paths(emg, recording.emg)
+    assert_close_across_paths(session.read_forces()[1], recording.force_n)
+    # and it changes the sEMG: the muscles that do not grip are quieter in light squeezes
+    plain = dataclasses.replace(subject, muscles=dataclasses.replace(
+        subject.muscles, cocontraction_power=1.0)).record(profile, rng=np.random.default_rng(4))
+    light = (profile.intent > 0.05) & (profile.intent < 0.4)
+    assert np.abs(recording.emg[light]).mean() < np.abs(plain.emg[light]).mean()
 
 
 def test_a_longer_session_matches_the_paper_protocol_too() -> None:

@@ -76,3 +76,31 @@ def test_summary_and_bad_input():
         recording_difficulty(np.zeros((1000, 3)), np.zeros(1000), FS)
     with pytest.raises(ValueError, match="at least 4 windows"):
         recording_difficulty(np.zeros((100, 8)), np.zeros(100), FS)
+
+
+def test_inner_outer_of_one_recording():
+    from sim.user.difficulty import inner_outer
+
+    inner = {"mlp": 0.5, "ridge": 0.9, "gbt": 0.7, "narx": None, "lda_qpf": float("nan")}
+    outer = {"mlp": 0.95, "ridge": 0.80, "gbt": 0.85, "narx": 0.9, "lda_qpf": 0.99}
+    row = inner_outer(inner, outer)
+    # ridge wins the inner split and loses outside: a reversed ranking
+    assert row["pick"] == "ridge" and row["spearman"] == pytest.approx(-1.0)
+    assert row["regret"] == pytest.approx(0.95 - 0.80)  # narx and lda_qpf take no part
+    assert row["gain"] == pytest.approx(0.80 - 0.95)
+    row = inner_outer(inner, outer, reference="gbt")
+    assert row["gain"] == pytest.approx(-0.05)
+    with pytest.raises(ValueError, match="at least 3 estimators"):
+        inner_outer({"mlp": 0.5, "gbt": 0.6}, {"mlp": 0.9, "gbt": 0.8})
+
+
+def test_summary_of_inner_outer_rows():
+    from sim.user.difficulty import summarize_inner_outer
+
+    rows = [{"spearman": s, "regret": r, "gain": g}
+            for s, r, g in ((0.5, 0.0, 0.0), (-0.2, 0.1, -0.1), (0.1, 0.05, 0.02))]
+    s = summarize_inner_outer(rows)
+    assert s["spearman_median"] == pytest.approx(0.1)
+    assert (s["spearman_min"], s["spearman_max"]) == (-0.2, 0.5)
+    assert s["regret_mean"] == pytest.approx(0.05) and s["gain_min"] == -0.1
+    assert s["gain_mean"] == pytest.approx(-0.08 / 3)

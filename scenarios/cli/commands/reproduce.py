@@ -43,6 +43,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--workers", type=_positive_int, default=1,
                         help="subjects evaluated at once, each in its own process (default: "
                         "1); the figures do not depend on it")
+    parser.add_argument("--judge", default="wide", metavar="VARIANT",
+                        help="population variant the estimators that learn from virtual "
+                        "subjects are judged on, with the other sEMG generator (default: "
+                        "wide; 'none': not judged, and not recommended)")
+    parser.add_argument("--inner", action="store_true",
+                        help="also score the inner split of each identification half and "
+                        "compare choosing per person on it with the real recordings")
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     parser.add_argument("--csv", metavar="DIR", help="write the tables as CSV files")
     parser.set_defaults(func=run)
@@ -56,7 +63,9 @@ def run(args: argparse.Namespace) -> int:
     result = run_reproduction(args.subjects, args.seed, generator=args.generator,
                               order=args.order, nn_params={"max_epochs": args.max_epochs},
                               channels=parse_channels(args.channels),
-                              workers=args.workers)
+                              workers=args.workers,
+                              judge=None if args.judge == "none" else args.judge,
+                              inner=args.inner)
     result["config"]["wall_time_s"] = time.perf_counter() - t0
     print(format_report(result))
     if args.json:
