@@ -12,15 +12,14 @@ exist fails a build run with ``-W``.
 from __future__ import annotations
 
 import builtins
-import importlib
 import os
 import sys
-import types
 from importlib.metadata import version as _version
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent / "_ext"))
 # headless: the gallery renders the hand and draws figures without a display
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
@@ -39,6 +38,7 @@ extensions = [
     "numpydoc",
     "myst_parser",
     "sphinx_gallery.gen_gallery",
+    "griploop_sphinx",  # docs/_ext: source lines in warnings, members listed, modules first
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
@@ -93,10 +93,6 @@ nitpick_ignore_regex = [
     (r"py:.*", r"(.*\.)?_[A-Za-z].*"),
     (r"py:.*", rf"({'|'.join(_THIRD_PARTY)})(\..*)?"),
     (r"py:.*", rf"({'|'.join(_BUILTIN_NAMES)})"),
-    (r"py:.*", r"(Path|Any|Callable|Iterable|Iterator|Mapping|Sequence|Self|Literal|"
-               r"Generator|MutableMapping|Hashable|NDArray|ArrayLike|TextIO|BinaryIO|"
-               r"ClassVar|Protocol|TypeVar|Union|Optional|Final|IO|PathLike|"
-               r"ndarray|StateSpace|TransferFunction|LTI|Namespace|ArgumentParser)"),
 ]
 
 # ---------------------------------------------------------------- the gallery
@@ -110,7 +106,7 @@ sphinx_gallery_conf = {
     "only_warn_on_example_error": False,
     "within_subsection_order": "FileNameSortKey",
     "matplotlib_animations": False,
-    "plot_gallery": os.environ.get("GRIPLOOP_DOCS_GALLERY", "True"),
+    "plot_gallery": True,  # -D plot_gallery=0 builds without running them
 }
 
 # ---------------------------------------------------------------- HTML
@@ -123,42 +119,3 @@ html_theme_options = {
     "page_width": "1200px",
     "sidebar_width": "260px",
 }
-
-# ---------------------------------------------------------------- what the reference lists
-_OURS = ("sim", "estimation", "controllers", "scenarios")
-
-
-def _skip_foreign_members(app, what, name, obj, skip, options):
-    """Leave out what a class gets from another project (scikit-learn's ``set_fit_request``):
-    the reference documents griploop's own callables."""
-    module = getattr(obj, "__module__", None) or ""
-    if what == "class" and callable(obj) and module and module.split(".")[0] not in _OURS:
-        return True
-    if isinstance(obj, types.GenericAlias):  # a type alias (ScoreTable): no signature to show
-        return True
-    return None
-
-
-# ``scenarios.cli`` re-exports its function ``main``, which hides the module of the same
-# name from autosummary (it looks a name up as an attribute first): a griploop name that
-# is a module is documented as that module.
-import sphinx.ext.autosummary as _autosummary  # noqa: E402
-
-_import_by_name = _autosummary._import_by_name
-
-
-def _modules_first(name, grouped_exception=True):
-    found = _import_by_name(name, grouped_exception)
-    if isinstance(found[0], types.ModuleType) or name.split(".")[0] not in _OURS:
-        return found
-    try:
-        return importlib.import_module(name), None, name
-    except ImportError:  # not a module: the object found
-        return found
-
-
-_autosummary._import_by_name = _modules_first
-
-
-def setup(app):
-    app.connect("autodoc-skip-member", _skip_foreign_members)

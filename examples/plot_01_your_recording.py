@@ -15,6 +15,8 @@ with column options (see :doc:`/FORMAT`).
 # ``griploop subjects`` writes one recording per virtual subject, as NPZ (lossless) and
 # as plain CSV with a JSON sidecar. ``scenarios.cli.main`` runs any ``griploop``
 # command in this process and returns its exit status.
+import contextlib
+import io
 import json
 import tempfile
 from pathlib import Path
@@ -27,10 +29,13 @@ from sim.recording import load_recording
 
 
 def griploop(*args: str) -> None:
-    """Run one griploop command; stop on a non-zero exit status."""
-    status = main(list(args))
+    """Run one griploop command; stop with its error line on a non-zero exit status."""
+    errors = io.StringIO()  # the error line, and progress bars, go to stderr
+    with contextlib.redirect_stderr(errors):
+        status = main(list(args))
     if status != 0:
-        raise RuntimeError(f"griploop {' '.join(args)} exited with status {status}")
+        raise RuntimeError(f"griploop {' '.join(args)}: exit status {status}: "
+                           f"{errors.getvalue().strip()}")
 
 
 work = Path(tempfile.mkdtemp(prefix="griploop-recording-"))

@@ -16,6 +16,8 @@ it runs. A module of your own is loaded with ``griploop --plugin MODULE`` (or a 
 # -----------------
 # An integral controller whose gain is chosen for a phase margin, written to a file
 # outside griploop, as yours would be.
+import contextlib
+import io
 import json
 import sys
 import tempfile
@@ -65,14 +67,16 @@ register_controller("my_integral", design)
 
 work = Path(tempfile.mkdtemp(prefix="griploop-plugin-"))
 (work / "my_grip_plugin.py").write_text(PLUGIN)
-sys.path.insert(0, str(work))  # the command line finds it in the current directory too
 
 
 def griploop(*args: str) -> None:
-    """Run one griploop command; stop on a non-zero exit status."""
-    status = main(list(args))
+    """Run one griploop command; stop with its error line on a non-zero exit status."""
+    errors = io.StringIO()  # the error line, and progress bars, go to stderr
+    with contextlib.redirect_stderr(errors):
+        status = main(list(args))
     if status != 0:
-        raise RuntimeError(f"griploop {' '.join(args)} exited with status {status}")
+        raise RuntimeError(f"griploop {' '.join(args)}: exit status {status}: "
+                           f"{errors.getvalue().strip()}")
 
 
 # %%
@@ -80,6 +84,7 @@ def griploop(*args: str) -> None:
 # -------------------------------
 # ``griploop margins`` designs it on the can's plant family and prints the phase and
 # gain margins at each grip force, on the plant linearized there, then the worst case.
+sys.path.insert(0, str(work))  # the command line also finds it in the current directory
 margins = work / "margins.json"
 griploop("--plugin", "my_grip_plugin", "margins", "--controller", "my_integral",
          "--object", "can", "--json", str(margins))

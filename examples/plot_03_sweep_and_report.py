@@ -15,6 +15,8 @@ sweeps of the benchmarks and the demo.
 # --------------
 # The can at two masses and two frictions, held by the scheduled PI on the oracle
 # reference (the controller alone), by one practised virtual user: four episodes.
+import contextlib
+import io
 import tempfile
 from pathlib import Path
 
@@ -46,10 +48,13 @@ store = work / "results.sqlite"
 
 
 def griploop(*args: str) -> None:
-    """Run one griploop command; stop on a non-zero exit status."""
-    status = main(list(args))
+    """Run one griploop command; stop with its error line on a non-zero exit status."""
+    errors = io.StringIO()  # the error line, and progress bars, go to stderr
+    with contextlib.redirect_stderr(errors):
+        status = main(list(args))
     if status != 0:
-        raise RuntimeError(f"griploop {' '.join(args)} exited with status {status}")
+        raise RuntimeError(f"griploop {' '.join(args)}: exit status {status}: "
+                           f"{errors.getvalue().strip()}")
 
 
 # %%
