@@ -147,15 +147,13 @@ def run_sweep(
 
     Scenarios are registered, checked against the store and claimed chunk by
     chunk (see the module notes). Each runs in a child process
-    (:class:`~scenarios.execution.sandbox.Sandbox`)
-    on the driver or on a dask worker, and is a ``timeout`` failure after
-    ``time_limit_s``.
+    (:class:`~scenarios.execution.sandbox.Sandbox`) on the driver or on a dask worker, and
+    is a ``timeout`` failure after ``time_limit_s``.
 
     Parameters
     ----------
     planned : iterable of PlannedScenario
-        From :func:`~scenarios.execution.planning.plan` or
-        :func:`~scenarios.execution.planning.iter_plan` with the same ``task``.
+        From ``plan`` or ``iter_plan`` (:mod:`scenarios.execution.planning`), same ``task``.
     store : ResultStore
         Where outcomes are recorded (by this process only).
     task : str or callable
