@@ -244,7 +244,7 @@ class GraspEnv(gym.Env):
         seed : int, optional
             Seeds ``self.np_random`` (object placement jitter).
         options : dict, optional
-            ``"reference"``: a new reference (any :func:`as_reference` input);
+            ``"reference"``: a new reference (any :func:`~sim.references.as_reference` input);
             ``"object"``: a new object (rebuilds the model).
         """
         super().reset(seed=seed)

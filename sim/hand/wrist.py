@@ -95,7 +95,7 @@ class WristSchedule:
             Interval, episode time in s.
         lift_start_s : float or None
             When the lift started (``None``: not yet; ``-inf``: lifted by
-            :meth:`GraspEnv.steady_grasp`).
+            :meth:`~sim.hand.grasp_env.GraspEnv.steady_grasp`).
 
         Returns
         -------

@@ -1,7 +1,8 @@
 """Units, limits and the value checks every part of the recording package shares.
 
 The limits bound what a file may make griploop allocate or believe (a grip force of
-1e300 N, a sampling rate of 0 Hz); the checks raise :class:`RecordingError` naming
+1e300 N, a sampling rate of 0 Hz); the checks raise
+:class:`~sim.recording.errors.RecordingError` naming
 the source and the field.
 """
 
@@ -54,7 +55,7 @@ def positive_rate(value: Any, src: str, field: str, *, option: str | None = None
     field : str
         What the value is, for the message (``"fs_hz"``, ``"sampling rate"``).
     option : str, optional
-        The layout option it came from (:attr:`RecordingError.option`).
+        The layout option it came from (``RecordingError.option``).
 
     Raises
     ------

@@ -3,7 +3,7 @@
 A :class:`ColumnMap` names the columns; :func:`read_column_file` reads one, with the
 other layout options, from a YAML or JSON file; :func:`resolve_columns` finds the
 named columns in a CSV header. When the columns are not where the map says, the
-error suggests the option to set (:attr:`~sim.recording.errors.RecordingError.fixes`),
+error suggests the option to set (``RecordingError.fixes``),
 from the header's names where it can guess (``timestamp`` for the time column).
 """
 

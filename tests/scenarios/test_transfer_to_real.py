@@ -50,8 +50,8 @@ def test_virtual_means_are_close_to_the_real_ones(result):
 
 @pytest.mark.xfail(strict=True, reason=(
     "the real ranking of the nine estimators is not reproducible from 10 subjects: 5 real "
-    "subjects against the other 5 rank them with a median Spearman of 0.37 (README, 'How far "
-    "the virtual verdicts hold'); the virtual ranking reaches about 0.3-0.5"))
+    "subjects against the other 5 rank them with a median Spearman of 0.37 (docs/results/"
+    "realism.md, 'How far the virtual verdicts hold'); the virtual ranking reaches about 0.3-0.5"))
 def test_virtual_ranking_matches_the_real_one(result):
     assert result["transfer"]["agreement"]["spearman"] >= MIN_SPEARMAN
 
@@ -90,7 +90,7 @@ def _reasons(result):
 
 def test_fitting_the_transfer_ensemble_to_one_subject_takes_under_2_s(result):
     # pretraining is cached (and built once above); fine-tuning is what a person waits for.
-    # The other estimators' times are in the README (benchmarks/bench_estimation.py): the
+    # The other estimators' times are in docs/results/ (benchmarks/bench_estimation.py): the
     # paper's MLP (mini-batch 1) takes 1-2 s on a two-round session.
     assert result["timing"]["transfer_mlp"]["train_ms_median"] < 2000
 
