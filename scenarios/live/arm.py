@@ -86,6 +86,7 @@ ARM_POSE_S = 3.0
 """How long ``griploop calibrate`` asks for each arm pose, s; the pose is the median
 pitch of its last :data:`ARM_POSE_READ_S`."""
 ARM_POSE_READ_S = 2.0
+"""The last part of each arm pose whose median pitch is the pose, s."""
 
 _PITCH_LABELS = {"pitch", "pitchrad", "pitchdeg", "forearmpitch"}
 _DEGREES = {"deg", "degree", "degrees", "°"}

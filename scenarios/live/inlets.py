@@ -34,7 +34,7 @@ def run_session(grasp: LiveGrasp, connect: Callable[[], Any], *,
     work), reads whatever orientation samples have arrived without waiting, feeds
     both, and lets the wall clock act. During a gap of the sEMG or a stall of the
     IMU, the stream's :class:`~scenarios.live.lsl.SourceWatch` is asked whether
-    another source took over its name (:meth:`LiveGrasp.source_changed`).
+    another source took over its name (:meth:`scenarios.live.session.LiveGrasp.source_changed`).
 
     Parameters
     ----------

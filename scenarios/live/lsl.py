@@ -64,7 +64,8 @@ OUTLET_PREFIX = "griploop"
 IMU_TYPE = "IMU"
 IMU_SUFFIX = ".imu"
 IMU_FS_HZ = 50.0
-"""Rate of the orientation stream :func:`play` publishes, Hz (the MYO's IMU rate)."""
+"""Rate of the orientation stream :func:`scenarios.live.player.play` publishes, Hz (the
+MYO's IMU rate)."""
 QUATERNION_LABELS = ("qw", "qx", "qy", "qz")
 RESOLVE_SETTLE_S = 1.0
 """Once a stream of the name has appeared, look this much longer for others, s (liblsl

@@ -111,10 +111,10 @@ def play(recording: Recording, name: str, *, loop: bool = False, speed: float = 
     recording has one, goes to ``name.force`` (type ``Force``, N); the forearm pitch,
     if it has one (and ``imu``), goes to ``name.imu`` as the armband's orientation
     (type ``IMU``, the unit quaternion ``qw, qx, qy, qz`` of a rotation by the pitch
-    about the y axis, float32, at :data:`IMU_FS_HZ`: every ``round(fs / 50)``-th
+    about the y axis, float32, at :data:`scenarios.live.lsl.IMU_FS_HZ`: every ``round(fs / 50)``-th
     sample). Sample ``i`` is stamped ``t0 + i / (speed * fs_hz)`` on the LSL clock
     and pushed at that time; an orientation sample carries the stamp of the sEMG
-    sample it goes with. Every outlet has its own :func:`outlet_source_id`.
+    sample it goes with. Every outlet has its own :func:`scenarios.live.lsl.outlet_source_id`.
 
     Parameters
     ----------
