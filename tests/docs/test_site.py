@@ -23,10 +23,16 @@ GENERATED = ("_build", "api", "auto_examples", "sg_execution_times.rst")
 
 
 def sphinx(source: Path, out: Path, *extra: str) -> subprocess.CompletedProcess:
-    """``python -m sphinx -b html -W --keep-going -n -q SOURCE OUT``, output captured."""
-    env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"), MPLBACKEND="Agg")
+    """``python -m sphinx -b html -W --keep-going -n -q -N SOURCE OUT``, output captured.
+
+    ``-N`` (no colour) and ``NO_COLOR`` keep the messages plain whatever the terminal or
+    ``FORCE_COLOR`` of the machine running the suite says.
+    """
+    env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"), MPLBACKEND="Agg",
+               NO_COLOR="1")
+    env.pop("FORCE_COLOR", None)
     return subprocess.run(
-        [sys.executable, "-m", "sphinx", "-b", "html", "-W", "--keep-going", "-n", "-q",
+        [sys.executable, "-m", "sphinx", "-b", "html", "-W", "--keep-going", "-n", "-q", "-N",
          *extra, str(source), str(out)],
         capture_output=True, text=True, env=env, timeout=600)
 
