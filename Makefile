@@ -3,17 +3,25 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.griploop-installed
+DOCS_STAMP := $(VENV)/.griploop-docs-installed
 export MUJOCO_GL ?= egl
 export PYOPENGL_PLATFORM ?= egl
 export MPLBACKEND ?= Agg
 
-.PHONY: demo test test-dispatch bench lint clean pretrained
+.PHONY: demo test test-dispatch docs bench lint clean pretrained
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e ".[dev]"
-	touch $(STAMP)
+	touch $(STAMP) $(DOCS_STAMP)
+
+# the documentation's own extra (dev carries it too, so after make test this is done)
+$(DOCS_STAMP): pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e ".[docs]"
+	touch $(DOCS_STAMP)
 
 demo: $(STAMP)
 	$(VENV)/bin/griploop demo --out demo_out
@@ -22,7 +30,7 @@ demo: $(STAMP)
 # worker, so its module fixtures are built once. TEST_WORKERS=0 runs it in this process.
 TEST_WORKERS ?= auto
 test: $(STAMP)
-	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks
+	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks examples docs
 	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile
 
 # the tests that compare values computed through different shapes, chunkings or code paths
@@ -37,6 +45,14 @@ test-dispatch: $(STAMP)
 	    --dist loadfile -p no:cacheprovider || exit 1; \
 	done
 
+# the documentation site in docs/_build/html: guides, results, examples (run), API reference.
+# Warnings are errors and every cross-reference to a griploop name must resolve; make test
+# builds it the same way (tests/docs/test_site.py).
+SPHINXOPTS ?= -W --keep-going -n -q
+docs: $(DOCS_STAMP)
+	$(PY) -m sphinx -b html $(SPHINXOPTS) docs docs/_build/html
+	@echo "docs: docs/_build/html/index.html"
+
 # every benchmarks/bench_*.py in its own process, then the table of their GOAL lines
 BENCH_ARGS ?= --markdown bench_results.md
 bench: $(STAMP)
@@ -48,7 +64,7 @@ pretrained: $(STAMP)
 	$(PY) -c "from estimation.transfer import ship_default_networks as s; print(*s(), sep='\n')"
 
 lint: $(STAMP)
-	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks
+	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks examples docs
 
 clean:
-	rm -rf $(VENV) demo_out .pytest_cache
+	rm -rf $(VENV) demo_out .pytest_cache docs/_build docs/api docs/auto_examples

@@ -26,7 +26,7 @@ def goal_line(goal: str, figure: float, unit: str, *, limit: float, better: str 
     """Print one goal as ``GOAL | goal | figure | reference | met/not met`` and return met.
 
     ``make bench`` collects these lines (``benchmarks/run_all.py`` turns them into the
-    README's speed table), so every benchmark states each goal in this one format.
+    speed table, docs/results/speed.md), so every benchmark states each goal in this one format.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Closed-loop verdicts of practised users, and what practice changes (README, issue 27).
+"""Closed-loop verdicts of practised users, and what practice changes (docs/results/, issue 27).
 
 For each estimator whose real R2 is at least 0.8 (``mlp``, ``features_mav``, ``ridge``,
 ``gbt``, ``latent_kf``), the oracle and the intact-hand reference, and each controller

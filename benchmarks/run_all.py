@@ -9,7 +9,7 @@ by :func:`_timing.goal_line`::
 
 is collected, and a summary table follows: one row per goal, with the
 benchmark it came from. ``--markdown FILE`` also writes the table as Markdown
-(the README's speed table). The exit status is 0 when every benchmark exited
+(the speed table, docs/results/speed.md). The exit status is 0 when every benchmark exited
 0, and 1 otherwise; goals not met are reported, not failed on
 (``--strict`` fails on them too), since timings depend on the machine.
 

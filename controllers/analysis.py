@@ -42,7 +42,7 @@ class LoopMargins:
         Largest whole number of extra control periods the loop tolerates
         (discrete loops; ``None`` for continuous ones).
     crossover_rad_s : list of float
-        Every gain crossover (|L| = 1), ascending.
+        Every gain crossover (``|L| = 1``), ascending.
     phase_margins_deg : list of float
         Phase margin at each gain crossover.
     phase_crossover_rad_s : list of float

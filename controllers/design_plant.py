@@ -167,7 +167,7 @@ def design_plant(
     Parameters
     ----------
     name : str or ObjectSpec
-        Object name in :data:`sim.hand.objects.LIBRARY`, or a full object spec.
+        Object name in ``sim.hand.objects.LIBRARY``, or a full object spec.
     mass_kg, friction : float, optional
         Overrides of the object's mass (kg) and friction coefficient.
     method : {"linearized", "identified"}

@@ -33,7 +33,7 @@ A solve that fails (solver status, non-finite result, or a returned point
 violating a constraint by more than :data:`controllers.qp.FEASIBILITY_TOL`:
 an infeasible QP is a failure, never a silent move) falls back to the
 unconstrained law clipped to the amplitude and rate limits; every fallback is
-recorded in :attr:`MPC.stats_`.
+recorded in ``MPC.stats_``.
 """
 
 from __future__ import annotations

@@ -53,7 +53,7 @@ import numpy as np
 
 #: Constraint violation (in the row's units: command, or N) beyond which a solver's
 #: returned point is not accepted. The solvers' own tolerances are ~1e-6 (DAQP's
-#: primal tolerance; osqp's eps_abs + eps_rel |Az| <= 3e-5 N on the force rows), and
+#: primal tolerance; osqp's eps_abs + eps_rel ``|Az|`` <= 3e-5 N on the force rows), and
 #: a wrong move is off by orders of magnitude more.
 FEASIBILITY_TOL = 1e-4
 

@@ -27,7 +27,7 @@ release keeps the schedule from following the loop's own oscillation.
 
 Blending. ``"interpolate"`` (PID): gains are interpolated linearly in force
 between grid points and changed bumplessly every step (the integrator absorbs
-the change of the proportional and derivative terms, :meth:`PID.set_gains`).
+the change of the proportional and derivative terms, :meth:`~controllers.pid.PID.set_gains`).
 ``"switch"`` (lead-lag, MPC: controllers whose states are not comparable from
 one design to the next): the design whose cell contains the signal is active,
 cells split at the geometric midpoints between grid forces, and a switch
@@ -43,7 +43,8 @@ last command (``handover``). With ``warm="all"`` (the MPC) every inactive design
 tracks; designs that offer ``observer_bank`` (:class:`controllers.mpc.ObserverBank`)
 do so in one batched update rather than one call each.
 
-The controller the loop runs at a force ``F`` is :meth:`controller_at` ``(F)``:
+The controller the loop runs at a force ``F`` is
+:meth:`ScheduledController.controller_at` ``(F)``:
 the interpolated gains, or the design of ``F``'s cell. Margins at ``F`` are
 computed on that controller with the plant linearized at ``F``.
 """

@@ -8,7 +8,7 @@ and ``BaseEstimator``: ``sklearn.base.clone``, ``get_params`` / ``set_params``,
 Mode when ``predict`` is called without ``mode`` (:func:`resolve_mode`):
 
 - ``predict(U)`` (no measured force): the deployable mode ``"free_run"``; an
-  estimator with ``one_step`` only (persistence) raises :class:`ModeError`.
+  estimator with ``one_step`` only (persistence) raises :class:`~estimation.errors.ModeError`.
 - ``predict(U, y)``: ``"one_step"`` where supported (the measured force is
   used because it was given), else ``"free_run"``.
 

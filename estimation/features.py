@@ -124,8 +124,8 @@ def emg_features(
     Returns
     -------
     ndarray, shape (n_windows, n_channels * len(features))
-        Channel-major columns. MAV = mean |x| (eq. 1), RMS = sqrt(mean x^2)
-        (eq. 2), WL = sum of |x(k) - x(k-1)| over the window's consecutive
+        Channel-major columns. MAV = mean ``|x|`` (eq. 1), RMS = sqrt(mean x^2)
+        (eq. 2), WL = sum of ``|x(k) - x(k-1)|`` over the window's consecutive
         sample pairs (eq. 3, ``win - 1`` terms).
 
     Notes

@@ -106,7 +106,7 @@ class LatentKalman(ForceEstimator):
 
     def streaming(self, mode: str = "free_run", *,
                   scaling: MinMaxScaling | None = None) -> DirectLTIStream:
-        """A :class:`DirectLTIStream` of the steady-state filter."""
+        """A :class:`~estimation.streaming.DirectLTIStream` of the steady-state filter."""
         check_mode(mode, self.modes, "LatentKalman")
         s = self._system()
         return DirectLTIStream(s["F"], s["G"], s["h"], s["d"], g=s["g"], d0=s["d0"], mode=mode,

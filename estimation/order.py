@@ -80,7 +80,8 @@ def select_order(
     dt_s : float
         Sample time in seconds.
     **ss_params
-        Further :class:`SSEstimator` hyperparameters (``forgetting``, ``p0``...).
+        Further :class:`~estimation.state_space.SSEstimator` hyperparameters (``forgetting``,
+        ``p0``...).
 
     Raises
     ------

@@ -8,7 +8,7 @@ recommended over one that is almost as good on average and never fails.
 
 :func:`recommend` returns the JSON contract of ``griploop reproduce --json``
 (``recommendation``); its ``reason`` is the one sentence the command, the report and the
-README show.
+results (docs/results/realism.md) show.
 """
 
 from __future__ import annotations

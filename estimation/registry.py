@@ -1,4 +1,5 @@
-"""Estimators by name: ``make_estimator(name, **params)`` and :func:`register_estimator`.
+"""Estimators by name: ``make_estimator(name, **params)`` and
+:func:`~estimation.registry.register_estimator`.
 
 ============  ==============================================================
 name          estimator (modes)
@@ -45,6 +46,8 @@ from sim.registry import Capabilities, Registry
 if TYPE_CHECKING:
     from estimation.protocols import Estimator
 
+#: The prediction modes: ``one_step`` (the measured force up to k-1 enters the
+#: prediction, the paper's evaluation) and ``free_run`` (sEMG only).
 MODES = ("one_step", "free_run")
 
 

@@ -15,7 +15,8 @@ Modes (``yhat(k)`` always uses inputs up to ``k - 1``, the model's structure, eq
 - ``one_step`` with ``kalman=False``: ``yhat(k) = C (A x(k-1) + B u(k-1))`` with
   ``x(k-1)`` built from the measured force (eq. 6), i.e. the plain SS model.
 - ``free_run``: ``xhat(k) = A xhat(k-1) + B u(k-1)``: no force is measured. Refused
-  with :class:`UnstableModelError` when ``A`` has a pole on or outside the unit circle.
+  with :class:`~estimation.errors.UnstableModelError` when ``A`` has a pole on or outside the
+  unit circle.
 
 All predictions start from a zero state (force at rest).
 """

@@ -66,6 +66,7 @@ PRETRAIN_SEED = 7_000_003
 VALIDATION_SUBJECTS = 12
 #: Candidate fine-tuning step sizes and epochs (in stages of ``EPOCH_STAGE``).
 FINETUNE_RATES = (3e-4, 1e-3)
+#: Epochs per fine-tuning stage (``warm_start``).
 EPOCH_STAGE = 5
 MAX_FINETUNE_EPOCHS = 30
 #: Population variant of ``transfer_mlp``'s corpus: the one it was measured on real people with.

@@ -66,7 +66,8 @@ def export_store(
 
 
 def flat_columns(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
-    """Export table columns (name -> ``pyarrow.Array``) from :meth:`ResultStore.rows`."""
+    """Export table columns (name -> ``pyarrow.Array``) from
+    :meth:`~scenarios.store.ResultStore.rows`."""
     import pyarrow as pa
 
     flat = []

@@ -1,6 +1,6 @@
 """Typed result rows: the fields of each built-in scenario kind's result, in one place.
 
-A runner returns a flat row of scalars (:data:`scenarios.runners.dispatch.ResultRow`);
+A runner returns a flat row of scalars (``scenarios.runners.dispatch.ResultRow``);
 the store keeps it as JSON, the export flattens it and the report reads it.
 For the built-in kinds the fields are declared here once, as dataclasses:
 the runners build their rows through them (so a row has exactly these fields,

@@ -2,7 +2,9 @@
 
 The store is written by the sweep driver only, one transaction per result, in
 WAL mode with ``synchronous=NORMAL``: a committed row survives the driver
-being killed (even by SIGKILL) and a half-written one never appears. The key
+being killed (even by SIGKILL) and a half-written one never appears. Closing a
+writable store switches it back to the rollback journal, so a finished command
+leaves no ``-wal`` or ``-shm`` file beside it. The key
 is :func:`content_hash` of the scenario's canonical JSON, the package version
 and the task that ran it, so re-running a sweep finds its finished rows and a
 changed scenario, task or griploop version is a new row.
@@ -384,7 +386,19 @@ class ResultStore:
         self.close()
 
     def close(self) -> None:
-        """Close the connection."""
+        """Close the connection, leaving no ``-wal`` or ``-shm`` file beside the store.
+
+        A writable store returns to the rollback journal as it closes (the WAL is
+        checkpointed into the database and removed), so a later read-only open, which
+        cannot remove them, creates none. While another process still has the store
+        open it keeps the WAL, and the last writer to close removes it.
+        """
+        if not self.read_only:
+            try:
+                self._conn.execute("PRAGMA busy_timeout=0")
+                self._conn.execute("PRAGMA journal_mode=DELETE")
+            except sqlite3.OperationalError:
+                pass  # another connection holds the store: it stays in WAL mode for now
         self._conn.close()
 
     # -------------------------------------------------------------- writing

@@ -96,7 +96,8 @@ class StoredSystem:
 
 
 class _SystemAttribute:
-    """Data descriptor of a :func:`stored_systems` attribute: builds a stored system once."""
+    """Data descriptor of a :func:`~sim.codec.stored_systems` attribute: builds a stored system
+    once."""
 
     def __init__(self, name: str) -> None:
         self.name = name

@@ -47,7 +47,8 @@ def narx_regressors(U: np.ndarray, y: np.ndarray, delays: int) -> np.ndarray:
 class NARXBaseline(MLPBaseline):
     """Nonlinear ARX network: the paper's MLP on delayed inputs and outputs.
 
-    Hyperparameters as :class:`MLPBaseline`, plus ``delays`` (the SS order) and
+    Hyperparameters as :class:`~estimation.baselines.mlp.MLPBaseline`, plus ``delays`` (the SS
+    order) and
     ``linear_bypass``; mini-batches of 4 by default (paper: 1) so that training both
     networks on all 8 channels (124 regressors) stays under 2 s.
 

@@ -69,7 +69,7 @@ class SingleFeatureLinear(ForceEstimator):
 
     def streaming(self, mode: str = "free_run", *,
                   scaling: MinMaxScaling | None = None) -> DirectLTIStream:
-        """A static :class:`DirectLTIStream`."""
+        """A static :class:`~estimation.streaming.DirectLTIStream`."""
         check_mode(mode, self.modes, "SingleFeatureLinear")
         return DirectLTIStream(np.zeros((0, 0)), np.zeros((0, self.n_features_in_)),
                                np.zeros(0), self.coef_, d0=self.intercept_, mode=mode,

@@ -1,4 +1,5 @@
-"""The ``griploop`` command line: :func:`main`; one module per subcommand in ``commands``.
+"""The ``griploop`` command line: :func:`~scenarios.cli.main.main`; one module per subcommand in
+``commands``.
 
 May import everything; importing this package itself stays light (argparse only)
 so that ``griploop --help`` is fast.

@@ -2,4 +2,5 @@
 
 from scenarios.cli.main import entry
 
-entry()
+if __name__ == "__main__":  # importing the module (the API reference does) runs nothing
+    entry()

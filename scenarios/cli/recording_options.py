@@ -33,7 +33,7 @@ from sim.recording import (
 if TYPE_CHECKING:
     from sim.recording import Fix, Recording
 
-#: Layout option of the library (:data:`sim.recording.OPTIONS`) -> (flag, metavar).
+#: Layout option of the library (:data:`sim.recording.errors.OPTIONS`) -> (flag, metavar).
 FLAGS: dict[str, tuple[str, str]] = {
     "time_column": ("--time-column", "NAME"),
     "emg_columns": ("--emg-columns", "SPEC"),

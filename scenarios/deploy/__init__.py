@@ -1,6 +1,7 @@
 """Deploying what was evaluated: C export, host build, replay checks, the emulated target.
 
-- :mod:`.writer`: :func:`export_c`, the Python API of ``griploop export-c``;
+- :mod:`.writer`: :func:`~scenarios.deploy.writer.export_c`, the Python API of
+  ``griploop export-c``;
 - :mod:`.build`: the host C compiler into a shared library;
 - :mod:`.library`: that library through ctypes (features, estimator stream, controller);
 - :mod:`.check`: a recording replayed through C and Python, sample for sample;

@@ -1,19 +1,23 @@
 """Resumable sweep execution: local worker processes or dask, recorded as results arrive.
 
-A sweep is planned (:func:`plan`: each expanded scenario gets its content
-hash), the hashes already finished in the store are skipped, and the rest are
-run by :func:`execute` -- in worker processes forked from the driver (one
-:class:`Sandbox` per worker, fed by the driver, no cluster to start:
-:mod:`scenarios.execution.workers`) or on an existing dask scheduler. Results
+A sweep is planned (:func:`~scenarios.execution.planning.plan`: each expanded
+scenario gets its content hash), the hashes already finished in the store are
+skipped, and the rest are run by :func:`~scenarios.execution.sandbox.execute` -- in
+worker processes forked from the driver (one
+:class:`~scenarios.execution.sandbox.Sandbox` per worker, fed by the driver, no
+cluster to start: :mod:`scenarios.execution.workers`) or on an existing dask
+scheduler. Results
 are recorded by the driver in completion order, one commit each.
 
 Scenarios are taken from the plan in chunks (registered, checked against the
-store and claimed chunk by chunk), so a generator from :func:`iter_plan` is
-never held in memory whole. A scenario is claimed in the store before it runs:
+store and claimed chunk by chunk), so a generator from
+:func:`~scenarios.execution.planning.iter_plan` is never held in memory whole. A scenario is
+claimed in the store before it runs:
 one another live driver is running is left to it and waited for, so two
 drivers on one store run each scenario once and both return when the sweep is
-done. :func:`execute` turns any exception of the task into a ``failed`` outcome with
-its traceback, so one bad scenario never stops a sweep; a lost worker is
+done. :func:`~scenarios.execution.sandbox.execute` turns any exception of the task
+into a ``failed`` outcome with its traceback, so one bad scenario never stops a sweep; a lost
+worker is
 recorded the same way.
 
 Tasks are importable callables ``task(scenario) -> ResultRow`` given as a
@@ -142,14 +146,14 @@ def run_sweep(
     """Run the unfinished scenarios of a planned sweep and record each outcome.
 
     Scenarios are registered, checked against the store and claimed chunk by
-    chunk (see the module notes). Each runs in a child process (:class:`Sandbox`)
-    on the driver or on a dask worker, and is a ``timeout`` failure after
-    ``time_limit_s``.
+    chunk (see the module notes). Each runs in a child process
+    (:class:`~scenarios.execution.sandbox.Sandbox`) on the driver or on a dask worker, and
+    is a ``timeout`` failure after ``time_limit_s``.
 
     Parameters
     ----------
     planned : iterable of PlannedScenario
-        From :func:`plan` or :func:`iter_plan` with the same ``task``.
+        From ``plan`` or ``iter_plan`` (:mod:`scenarios.execution.planning`), same ``task``.
     store : ResultStore
         Where outcomes are recorded (by this process only).
     task : str or callable

@@ -71,7 +71,8 @@ def local_outcomes(
 ) -> Iterator[tuple[PlannedScenario, Outcome]]:
     """Run scenarios on ``workers`` sandbox processes forked from this one, as they finish.
 
-    The driver's main thread feeds every :class:`Sandbox` (no dask cluster to
+    The driver's main thread feeds every :class:`~scenarios.execution.sandbox.Sandbox` (no dask
+    cluster to
     start or stop): each child is forked from the driver, which has already
     imported the task's modules, so a worker starts in milliseconds and shares
     those modules' memory with the driver and the other workers. A worker keeps
@@ -138,7 +139,8 @@ def local_outcomes(
 
 def execute_with_plugins(plugins: Sequence[str], task: Task, scenario: Scenario, hash_: str,
                          time_limit_s: float | None) -> Outcome:
-    """:func:`execute_limited` after loading ``plugins`` (on a dask worker; once per process)."""
+    """:func:`~scenarios.execution.sandbox.execute_limited` after loading ``plugins`` (on a dask
+    worker; once per process)."""
     load_plugins(plugins)
     return execute_limited(task, scenario, hash_, time_limit_s)
 

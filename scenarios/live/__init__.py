@@ -1,8 +1,13 @@
 """A real person in the loop: live sEMG over Lab Streaming Layer drives the simulated hand.
 
 - :mod:`scenarios.live.lsl`: loading liblsl (one line with the fix when it cannot be
-  loaded), resolving a stream by name, the session's outlets and the recording player
-  behind ``griploop stream``;
+  loaded), resolving streams by identity (name, host, source_id; several matches and
+  remote streams refused), watching that a session's source keeps its name, and the
+  session's outlets;
+- :mod:`scenarios.live.player`: a recording played as the armband's outlets (``griploop
+  stream``: sEMG, force, orientation) with the faults a session must survive;
+- :mod:`scenarios.live.arm`: the person's arm moving the wrist, from the forearm's pitch
+  on the armband's IMU stream or from a key;
 - :mod:`scenarios.live.windowing`: MAV/RMS/WL windows updated one sample at a time,
   equal to :func:`estimation.features.extract_features` on the same samples (int8
   counts bit for bit);
@@ -10,7 +15,8 @@
   virtual subject's grasp recording, and the offline episode driven by a given recording
   (the reference a live session is compared with);
 - :mod:`scenarios.live.session`: the real-time loop, paced by the incoming samples, with
-  its timing report, gap handling and bad-sample accounting;
+  its timing report (:mod:`scenarios.live.timing`), gap handling and bad-sample
+  accounting; :mod:`scenarios.live.inlets` feeds it from LSL inlets;
 - :mod:`scenarios.live.calibrate`: the paper's calibration session recorded from a live
   person with terminal cues;
 - :mod:`scenarios.live.display`: the MuJoCo viewer when a display exists, else a GIF

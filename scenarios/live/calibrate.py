@@ -11,6 +11,16 @@ each sEMG sample's time stamp. Without one, the label is the level each cue asks
 for (a fraction of MVC) times ``mvc_n``: a prompted-force label, coarser than a
 measured force (the person's reaction time and their actual effort are not in it),
 and the file says so (``metadata["force_source"] == "cues"``).
+
+The armband's IMU stream, when there is one, is recorded beside the sEMG: the
+forearm's pitch interpolated at each sEMG sample's time stamp (``pitch_rad``). After
+the squeezes the person is then asked for two arm poses (:func:`arm_cues`): the
+forearm at rest as when the hand is at the object, and raised as to lift it; the
+median pitch of the last 2 s of each becomes ``metadata["arm_poses"]``
+(:class:`~scenarios.live.arm.ArmPoses`), which ``griploop live`` maps the pitch to the
+wrist's height with. The poses are asked for after the calibration's duration, and
+their sEMG is not kept: the estimator's fit sees the same session with or without an
+IMU.
 """
 
 from __future__ import annotations
@@ -22,7 +32,8 @@ from typing import Any
 
 import numpy as np
 
-from scenarios.live.errors import SessionError
+from scenarios.live.arm import ARM_POSE_READ_S, ARM_POSE_S, LIFT_HEIGHT_M, ArmPoses
+from scenarios.live.errors import ArmPosesError, SessionError
 from scenarios.live.samples import SampleGuard
 from sim.recording import EMG_UNITS, Recording
 
@@ -83,6 +94,12 @@ def cue_schedule(*, first_rest_s: float = 3.0, squeeze_s: float = 4.0, rest_s: f
     return cues, t
 
 
+def arm_cues(start_s: float, *, pose_s: float = ARM_POSE_S) -> list[Cue]:
+    """The two arm poses asked for from ``start_s``: at rest, then raised (``pose_s`` each)."""
+    return [Cue(float(start_s), "arm rest", 0.0, pose_s),
+            Cue(float(start_s) + pose_s, "arm raised", 0.0, pose_s)]
+
+
 def cue_levels(cues: Sequence[Cue], t_s: np.ndarray) -> np.ndarray:
     """The level asked for at each time (a step function of the cues)."""
     starts = np.array([c.t_s for c in cues])
@@ -92,6 +109,12 @@ def cue_levels(cues: Sequence[Cue], t_s: np.ndarray) -> np.ndarray:
 
 def say_cue(cue: Cue) -> str:
     """The terminal line of a cue."""
+    if cue.label == "arm rest":
+        return (f"[{cue.t_s:5.1f} s] ARM AT REST: relax your hand, forearm as when the hand is "
+                f"at the object, for {cue.duration_s:g} s")
+    if cue.label == "arm raised":
+        return (f"[{cue.t_s:5.1f} s] ARM RAISED: keep your hand relaxed and raise your forearm "
+                f"as to lift an object {100 * LIFT_HEIGHT_M:g} cm, for {cue.duration_s:g} s")
     if cue.level > 0:
         return (f"[{cue.t_s:5.1f} s] SQUEEZE {cue.label.split()[-1].upper()}: about "
                 f"{100 * cue.level:.0f} % of your strongest grip, hold it for "
@@ -115,8 +138,10 @@ def record_calibration(emg_inlet: Any, force_inlet: Any | None, *, cues: Sequenc
                        duration_s: float, say: Callable[[str], None] = print,
                        mvc_n: float = DEFAULT_MVC_N, timeout_s: float = 5.0,
                        source: str = "lsl", stream_name: str = "",
-                       force_name: str | None = None) -> Recording:
-    """Record a calibration session from open inlets.
+                       force_name: str | None = None, imu_inlet: Any | None = None,
+                       imu_channels: Any = None, imu_name: str | None = None,
+                       stream_identity: dict[str, Any] | None = None) -> Recording:
+    """Record a calibration session from open inlets (and the arm poses, with an IMU).
 
     Parameters
     ----------
@@ -131,17 +156,25 @@ def record_calibration(emg_inlet: Any, force_inlet: Any | None, *, cues: Sequenc
     mvc_n, timeout_s : float
         Label of a 100 % squeeze without a force stream, N; no sEMG for this
         long stops the session with an error, s.
+    imu_inlet : pylsl.StreamInlet, optional
+        The armband's orientation (same clock): recorded, and the arm poses asked for.
+    imu_channels : scenarios.live.arm.OrientationChannels, optional
+        Where its pitch is (required with ``imu_inlet``).
+    stream_identity : dict, optional
+        The sEMG stream's :func:`scenarios.live.lsl.identity`, kept in the metadata.
 
     Returns
     -------
     Recording
-        The sEMG received, in order (lost samples are not filled; their count is
-        in ``metadata["lost_samples"]``), with the force label.
+        The sEMG received over ``duration_s``, in order (lost samples are not
+        filled; their count is in ``metadata["lost_samples"]``), with the force
+        label, and with an IMU the pitch (``pitch_rad``) and ``metadata["arm_poses"]``
+        (``None``, with ``arm_poses_error`` saying why, when the poses were unusable).
 
     Raises
     ------
     SessionError
-        The stream stopped for ``timeout_s``, or the force stream sent nothing.
+        The stream stopped for ``timeout_s``, or the force or IMU stream sent nothing.
     """
     from scenarios.live.lsl import pylsl_module
 
@@ -153,67 +186,157 @@ def record_calibration(emg_inlet: Any, force_inlet: Any | None, *, cues: Sequenc
     integer = emg_inlet.channel_format == lsl.cf_int8
     guard = SampleGuard(integer)
     n_target = int(round(duration_s * fs))
-    chunks: list[np.ndarray] = []
-    stamps: list[np.ndarray] = []
-    f_vals: list[float] = []
-    f_stamps: list[float] = []
-    received = lost = 0
-    n = -1
-    ts_last = ts0 = 0.0
-    next_cue = 0
-    last_arrival = time.monotonic()
-    while n + 1 < n_target:
+    cues = list(cues)
+    n_total = n_target
+    if imu_inlet is not None:
+        cues += arm_cues(duration_s)
+        n_total = n_target + int(round(2 * ARM_POSE_S * fs))
+    force = _Side(force_inlet, lambda x: np.array([float(v[0]) for v in x], dtype=float))
+    imu = _Side(imu_inlet, None if imu_channels is None else imu_channels.pitch_rad)
+    got, next_cue, last_arrival = _Samples(fs, n_target, guard), 0, time.monotonic()
+    while got.n + 1 < n_total:
         samples, ts = emg_inlet.pull_chunk(timeout=0.05, max_samples=256)
-        if force_inlet is not None:
-            fx, fts = force_inlet.pull_chunk(timeout=0.0, max_samples=1024)
-            f_vals += [float(v[0]) for v in fx]
-            f_stamps += list(fts)
+        force.pull()
+        imu.pull()
         now = time.monotonic()
         if not ts:
             if now - last_arrival > timeout_s:
                 raise SessionError(f"stream {stream_name!r} sent nothing for {timeout_s:g} s "
-                                   f"at {max(n, 0) / fs:.1f} s of the session; nothing written")
+                                   f"at {max(got.n, 0) / fs:.1f} s of the session; nothing "
+                                   "written")
             continue
         last_arrival = now
-        x = guard.clean(samples)
-        t = np.asarray(ts, dtype=float)
-        if n < 0:
-            ts0, ts_last = float(t[0]), float(t[0]) - 1.0 / fs
-        jumps = np.diff(np.concatenate([[ts_last], t])) * fs
-        gaps = np.where(jumps > 1.5, np.rint(jumps) - 1, 0).astype(int)
-        index = n + np.cumsum(1 + gaps)
-        keep = index < n_target
-        chunks.append(x[keep])
-        stamps.append(t[keep])
-        received += int(keep.sum())
-        lost += int(gaps[keep].sum())
-        n, ts_last = int(index[keep][-1]) if keep.any() else n_target, float(t[-1])
-        while next_cue < len(cues) and cues[next_cue].t_s <= (n + 1) / fs:
+        got.take(samples, ts)
+        while next_cue < len(cues) and cues[next_cue].t_s <= (got.n + 1) / fs:
             say(say_cue(cues[next_cue]))
             next_cue += 1
-    emg = np.concatenate(chunks)
-    t_emg = np.concatenate(stamps)
+    emg, t_emg = np.concatenate(got.chunks), np.concatenate(got.stamps)
     if force_inlet is not None:
-        force = _force_on(t_emg, force_inlet, f_vals, f_stamps, force_name)
-        force_source = f"lsl:{force_name}"
+        force_n = _force_on(t_emg, force, force_name)
     else:
-        force = cue_levels(cues, t_emg - ts0) * mvc_n
-        force_source = "cues"
-    unit = stream_unit(emg_inlet, integer)
+        force_n = cue_levels(cues, t_emg - got.ts0) * mvc_n
     metadata = {
         "source": "lsl", "stream": stream_name, "protocol": "paper_protocol (live)",
-        **_cue_metadata(cues), "force_source": force_source,
-        "mvc_n_cues": mvc_n if force_inlet is None else None, "lost_samples": lost,
+        **_cue_metadata([c for c in cues if not c.label.startswith("arm ")]),
+        "force_source": "cues" if force_inlet is None else f"lsl:{force_name}",
+        "mvc_n_cues": mvc_n if force_inlet is None else None, "lost_samples": got.lost,
         "bad_samples": {"non_numeric": guard.non_numeric, "out_of_range": guard.out_of_range},
-        "first_timestamp": ts0,
+        "first_timestamp": got.ts0,
     }
+    if stream_identity is not None:
+        metadata["stream_identity"] = dict(stream_identity)
+    pitch = None if imu_inlet is None else _arm_on(
+        t_emg, got.stream_s(), imu, duration_s, imu_name, metadata, say,
+        list(imu_channels.labels))
     return Recording(emg=emg.astype(np.int8) if integer else emg, fs_hz=fs,
-                     force_n=np.clip(force, 0.0, None), emg_unit=unit, metadata=metadata,
-                     source=source)
+                     force_n=np.clip(force_n, 0.0, None),
+                     emg_unit=stream_unit(emg_inlet, integer), pitch_rad=pitch,
+                     metadata=metadata, source=source)
 
 
-def _force_on(t_emg: np.ndarray, force_inlet: Any, f_vals: list[float], f_stamps: list[float],
-              force_name: str | None) -> np.ndarray:
+class _Samples:
+    """The sEMG samples of a session as they arrive: kept up to ``n_target``, counted.
+
+    Sample ``n`` is at stream time ``n / fs`` from the first; a jump between stamps of
+    more than 1.5 periods counts the samples lost in it.
+    """
+
+    def __init__(self, fs: float, n_target: int, guard: SampleGuard) -> None:
+        self.fs, self.n_target, self.guard = fs, n_target, guard
+        self.chunks: list[np.ndarray] = []
+        self.stamps: list[np.ndarray] = []
+        self._every: list[tuple[np.ndarray, np.ndarray]] = []  # each sample's stamp, index
+        self.received = self.lost = 0
+        self.n = -1
+        self.ts0 = self._ts_last = 0.0
+
+    def take(self, samples: Any, ts: Sequence[float]) -> None:
+        """A chunk that arrived."""
+        fs = self.fs
+        x = self.guard.clean(samples)
+        t = np.asarray(ts, dtype=float)
+        if self.n < 0:
+            self.ts0, self._ts_last = float(t[0]), float(t[0]) - 1.0 / fs
+        jumps = np.diff(np.concatenate([[self._ts_last], t])) * fs
+        gaps = np.where(jumps > 1.5, np.rint(jumps) - 1, 0).astype(int)
+        index = self.n + np.cumsum(1 + gaps)
+        keep = index < self.n_target
+        self.chunks.append(x[keep])
+        self.stamps.append(t[keep])
+        self._every.append((t, index))
+        self.received += int(keep.sum())
+        self.lost += int(gaps[keep].sum())
+        self.n, self._ts_last = int(index[-1]), float(t[-1])
+
+    def stream_s(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every sample's stamp and its stream time, s."""
+        return (np.concatenate([e[0] for e in self._every]),
+                np.concatenate([e[1] for e in self._every]) / self.fs)
+
+
+class _Side:
+    """A stream read beside the sEMG (force, IMU), never waiting for it: values and stamps."""
+
+    def __init__(self, inlet: Any, read: Callable[[Any], np.ndarray] | None) -> None:
+        self.inlet, self.read = inlet, read
+        self.values: list[np.ndarray] = []
+        self.stamps: list[float] = []
+
+    def pull(self, timeout_s: float = 0.0) -> None:
+        """What has arrived (waiting up to ``timeout_s`` for it)."""
+        if self.inlet is None:
+            return
+        x, ts = self.inlet.pull_chunk(timeout=timeout_s, max_samples=1024)
+        if ts:
+            self.values.append(self.read(x))
+            self.stamps += list(ts)
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """Values and stamps, in stamp order."""
+        values = np.concatenate(self.values) if self.values else np.zeros(0)
+        stamps = np.asarray(self.stamps, dtype=float)
+        order = np.argsort(stamps, kind="stable")
+        return values[order], stamps[order]
+
+
+def _arm_on(t_emg: np.ndarray, stream_s: tuple[np.ndarray, np.ndarray], imu: _Side,
+            duration_s: float, imu_name: str | None, metadata: dict[str, Any],
+            say: Callable[[str], None], labels: list[str]) -> np.ndarray:
+    """The pitch at the sEMG times (rad); the arm poses (or why there are none) go to
+    ``metadata``, and a pose that could not be read to ``say`` as a warning.
+
+    ``stream_s`` holds every sEMG sample's stamp and its stream time (the cues' time
+    base): an orientation sample's stream time is interpolated from them.
+
+    Raises
+    ------
+    SessionError
+        The IMU stream sent no orientation that is a number.
+    """
+    values, stamps = imu.arrays()
+    good = np.isfinite(values)
+    if not good.any():
+        raise SessionError(f"IMU stream {imu_name!r} sent no orientation that is a number "
+                           "during the session; nothing written")
+    pitch = np.interp(t_emg, stamps[good], values[good])
+    t_imu = np.interp(stamps, *stream_s)
+    rest, raised = arm_cues(duration_s)
+
+    def held(cue: Cue) -> np.ndarray:
+        end = cue.t_s + cue.duration_s
+        return values[(t_imu >= end - ARM_POSE_READ_S) & (t_imu < end)]
+
+    metadata.update({"imu_stream": imu_name, "imu_channels": labels, "arm_poses": None})
+    try:
+        metadata["arm_poses"] = ArmPoses.from_pitches(held(rest), held(raised)).to_metadata()
+    except ArmPosesError as exc:
+        metadata["arm_poses_error"] = str(exc)
+        say(f"warning: no arm poses recorded: {exc}; griploop live will need them (record "
+            "again, or give them by hand)")
+    return pitch
+
+
+def _force_on(t_emg: np.ndarray, force: _Side, force_name: str | None) -> np.ndarray:
     """The force stream, read up to the last sEMG sample (1 s at most), at the sEMG times, N.
 
     Raises
@@ -222,15 +345,13 @@ def _force_on(t_emg: np.ndarray, force_inlet: Any, f_vals: list[float], f_stamps
         The force stream sent nothing during the session.
     """
     deadline = time.monotonic() + 1.0
-    while (not f_stamps or f_stamps[-1] < t_emg[-1]) and time.monotonic() < deadline:
-        fx, fts = force_inlet.pull_chunk(timeout=0.05, max_samples=1024)
-        f_vals += [float(v[0]) for v in fx]
-        f_stamps += list(fts)
-    if not f_stamps:
+    while (not force.stamps or max(force.stamps) < t_emg[-1]) and time.monotonic() < deadline:
+        force.pull(0.05)
+    if not force.stamps:
         raise SessionError(f"force stream {force_name!r} sent nothing during the session; "
                            "nothing written")
-    order = np.argsort(f_stamps, kind="stable")
-    return np.interp(t_emg, np.asarray(f_stamps)[order], np.asarray(f_vals)[order])
+    values, stamps = force.arrays()
+    return np.interp(t_emg, stamps, values)
 
 
 def _cue_metadata(cues: Sequence[Cue]) -> dict[str, Any]:

@@ -1,4 +1,4 @@
-"""Lab Streaming Layer plumbing: liblsl loading, streams by name, outlets, the player.
+"""Lab Streaming Layer plumbing: liblsl loading, streams by identity, inlets and outlets.
 
 pylsl's Linux x86-64 wheels (glibc >= 2.35) carry liblsl inside them; elsewhere pip
 installs a pylsl without it, and importing pylsl fails. :func:`pylsl_module` turns
@@ -9,21 +9,46 @@ A session publishes three outlets beside the EMG (:class:`SessionOutlets`), so t
 LabRecorder records them in the same XDF file: ``griploop.reference`` and
 ``griploop.grip`` (N, one sample per control step, stamped on the EMG stream's
 clock) and ``griploop.events`` (string markers: lift, slip, drop, crush, gap_start,
-gap_end, session_start, session_end).
+gap_end, session_start, session_end, source_changed, imu_gap_start, imu_gap_end,
+key_lift, key_lower).
+
+**Which stream.** LSL carries no authentication: any machine on the network can
+publish a stream of any name. A session therefore pins one stream, by identity:
+:func:`resolve_streams` collects every stream of the names (until
+:data:`RESOLVE_SETTLE_S` after each had appeared), keeps those on the host and with
+the ``source_id`` asked for (:class:`StreamQuery`), and refuses several matches
+(:class:`~scenarios.live.errors.AmbiguousStreamError`, listing each one's host,
+``source_id``, channels, rate and format) and a stream from another host unless
+remote streams are allowed (:class:`~scenarios.live.errors.RemoteStreamError`). A
+stream keeps its identity for the whole session: liblsl recovers an inlet only to a
+stream of the same ``source_id`` (none without one), and :class:`SourceWatch` tells a
+session when its source is gone from the network while another source serves the
+name. griploop's own outlets carry a ``source_id`` unique to the outlet and its process
+(:func:`outlet_source_id`), so two players on one host are told apart.
 """
 
 from __future__ import annotations
 
+import itertools
+import math
+import os
+import re
 import socket
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from scenarios.live.errors import LslUnavailableError, StreamMismatchError, StreamNotFoundError
-from sim.recording import Recording
+from scenarios.live.errors import (
+    AmbiguousStreamError,
+    LslUnavailableError,
+    RemoteStreamError,
+    StreamMismatchError,
+    StreamNotFoundError,
+    StreamSpecError,
+)
 
 LSL_FIX = ("pip install pylsl on a Linux x86-64 machine with glibc >= 2.35 (its wheel carries "
            "liblsl), or install the system liblsl (https://github.com/sccn/liblsl/releases) and "
@@ -36,6 +61,25 @@ EMG_TYPE = "EMG"
 FORCE_TYPE = "Force"
 FORCE_SUFFIX = ".force"
 OUTLET_PREFIX = "griploop"
+IMU_TYPE = "IMU"
+IMU_SUFFIX = ".imu"
+IMU_FS_HZ = 50.0
+"""Rate of the orientation stream :func:`scenarios.live.player.play` publishes, Hz (the
+MYO's IMU rate)."""
+QUATERNION_LABELS = ("qw", "qx", "qy", "qz")
+RESOLVE_SETTLE_S = 1.0
+"""Once a stream of the name has appeared, look this much longer for others, s (liblsl
+queries the network every 0.5 s: two rounds)."""
+MAX_SOURCE_ID = 255
+#: A source_id as given on the command line: printable, no spaces and no quotes (liblsl's
+#: queries quote values with ``'``).
+_SOURCE_ID = re.compile(rf"[^\s'\"]{{1,{MAX_SOURCE_ID}}}")
+SOURCE_ID_FORM = ("1 to 255 printable characters without spaces or quotes, such as "
+                  "griploop:myo@lab-pc:4242.1a2b3c4d.1")
+NAME_FORM = "NAME or NAME@HOST (a stream name, optionally with the host it must come from)"
+#: Every outlet this process makes gets a source_id with this tag and its own number.
+_PROCESS_TAG = f"{os.getpid()}.{time.time_ns() // 1_000_000 % 16 ** 8:08x}"
+_outlet_numbers = itertools.count(1)
 
 
 def pylsl_module() -> Any:
@@ -81,32 +125,277 @@ def describe(info: Any) -> str:
             f"{format_name(info.channel_format())})")
 
 
-def resolve(name: str, timeout_s: float, *, what: str = "stream") -> Any:
-    """The first LSL stream named ``name`` that appears within ``timeout_s``.
+def local_host() -> str:
+    """This machine's host name, as liblsl reports it in a stream's ``hostname()``."""
+    return socket.gethostname()
+
+
+def check_source_id(text: str) -> str:
+    """``text`` as a source_id to look for.
 
     Raises
     ------
-    StreamNotFoundError
-        None did; the message lists every stream seen meanwhile.
+    StreamSpecError
+        Empty, too long, or with spaces, quotes or control characters; the message
+        names the expected form.
+    """
+    if not isinstance(text, str) or not _SOURCE_ID.fullmatch(text) or not text.isprintable():
+        raise StreamSpecError(f"expected a source_id of {SOURCE_ID_FORM}, found {text!r}")
+    return text
+
+
+@dataclass(frozen=True)
+class StreamQuery:
+    """Which stream a session takes: a name, and optionally its host and source_id.
+
+    Attributes
+    ----------
+    name : str
+        The stream's name.
+    host : str or None
+        The host it must come from (``hostname()`` of its info).
+    source_id : str or None
+        The ``source_id`` it must have.
+    allow_remote : bool
+        Accept a stream from another host than this one.
+    """
+
+    name: str
+    host: str | None = None
+    source_id: str | None = None
+    allow_remote: bool = False
+
+    @classmethod
+    def parse(cls, text: str, *, source_id: str | None = None,
+              allow_remote: bool = False) -> StreamQuery:
+        """``NAME`` or ``NAME@HOST`` (split at the last ``@``), with an optional source_id.
+
+        Raises
+        ------
+        StreamSpecError
+            An empty name or host, or a malformed source_id; one line naming the form.
+        """
+        text = str(text)
+        name, at, host = text.rpartition("@") if "@" in text else (text, "", "")
+        if not name.strip() or (at and not host.strip()) or host != host.strip():
+            raise StreamSpecError(f"expected {NAME_FORM}, found {text!r}")
+        return cls(name, host or None, None if source_id is None else check_source_id(source_id),
+                   bool(allow_remote))
+
+    def __str__(self) -> str:
+        text = repr(self.name) + (f" on host {self.host!r}" if self.host else "")
+        return text + (f" with source_id {self.source_id!r}" if self.source_id else "")
+
+
+def identity(info: Any) -> dict[str, Any]:
+    """What identifies a stream and what it carries (JSON-ready)."""
+    return {"name": info.name(), "type": info.type(), "host": info.hostname(),
+            "source_id": info.source_id(), "n_channels": info.channel_count(),
+            "fs_hz": info.nominal_srate(), "format": format_name(info.channel_format())}
+
+
+def source_of(info: Any) -> str:
+    """``host 'h', source_id 's'`` for a stream's info."""
+    return f"host {info.hostname()!r}, source_id {info.source_id() or '(none)'!r}"
+
+
+def describe_source(info: Any) -> str:
+    """``host 'h', source_id 's' (EMG, 8 ch, 200 Hz, int8)`` for a stream's info."""
+    rate = info.nominal_srate()
+    rate_text = f"{rate:g} Hz" if rate > 0 else "irregular rate"
+    return (f"{source_of(info)} ({info.type() or 'no type'}, {info.channel_count()} ch, "
+            f"{rate_text}, {format_name(info.channel_format())})")
+
+
+def resolve_named(names: Sequence[str], timeout_s: float, *,
+                  settle_s: float = RESOLVE_SETTLE_S,
+                  optional: Sequence[str] = ()) -> tuple[dict[str, list[Any]], list[Any]]:
+    """Every LSL stream of each name, and every stream seen meanwhile.
+
+    Looks for up to ``timeout_s``; once every name not in ``optional`` has a stream,
+    goes on for ``settle_s`` more, so that several streams of a name already on the
+    network are all found (and an optional one that is there).
+
+    Returns
+    -------
+    matches : dict of str to list of pylsl.StreamInfo
+        The streams of each name (empty when none appeared in time).
+    seen : list of pylsl.StreamInfo
+        Every stream seen.
     """
     lsl = pylsl_module()
-    resolver = lsl.ContinuousResolver(forget_after=max(5.0, 2 * timeout_s))
+    names = list(names)
+    required = [n for n in names if n not in optional] or names
+    resolver = lsl.ContinuousResolver(forget_after=max(5.0, 2 * (timeout_s + settle_s)))
     try:
         deadline = time.monotonic() + max(0.0, timeout_s)
         while True:
             seen = resolver.results()
-            match = [s for s in seen if s.name() == name]
-            if match:
-                return match[0]
-            if time.monotonic() >= deadline:
+            now = time.monotonic()
+            present = {s.name() for s in seen}
+            if all(n in present for n in required) and deadline > now + settle_s:
+                deadline = now + settle_s
+            if now >= deadline:
                 break
             time.sleep(0.05)
     finally:
         del resolver
-    listed = ", ".join(sorted({describe(s) for s in seen})) or "none"
-    raise StreamNotFoundError(
-        f"no LSL {what} named {name!r} within {timeout_s:g} s; streams seen: {listed}"
-    )
+    return {n: [s for s in seen if s.name() == n] for n in names}, seen
+
+
+def choose_stream(matches: Sequence[Any], query: StreamQuery, *, what: str = "stream",
+                  here: str | None = None, seen: Sequence[Any] = ()) -> Any:
+    """The one stream of ``matches`` that ``query`` asks for.
+
+    Parameters
+    ----------
+    matches : sequence of pylsl.StreamInfo
+        The streams named ``query.name``.
+    query : StreamQuery
+    what : str
+        What the stream is, for the messages (``stream``, ``IMU stream``).
+    here : str, optional
+        This machine's host name (default :func:`local_host`).
+    seen : sequence of pylsl.StreamInfo
+        Every stream seen, listed when none matches.
+
+    Raises
+    ------
+    StreamNotFoundError
+        No stream of the name, or none on the host or with the source_id asked for.
+    AmbiguousStreamError
+        Several streams match; the message lists each one's host, source_id,
+        channels, rate and format.
+    RemoteStreamError
+        The match is on another host and remote streams are not allowed.
+    """
+    here = local_host() if here is None else here
+    if not matches:
+        listed = ", ".join(sorted({describe(s) for s in seen})) or "none"
+        raise StreamNotFoundError(f"no LSL {what} named {query.name!r}; streams seen: {listed}")
+    found = list(matches)
+    if query.host is not None:
+        found = [s for s in found if s.hostname() == query.host]
+    if query.source_id is not None:
+        found = [s for s in found if s.source_id() == query.source_id]
+    if not found:
+        listed = "; ".join(describe_source(s) for s in matches)
+        raise StreamNotFoundError(f"no LSL {what} {query}; the streams named {query.name!r} "
+                                  f"are: {listed}")
+    if len(found) > 1:
+        listed = "; ".join(describe_source(s) for s in found)
+        raise AmbiguousStreamError(
+            f"{len(found)} LSL {what}s match {query}: {listed}; expected one: choose it by "
+            "its host or its source_id")
+    info = found[0]
+    if info.hostname() != here and not query.allow_remote:
+        raise RemoteStreamError(
+            f"LSL {what} {query.name!r} ({describe_source(info)}) comes from another host than "
+            f"this one ({here!r}); LSL has no authentication, so a remote stream is taken "
+            "only when remote streams are allowed, on a lab network you trust")
+    return info
+
+
+def resolve_streams(queries: Sequence[StreamQuery], timeout_s: float, *,
+                    whats: Sequence[str] | None = None, optional: Sequence[str] = (),
+                    settle_s: float = RESOLVE_SETTLE_S) -> list[Any]:
+    """The one LSL stream each query asks for, resolved together.
+
+    Parameters
+    ----------
+    queries : sequence of StreamQuery
+    timeout_s, settle_s : float
+        See :func:`resolve_named`, s.
+    whats : sequence of str, optional
+        What each stream is, for the messages (default ``stream``).
+    optional : sequence of str
+        Names that need not exist: ``None`` in their place when none does.
+
+    Raises
+    ------
+    StreamNotFoundError, AmbiguousStreamError, RemoteStreamError
+        As :func:`choose_stream`, for the first query refused.
+    """
+    whats = list(whats) if whats is not None else ["stream"] * len(queries)
+    matches, seen = resolve_named([q.name for q in queries], timeout_s, settle_s=settle_s,
+                                  optional=optional)
+    out = []
+    for query, what in zip(queries, whats, strict=True):
+        found = matches[query.name]
+        if not found and query.name in optional:
+            out.append(None)
+            continue
+        try:
+            out.append(choose_stream(found, query, what=what, seen=seen))
+        except StreamNotFoundError as exc:
+            if found:
+                raise
+            raise StreamNotFoundError(f"{exc} (looked for {timeout_s:g} s)") from None
+    return out
+
+
+def resolve_stream(query: StreamQuery, timeout_s: float, *, what: str = "stream",
+                   settle_s: float = RESOLVE_SETTLE_S) -> Any:
+    """The one LSL stream ``query`` asks for (:func:`resolve_streams` of one query)."""
+    return resolve_streams([query], timeout_s, whats=[what], settle_s=settle_s)[0]
+
+
+def resolve(name: str, timeout_s: float, *, what: str = "stream") -> Any:
+    """The one local LSL stream named ``name`` (:func:`resolve_stream` with the name alone)."""
+    return resolve_stream(StreamQuery(name), timeout_s, what=what)
+
+
+class SourceWatch:
+    """Whether a session's stream has been replaced by another source of its name.
+
+    A continuous resolver follows the streams of the name. The pinned stream is
+    known by its ``source_id`` (a restarted streamer with the same source_id is the
+    same source: liblsl reconnects the inlet to it), or by its ``uid`` when it has
+    no source_id. :meth:`replacement` returns another stream of the name when the
+    pinned one is no longer on the network; a stream that merely stops sending
+    (a wireless dropout) stays on the network and is not replaced.
+
+    Parameters
+    ----------
+    info : pylsl.StreamInfo
+        The pinned stream (its :func:`identity` is kept as :attr:`identity`).
+    forget_after_s : float
+        A stream that has not answered liblsl's queries for this long is gone, s.
+    every_s : float
+        Ask the resolver at most this often, s.
+    """
+
+    def __init__(self, info: Any, *, forget_after_s: float = 1.5, every_s: float = 0.25) -> None:
+        lsl = pylsl_module()
+        self.name, self.source_id, self.uid = info.name(), info.source_id(), info.uid()
+        self.identity = identity(info)
+        self.every_s = float(every_s)
+        self._resolver = lsl.ContinuousResolver(prop="name", value=self.name,
+                                                forget_after=float(forget_after_s))
+        self._next = -math.inf
+
+    def pinned(self, info: Any) -> bool:
+        """Whether ``info`` is the pinned source."""
+        if self.source_id:
+            return info.source_id() == self.source_id
+        return info.uid() == self.uid
+
+    def replacement(self, now: float) -> Any | None:
+        """Another source serving the name while the pinned one is gone, else ``None``.
+
+        ``now`` is a monotonic time, s: the resolver is asked at most every ``every_s``.
+        """
+        if now < self._next or self._resolver is None:
+            return None
+        self._next = now + self.every_s
+        streams = [s for s in self._resolver.results() if s.name() == self.name]
+        if not streams or any(self.pinned(s) for s in streams):
+            return None
+        return streams[0]
+
+    def close(self) -> None:
+        """Stop following the name."""
+        self._resolver = None
 
 
 def find_force_stream(emg_name: str, timeout_s: float) -> Any | None:
@@ -144,10 +433,12 @@ def open_inlet(info: Any, *, buffer_s: float = 30.0, open_timeout_s: float = 5.0
     """An inlet for real-time use, connected before it is returned.
 
     One-sample transmission granularity (``max_chunklen=1``), timestamps mapped
-    to this machine's clock (``proc_clocksync``), recovery when a stream with a
-    source id comes back. With ``prime_clock`` the clock offset is measured before
-    the data connection opens: its first estimate takes about half a second, during
-    which samples would otherwise queue (a real-time session wants that done first).
+    to this machine's clock (``proc_clocksync``), recovery when a stream with the
+    same source_id comes back (liblsl recovers only to the same source_id, and a
+    stream without one not at all: its inlet reports it lost). With ``prime_clock``
+    the clock offset is measured before the data connection opens: its first
+    estimate takes about half a second, during which samples would otherwise queue
+    (a real-time session wants that done first).
     """
     lsl = pylsl_module()
     inlet = lsl.StreamInlet(info, max_buflen=max(1, int(np.ceil(buffer_s))), max_chunklen=1,
@@ -161,7 +452,8 @@ def open_inlet(info: Any, *, buffer_s: float = 30.0, open_timeout_s: float = 5.0
     return inlet
 
 
-def _set_channels(info: Any, labels: Sequence[str], unit: str, kind: str) -> None:
+def set_channels(info: Any, labels: Sequence[str], unit: str, kind: str) -> None:
+    """Describe a stream's channels (label, unit, type) in its info, as LSL's XDF meta-data does."""
     channels = info.desc().append_child("channels")
     for label in labels:
         ch = channels.append_child("channel")
@@ -170,8 +462,15 @@ def _set_channels(info: Any, labels: Sequence[str], unit: str, kind: str) -> Non
         ch.append_child_value("type", kind)
 
 
-def _source_id(name: str) -> str:
-    return f"{OUTLET_PREFIX}:{name}@{socket.gethostname()}"
+def outlet_source_id(name: str) -> str:
+    """A source_id for an outlet named ``name``, unique to the outlet and this process.
+
+    ``griploop:NAME@HOST:PID.TAG.N``: the host, the process id, a tag from the
+    process's start time (a later process with a reused id gets another one) and
+    the outlet's number in the process.
+    """
+    return f"{OUTLET_PREFIX}:{name}@{local_host()}:{_PROCESS_TAG}.{next(_outlet_numbers)}"
+
 
 
 class SessionOutlets:
@@ -194,18 +493,18 @@ class SessionOutlets:
             # the stimulator's intensity (0..1) for a lab's tactor driver
             name = f"{prefix}.feedback"
             info = lsl.StreamInfo(name, "Stimulus", 1, float(control_hz), lsl.cf_float32,
-                                  _source_id(name))
-            _set_channels(info, [feedback], "intensity", "Vibration")
+                                  outlet_source_id(name))
+            set_channels(info, [feedback], "intensity", "Vibration")
             self._feedback = lsl.StreamOutlet(info, chunk_size=1)
             self.names = (*self.names, name)
         outlets = []
         for name, label in zip(self.names[:2], ("reference", "grip"), strict=True):
             info = lsl.StreamInfo(name, FORCE_TYPE, 1, float(control_hz), lsl.cf_float32,
-                                  _source_id(name))
-            _set_channels(info, [label], "N", "Force")
+                                  outlet_source_id(name))
+            set_channels(info, [label], "N", "Force")
             outlets.append(lsl.StreamOutlet(info, chunk_size=1))
         events = lsl.StreamInfo(self.names[2], "Markers", 1, lsl.IRREGULAR_RATE, lsl.cf_string,
-                                _source_id(self.names[2]))
+                                outlet_source_id(self.names[2]))
         outlets.append(lsl.StreamOutlet(events))
         self._reference, self._grip, self._events = outlets
         self._one = [0.0]
@@ -230,109 +529,3 @@ class SessionOutlets:
     def close(self) -> None:
         """Withdraw the outlets."""
         self._reference = self._grip = self._events = self._feedback = None
-
-
-@dataclass(frozen=True)
-class Dropout:
-    """A stretch of a played recording that is not sent (a wireless dropout).
-
-    Attributes
-    ----------
-    at_s : float
-        Stream time at which sending stops, s from the first sample.
-    duration_s : float
-        How long nothing is sent, s; the samples in between are lost.
-    """
-
-    at_s: float
-    duration_s: float
-
-
-def play(recording: Recording, name: str, *, loop: bool = False, speed: float = 1.0,
-         dropouts: Sequence[Dropout] = (), wait_for_consumer: bool = True,
-         lead_s: float = 0.05, log: Callable[[str], None] = print,
-         stop: Callable[[], bool] | None = None) -> int:
-    """Play a recording as an LSL outlet at its own rate (and its force, if it has one).
-
-    The EMG outlet is named ``name`` (type ``EMG``; ``int8`` for MYO counts, else
-    ``float32``; channel labels and unit in its description); the force, if the
-    recording has one, goes to ``name.force`` (type ``Force``, N). Sample ``i`` is
-    stamped ``t0 + i / (speed * fs_hz)`` on the LSL clock and pushed at that time.
-
-    Parameters
-    ----------
-    recording : Recording
-    name : str
-        Stream name.
-    loop : bool
-        Start again at the end, for ever (stamps keep increasing).
-    speed : float
-        Play this many times faster than real time (tests, demos).
-    dropouts : sequence of Dropout
-        Stretches not sent (stream time, s).
-    wait_for_consumer : bool
-        Start playing only once an inlet has connected, so it gets the first sample.
-    lead_s : float
-        Delay between the start and the first sample, s.
-    log : callable
-        Where progress lines go.
-    stop : callable, optional
-        Polled between samples; playing ends when it returns True.
-
-    Returns
-    -------
-    int
-        Samples sent.
-    """
-    lsl = pylsl_module()
-    fs, n = recording.fs_hz, recording.n_samples
-    integer = recording.emg.dtype == np.int8
-    fmt = lsl.cf_int8 if integer else lsl.cf_float32
-    info = lsl.StreamInfo(name, EMG_TYPE, recording.n_channels, fs, fmt, _source_id(name))
-    _set_channels(info, recording.channel_names, recording.emg_unit, EMG_TYPE)
-    outlet = lsl.StreamOutlet(info, chunk_size=1)
-    force_outlet = None
-    if recording.force_n is not None:
-        finfo = lsl.StreamInfo(name + FORCE_SUFFIX, FORCE_TYPE, 1, fs, lsl.cf_float32,
-                               _source_id(name + FORCE_SUFFIX))
-        _set_channels(finfo, ["force"], "N", FORCE_TYPE)
-        force_outlet = lsl.StreamOutlet(finfo, chunk_size=1)
-    log(f"streaming {recording.source} as LSL {describe(info)}"
-        + (f" and its force as {name + FORCE_SUFFIX!r}" if force_outlet else "")
-        + f", {recording.duration_s:.1f} s" + (" looped" if loop else "")
-        + (f" at {speed:g}x" if speed != 1 else ""))
-    if wait_for_consumer:
-        log(f"waiting for a consumer of {name!r} ...")
-        while not outlet.wait_for_consumers(0.25):
-            if stop is not None and stop():
-                return 0
-    rows = recording.emg.tolist()
-    forces = None if recording.force_n is None else recording.force_n.tolist()
-    period = 1.0 / (fs * speed)
-    skip = [(int(np.floor(d.at_s * fs)), int(np.ceil((d.at_s + d.duration_s) * fs)))
-            for d in dropouts]
-    clock, sleep = lsl.local_clock, time.sleep
-    t0 = clock() + lead_s
-    sent = i = 0
-    one = [0.0]
-    while True:
-        for j in range(n):
-            if stop is not None and stop():
-                return sent
-            if any(a <= i < b for a, b in skip):
-                i += 1
-                continue
-            t = t0 + i * period
-            delay = t - clock()
-            if delay > 0:
-                sleep(delay)
-            outlet.push_sample(rows[j], t)
-            if force_outlet is not None:
-                one[0] = forces[j]
-                force_outlet.push_sample(one, t)
-            sent += 1
-            i += 1
-        if not loop:
-            break
-    log(f"sent {sent} samples in {clock() - t0:.2f} s")
-    return sent

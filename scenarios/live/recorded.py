@@ -9,7 +9,8 @@ same pieces:
   on a simulated session: features of the chosen channels, the first 50 % of the
   windows identify, the rest scores, ``mvc_cal_n`` is the largest measured force;
 - :func:`grasp_session` records a virtual subject grasping an object, aiming at the
-  force an episode's user aims at through that calibration's force mapping;
+  force an episode's user aims at through that calibration's force mapping, and
+  lifting it with their own arm (the forearm's pitch, as an armband's IMU reads it);
 - :func:`episode_on_recording` is the offline episode driven by a given recording
   instead of a freshly simulated one: :func:`estimation.features.extract_features`,
   :func:`scenarios.runners.reference.stream_estimates`, the held reference, and the
@@ -17,15 +18,16 @@ same pieces:
 - :func:`grasp_metrics` scores a run (offline or live) the way an episode is scored.
 
 The time base is the episode's: control step ``k`` at ``t = k * control_dt_s`` uses
-the latest feature window that ended at or before ``t``; the wrist lifts at
-``episode_s - hold_s - 0.6 s`` once the grip is established.
+the latest feature window that ended at or before ``t``; the offline episode's wrist
+lifts at ``episode_s - hold_s - 0.6 s`` once the grip is established, which is when
+a virtual subject's recorded arm lifts.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -34,11 +36,17 @@ from controllers.design_cache import grasp_design
 from estimation.features import PAPER_CHANNELS, align_to_windows, extract_features
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
+from scenarios.live.arm import FOREARM_M, LIFT_HEIGHT_M, forearm_pitch_rad
 from scenarios.live.errors import SessionError
 from scenarios.outcomes import outcome_of
 from scenarios.runners.calibration import Calibration, fit_on_features
 from scenarios.runners.dispatch import DivergedError
-from scenarios.runners.episode import HAND_FORCE_AT_MVC_N, _closed_loop, _lift_time_s
+from scenarios.runners.episode import (
+    HAND_FORCE_AT_MVC_N,
+    LIFT_DURATION_S,
+    _closed_loop,
+    _lift_time_s,
+)
 from scenarios.runners.episode_metrics import (
     CONTACT_N,
     contact_peak_ratio,
@@ -54,11 +62,14 @@ from scenarios.runners.reference import (
 )
 from scenarios.schema import ORACLE
 from sim.hand.objects import ObjectSpec
+from sim.hand.wrist import min_jerk
 from sim.recording import Recording, RecordingError
 from sim.user.intent import grasp_lift_hold
 from sim.user.subjects import VirtualSubject
 
 FS_HZ = 200.0
+IMU_NOISE_RAD = float(np.radians(0.2))
+"""SD of the noise on a virtual subject's recorded forearm pitch, rad."""
 
 
 @dataclass
@@ -169,13 +180,18 @@ def grasp_session(subject: VirtualSubject, obj: ObjectSpec, *, mvc_cal_n: float,
                   duration_s: float = 8.0, rng: np.random.Generator | int | None = 0,
                   generator: str = "noise", safety_factor: float = 1.5,
                   hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N,
-                  tail_s: float = 1.0, fs_hz: float = FS_HZ) -> Recording:
-    """A virtual subject's sEMG while they grasp ``obj``, as an episode's user does.
+                  tail_s: float = 1.0, fs_hz: float = FS_HZ, hold_s: float = 2.0,
+                  forearm_m: float = FOREARM_M) -> Recording:
+    """A virtual subject's sEMG and forearm pitch while they grasp ``obj`` and lift it.
 
     The user aims at :func:`scenarios.runners.reference.intended_grip_n` on the hand,
     which they reach through the calibration's mapping (``mvc_cal_n``, the largest
     force of the calibration recording): rest 1 s, a 0.5 s ramp, then a hold lasting
-    beyond the session (timings jittered by 10 %).
+    beyond the session (timings jittered by 10 %). Their arm lifts the wrist as the
+    episode's scripted wrist does, at ``duration_s - hold_s - 0.6 s`` by 8 cm along a
+    0.6 s minimum-jerk path, and stays up; the forearm pivots at the elbow, so its
+    pitch is ``asin(height / forearm_m)`` (:func:`scenarios.live.arm.forearm_pitch_rad`),
+    with :data:`IMU_NOISE_RAD` of noise drawn after the sEMG from the same generator.
 
     Parameters
     ----------
@@ -195,12 +211,17 @@ def grasp_session(subject: VirtualSubject, obj: ObjectSpec, *, mvc_cal_n: float,
         Recorded beyond ``duration_s``, s.
     fs_hz : float
         Sampling rate, Hz.
+    hold_s : float
+        The in-air hold the arm leaves at the end of ``duration_s``, s.
+    forearm_m : float
+        Elbow-to-wrist length, m.
 
     Returns
     -------
     Recording
-        int8 sEMG at ``fs_hz`` with FSR force and ground truth; metadata ``protocol``
-        ``grasp_lift_hold``, the object and the target.
+        int8 sEMG at ``fs_hz`` with FSR force, ground truth and the forearm's pitch
+        (``pitch_rad``); metadata ``protocol`` ``grasp_lift_hold``, the object, the
+        target and ``arm_lift_s`` (when the arm starts the lift, s).
     """
     g = np.random.default_rng(rng) if not isinstance(rng, np.random.Generator) else rng
     target_n = intended_grip_n(obj, safety_factor)
@@ -211,10 +232,17 @@ def grasp_session(subject: VirtualSubject, obj: ObjectSpec, *, mvc_cal_n: float,
     recording = subject.record(profile, generator=generator, fs_hz=fs_hz, rng=g)
     recording = recording.slice(0, min(recording.n_samples,
                                        int(round((duration_s + tail_s) * fs_hz))))
+    lift_s = _lift_time_s(duration_s, hold_s)
+    height = LIFT_HEIGHT_M * np.array([min_jerk((t - lift_s) / LIFT_DURATION_S)
+                                       for t in recording.t_s])
+    pitch = forearm_pitch_rad(height, forearm_m=forearm_m) + g.normal(0.0, IMU_NOISE_RAD,
+                                                                      recording.n_samples)
+    recording = replace(recording, pitch_rad=pitch)  # checked as any recording's series
     recording.metadata.update({"protocol": "grasp_lift_hold", "object": obj.name,
                                "object_mass_kg": obj.mass_kg, "object_friction": obj.friction,
                                "target_grip_n": target_n, "mvc_cal_n": mvc_cal_n,
-                               "hand_force_at_mvc_n": hand_force_at_mvc_n})
+                               "hand_force_at_mvc_n": hand_force_at_mvc_n,
+                               "arm_lift_s": lift_s, "forearm_m": forearm_m})
     return recording
 
 
@@ -318,7 +346,8 @@ def episode_on_recording(recording: Recording, cal: RecordedCalibration, obj: Ob
 
 def grasp_metrics(traces: Mapping[str, np.ndarray], info: Mapping[str, Any], *,
                   lift_after_s: float, hold_from_s: float, window_values_n: np.ndarray,
-                  window_dt_s: float, oracle_n: np.ndarray | None = None) -> dict[str, Any]:
+                  window_dt_s: float, oracle_n: np.ndarray | None = None,
+                  hold: np.ndarray | None = None, referee: Any = None) -> dict[str, Any]:
     """An episode's metrics of a run, offline or live.
 
     Parameters
@@ -329,7 +358,8 @@ def grasp_metrics(traces: Mapping[str, np.ndarray], info: Mapping[str, Any], *,
     info : mapping
         The environment's last ``info`` (drop, crush and slip counters).
     lift_after_s, hold_from_s : float
-        Earliest lift and start of the in-air hold, s.
+        Earliest lift (the scripted schedule's; the wrist's first rise in a session the
+        person paced) and start of the in-air hold, s.
     window_values_n : ndarray
         The hand reference at each feature window, N (for the volatility).
     window_dt_s : float
@@ -337,6 +367,12 @@ def grasp_metrics(traces: Mapping[str, np.ndarray], info: Mapping[str, Any], *,
     oracle_n : ndarray, optional
         The user's true force mapped to the hand; without it (a person) the
         estimation error is ``None``.
+    hold : ndarray of bool, shape (n_steps,), optional
+        The in-air hold's steps when the person paced the lift
+        (:func:`scenarios.runners.trial_outcome.hold_window`); overrides ``hold_from_s``.
+    referee : scenarios.runners.trial_outcome.TrialReferee, optional
+        The trial's judge when the person paced the lift: the outcome is its (a secure
+        lift, a fall after one, a break) rather than the scripted schedule's.
 
     Returns
     -------
@@ -357,17 +393,23 @@ def grasp_metrics(traces: Mapping[str, np.ndarray], info: Mapping[str, Any], *,
     start_s = float(t[rising[0]]) if rising.size else float(t[0])
     oracle = np.full(t.size, np.nan) if oracle_n is None else oracle_n
     base = episode_metrics(t, ref, grip, oracle, start_s=start_s, lift_s=lift_after_s,
-                           hold_from_s=hold_from_s, window_values_n=np.asarray(window_values_n),
+                           hold_from_s=hold_from_s, hold=hold,
+                           window_values_n=np.asarray(window_values_n),
                            window_dt_s=window_dt_s)
     ratio, _ = contact_peak_ratio(t, traces["tracked_reference_n"], grip, traces["both_sides"])
-    lifted = was_lifted(traces["object_height_m"])
-    dropped, crushed = bool(info.get("dropped", False)), bool(info.get("crushed", False))
-    hold = t >= hold_from_s
+    if referee is not None:
+        lifted, crushed = referee.secure_lift_s is not None, referee.crushed
+        dropped, outcome = referee.fell_s is not None, referee.outcome
+    else:
+        lifted = was_lifted(traces["object_height_m"])
+        dropped, crushed = bool(info.get("dropped", False)), bool(info.get("crushed", False))
+        outcome = outcome_of(lifted=lifted, dropped=dropped, crushed=crushed)
+    held = t >= hold_from_s if hold is None else hold
     out: dict[str, Any] = {
-        "outcome": outcome_of(lifted=lifted, dropped=dropped, crushed=crushed),
+        "outcome": outcome,
         "lifted": lifted, "dropped": dropped, "crushed": crushed,
         "peak_force_n": float(np.max(grip)),
-        "hold_grip_n": float(np.median(grip[hold])) if hold.any() else None,
+        "hold_grip_n": float(np.median(grip[held])) if held.any() else None,
         "contact_peak_ratio": ratio,
         "slip_events": int(info.get("slip_events", 0)),
         "slip_distance_m": float(info.get("slip_distance_m", 0.0)),

@@ -35,7 +35,7 @@ class SampleGuard:
         self.out_of_range = 0
 
     def clean(self, samples: Any) -> np.ndarray:
-        """Samples as an array (n_samples, n_channels) of :attr:`dtype`, bad values fixed."""
+        """Samples as an array (n_samples, n_channels) of ``dtype``, bad values fixed."""
         arr = np.asarray(samples)
         if arr.dtype.kind in "iu" and self.integer:
             if arr.dtype.itemsize == 1 and arr.dtype.kind == "i":

@@ -5,11 +5,17 @@ samples with their time stamps and arrival times (:meth:`LiveGrasp.feed`) and th
 wall clock (:meth:`LiveGrasp.tick`), and runs the same building blocks as an offline
 episode (:func:`scenarios.live.recorded.episode_on_recording`): the estimator's
 stream fitted on the calibration recording, the cached controller design, the
-:class:`~sim.hand.grasp_env.GraspEnv` with the episode's wrist schedule driven by
-:class:`~controllers.drive.HandLoop`, and the episode's metrics. Only the windowing
-is incremental (:class:`~scenarios.live.windowing.IncrementalFeatures`, equal to the
-offline features), so a stream that delivers every sample gives the offline episode's
-grasp. :func:`run_session` feeds it from an LSL inlet.
+:class:`~sim.hand.grasp_env.GraspEnv` driven by :class:`~controllers.drive.HandLoop`,
+and the episode's metrics. Only the windowing is incremental
+(:class:`~scenarios.live.windowing.IncrementalFeatures`, equal to the offline
+features), so a stream that delivers every sample gives the offline episode's grasp
+when the wrist moves as the offline episode's does. The wrist is the person's
+(``GraspEnv(wrist="commanded")``): an :class:`~scenarios.live.arm.Arm` moves it before
+each control step, from the forearm's pitch on the armband's IMU stream
+(:class:`~scenarios.live.arm.PitchArm`, fed by :meth:`LiveGrasp.feed_imu`) or from a
+key (:class:`~scenarios.live.arm.KeyArm`); the outcome is judged as a user-paced
+trial's (:class:`~scenarios.runners.trial_outcome.TrialReferee`).
+:func:`scenarios.live.inlets.run_session` feeds it from LSL inlets.
 
 Time base. Sample ``n`` of the stream is at session time ``n / fs_hz``, where ``n``
 counts from the first sample and includes lost samples (a jump between consecutive
@@ -34,7 +40,13 @@ Safe when the stream is not:
   ``gap_start``/``gap_end`` events). When samples return, the windows restart on
   the fresh samples (no window spans the gap) and control resumes with the first
   window's estimate, 400 ms later; the estimator keeps its state;
-- no sample for ``timeout_s`` ends the session (``ended: "timeout"``).
+- no sample for ``timeout_s`` ends the session (``ended: "timeout"``);
+- the stream's source gone from the network while another source serves its name
+  (:class:`~scenarios.live.lsl.SourceWatch`, asked during a gap) ends the session
+  (``ended: "source_changed"``, event ``source_changed``) with the hand holding its
+  grip: samples from another source are never used;
+- a stall of the IMU stream holds the wrist still (:mod:`scenarios.live.arm`); the
+  hand keeps following the sEMG.
 
 Bad samples (non-numeric or NaN, out of range) are counted and replaced by 0 or
 clipped by :class:`~scenarios.live.samples.SampleGuard`; they never stop a session.
@@ -53,16 +65,14 @@ import numpy as np
 
 from controllers.design_cache import grasp_design
 from controllers.drive import HandLoop
-from estimation.threads import one_blas_thread
+from scenarios.live.arm import LIFT_HEIGHT_M, Arm
 from scenarios.live.recorded import RecordedCalibration, grasp_metrics
 from scenarios.live.samples import SampleGuard
+from scenarios.live.timing import percentile, warnings_for
 from scenarios.live.windowing import IncrementalFeatures
-from scenarios.runners.episode import (
-    HAND_FORCE_AT_MVC_N,
-    LIFT_DURATION_S,
-    _lift_time_s,
-)
-from sim.hand.grasp_env import GraspEnv, WristSchedule
+from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
+from scenarios.runners.trial_outcome import TrialReferee, hold_window
+from sim.hand.grasp_env import GraspEnv
 from sim.hand.objects import ObjectSpec
 from sim.recording import Recording
 from sim.user.feedback import FeedbackDevice
@@ -75,6 +85,8 @@ TIMEOUT_S = 5.0
 """Default: no sample for this long ends the session, s."""
 STALE_S = 0.5
 """Before the first sample is accepted, samples older than this are skipped, s."""
+LOWERED_M = 0.01
+"""The in-air hold ends when the person's wrist comes down this far from its highest, m."""
 
 
 @dataclass(frozen=True)
@@ -85,8 +97,6 @@ class SessionSettings:
     ----------
     duration_s : float
         Session length in stream time, s (the episode length).
-    hold_s : float
-        In-air hold at the end, s; the wrist lifts at ``duration_s - hold_s - 0.6``.
     control_dt_s : float
         Control period, s.
     hand_force_at_mvc_n : float
@@ -101,7 +111,6 @@ class SessionSettings:
     """
 
     duration_s: float = 8.0
-    hold_s: float = 2.0
     control_dt_s: float = 0.01
     hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N
     gap_hold_s: float = GAP_HOLD_S
@@ -120,6 +129,8 @@ class LiveGrasp:
         The fitted estimator and the layout of the samples.
     obj : ObjectSpec
         The object.
+    arm : Arm
+        What moves the wrist: the person's forearm (IMU) or their key.
     controller : str
         Controller family.
     controller_spec : mapping, optional
@@ -129,7 +140,12 @@ class LiveGrasp:
         ``publish(t_s, reference_n, grip_n, feedback)`` after every control step (the
         outlets; ``feedback`` is the stimulator's intensity 0..1).
     event : callable, optional
-        ``event(t_s, marker)`` for lift, slip, drop, crush, gap_start, gap_end.
+        ``event(t_s, marker)`` for lift, slip, drop, crush, gap_start, gap_end,
+        source_changed, imu_gap_start, imu_gap_end ... (every marker is also kept in
+        :attr:`events`).
+    notify : callable, optional
+        ``notify(line)``: one line for the person at the terminal when a fault begins
+        or ends (a gap, a stall, a changed source).
     clock : callable
         Wall clock in seconds (``time.perf_counter``); arrival times use the same.
     viewer : object, optional
@@ -140,23 +156,26 @@ class LiveGrasp:
     ----------
     finished : bool
         The session has ended; ``ended`` says why (``duration``, ``dropped``,
-        ``crushed``, ``timeout``, ``diverged``, ``interrupted``).
+        ``crushed``, ``timeout``, ``diverged``, ``interrupted``, ``source_changed``).
+    events : list of (float, str)
+        Every marker emitted, with its session time, s.
     """
 
-    def __init__(self, cal: RecordedCalibration, obj: ObjectSpec, *, controller: str,
+    def __init__(self, cal: RecordedCalibration, obj: ObjectSpec, *, arm: Arm, controller: str,
                  controller_spec: Mapping[str, Any] | None = None,
                  settings: SessionSettings = SessionSettings(),
                  publish: Callable[[float, float, float, float], None] | None = None,
                  event: Callable[[float, str], None] | None = None,
+                 notify: Callable[[str], None] | None = None,
                  clock: Callable[[], float] = time.perf_counter,
                  viewer: Any = None, feedback: str = "none") -> None:
         s = settings
         self.settings, self.cal, self.obj, self.controller = s, cal, obj, controller
-        self.lift_after_s = _lift_time_s(s.duration_s, s.hold_s)
+        self.arm = arm
         self.design = grasp_design(obj, controller, s.control_dt_s, controller_spec)
-        schedule = WristSchedule(lift_after_s=self.lift_after_s, lift_duration_s=LIFT_DURATION_S)
         self.env = GraspEnv(obj, 0.0, control_dt_s=s.control_dt_s, episode_s=s.duration_s,
-                            schedule=schedule)
+                            wrist="commanded")
+        self.referee = TrialReferee(LIFT_HEIGHT_M)
         self.loop = HandLoop(self.env, self.design.controller)
         self.stream = cal.calibration.pipeline.streaming(cal.calibration.mode)
         self.windows = IncrementalFeatures(cal.fs_hz, cal.channel_index, integer=cal.integer)
@@ -175,13 +194,14 @@ class LiveGrasp:
                        "grip_force_n": np.zeros(n), "command": np.zeros(n),
                        "object_height_m": np.zeros(n), "slip_speed_m_s": np.zeros(n),
                        "both_sides": np.zeros(n, dtype=bool), "tracked_reference_n": np.zeros(n),
-                       "feedback": np.zeros(n)}
+                       "feedback": np.zeros(n), "wrist_height_m": np.zeros(n)}
         self._latency = np.zeros(n)
         self._n_latency = 0
         capacity = int(np.ceil((s.duration_s + s.timeout_s + 2.0) * self.fs_hz))
         self._transport = np.zeros(capacity)
         self._n_transport = 0
         self._samples = np.zeros((capacity, cal.n_channels), dtype=self.guard.dtype)
+        self._pitch = np.full(capacity, np.nan)  # the arm's latest pitch at each sample
         self.window_values: list[float] = []
         self.gaps: list[dict[str, float]] = []
         self.frames: list[tuple[np.ndarray, bool]] = []
@@ -191,6 +211,9 @@ class LiveGrasp:
         self.finished, self.ended = False, ""
         self.failure: str | None = None
         self.stale_skipped = 0
+        self.events: list[tuple[float, str]] = []
+        self.source_changes: list[dict[str, Any]] = []
+        self._notify = notify
         self.k = 0
         self.received = 0
         self.lost = 0
@@ -201,6 +224,7 @@ class LiveGrasp:
         self.reference_n = self.hold_n = 0.0
         self.ts0 = self.ts_last = self.last_arrival = math.nan
         self.started_wall = clock()
+        arm.bind(self._emit, self._say)
 
     # ------------------------------------------------------------------ lifecycle
     def start(self) -> None:
@@ -209,6 +233,9 @@ class LiveGrasp:
         self.info = self.loop.reset(seed=int(np.random.SeedSequence(s.seed).generate_state(1)[0]))
         self.stream.reset()
         self.windows.reset()
+        self.arm.reset()
+        self.referee = TrialReferee(LIFT_HEIGHT_M)
+        self.events = []
         self.reference_n = 0.0
         self.holding = False
         self.hold_n = 0.0
@@ -230,6 +257,9 @@ class LiveGrasp:
             self.wall_s = now - self.started_wall
             if self.in_gap and math.isnan(self.gaps[-1]["duration_s"]):
                 self.gaps[-1]["duration_s"] = float(now - self.last_arrival)
+            close = getattr(self.arm, "close", None)
+            if close is not None:
+                close(now)
             self._emit("session_end")
 
     # ------------------------------------------------------------------ input
@@ -271,6 +301,7 @@ class LiveGrasp:
             self.last_arrival = arrival
             if self.received < self._samples.shape[0]:
                 self._samples[self.received] = x[i]
+                self._pitch[self.received] = getattr(self.arm, "latest_pitch_rad", math.nan)
                 if lsl_now is not None:
                     self._transport[self._n_transport] = lsl_now - ts
                     self._n_transport += 1
@@ -292,11 +323,47 @@ class LiveGrasp:
             if self.finished:
                 return
 
+    def feed_imu(self, samples: np.ndarray, stamps: np.ndarray, arrival: float) -> None:
+        """Take orientation samples for the arm (:meth:`scenarios.live.arm.PitchArm.feed`)."""
+        if not self.finished:
+            self.arm.feed(samples, stamps, arrival, self.ts0 if self.n >= 0 else None)
+
+    def source_changed(self, stream: str, pinned: Mapping[str, Any],
+                       found: Mapping[str, Any]) -> None:
+        """Another source took over the name of a stream the session pinned: hold and end.
+
+        Parameters
+        ----------
+        stream : str
+            Which stream (``emg`` or ``imu``).
+        pinned, found : mapping
+            :func:`scenarios.live.lsl.identity` of the pinned stream and of the one
+            now serving its name.
+        """
+        if self.finished:
+            return
+        if not self.holding:
+            self.hold_n = min(self.reference_n, float(self.info.get("grip_force_n", 0.0)))
+            self.holding = True
+        t = max(self.k - 1, 0) * self.settings.control_dt_s
+        self.source_changes.append({"t_s": round(t, 4), "stream": stream,
+                                    "pinned": dict(pinned), "found": dict(found)})
+        self._emit("source_changed")
+        label = {"emg": "sEMG", "imu": "IMU"}.get(stream, stream)
+        self._say(f"source_changed at {t:.2f} s: the {label} stream {found.get('name')!r} now "
+                  f"comes from source_id {found.get('source_id')!r} on host "
+                  f"{found.get('host')!r}, not the session's source_id "
+                  f"{pinned.get('source_id')!r}: session ended, the hand holds its grip "
+                  f"({self.hold_n:.1f} N)")
+        self.finish("source_changed")
+
     def tick(self, now: float) -> None:
         """Let the wall clock act: overdue steps, gap detection, timeout."""
         if self.finished:
             return
         s = self.settings
+        if self.n >= 0:
+            self.arm.tick(now, max(self.k - 1, 0) * s.control_dt_s)
         if self.n < 0:
             if now - self.started_wall >= s.timeout_s:
                 self.finish("timeout")
@@ -339,6 +406,8 @@ class LiveGrasp:
         self.holding = True
         self.gaps.append({"t_s": float((n_last + 1) / self.fs_hz), "duration_s": math.nan})
         self._emit("gap_start")
+        self._say(f"no sEMG since {self.gaps[-1]['t_s']:.2f} s: the hand holds its grip "
+                  f"({self.hold_n:.1f} N) until samples come back")
 
     def _close_gap(self, n_last: int, lost: int, silent_s: float) -> None:
         """Samples came back after a gap (or jumped over one): log it, restart the windows.
@@ -351,16 +420,26 @@ class LiveGrasp:
         self.in_gap = False
         self.windows.reset()
         self._emit("gap_end")
+        self._say(f"sEMG back after {self.gaps[-1]['duration_s']:.2f} s: control resumes with "
+                  "the first full window")
 
     def _emit(self, marker: str) -> None:
+        t = max(self.k - 1, 0) * self.settings.control_dt_s
+        self.events.append((t, marker))
         if self._event is not None:
-            t = max(self.k - 1, 0) * self.settings.control_dt_s
             self._event(t, marker)
+
+    def _say(self, line: str) -> None:
+        if self._notify is not None:
+            self._notify(line)
 
     def _step(self, arrival: float | None, release: float | None) -> None:
         """Control step ``k``: released by a sample's ``arrival`` or by the wall clock."""
         k, s, tr = self.k, self.settings, self.traces
         ref = self.hold_n if self.holding else self.reference_n
+        move = self.arm.command(k * s.control_dt_s, self.env.commanded.height_m(self.env.data.time))
+        if move is not None:
+            self.env.move_wrist(*move)
         self.env.set_reference(ref)
         _, command, done = self.loop.step(ref)
         end = self._clock()
@@ -374,6 +453,8 @@ class LiveGrasp:
         tr["slip_speed_m_s"][k] = info["slip_speed_m_s"]
         tr["both_sides"][k] = info["thumb_contact"] and info["finger_contact"]
         tr["tracked_reference_n"][k] = max(ref, self.design.core.last_reference_n)
+        tr["wrist_height_m"][k] = info["wrist_height_m"]
+        self.referee.update(k * s.control_dt_s, info)
         if arrival is not None:
             late = end - arrival
             self._latency[self._n_latency] = late
@@ -406,8 +487,6 @@ class LiveGrasp:
             gc.collect(0)
 
     def _events(self, info: Mapping[str, Any]) -> None:
-        if self._event is None:
-            return
         if info["lifted"] and not self._lifted:
             self._lifted = True
             self._emit("lift")
@@ -428,10 +507,18 @@ class LiveGrasp:
         emg = self._samples[:max(n, 1)]
         cal = self.cal.recording
         emg = emg.astype(np.int8) if self.cal.integer else emg
+        pitch = self._pitch[:emg.shape[0]].copy()
+        known = np.flatnonzero(np.isfinite(pitch))
+        if known.size:  # before the first orientation sample: the first one
+            pitch[:known[0]] = pitch[known[0]]
+            pitch = np.where(np.isfinite(pitch), pitch, 0.0)
         meta = {"source": "lsl", "lost_samples": self.lost, "gaps": self.gaps,
+                "events": [[round(t, 4), m] for t, m in self.events],
+                "source_changes": self.source_changes, "arm": self.arm.summary(),
                 **(metadata or {})}
         return Recording(emg=emg, fs_hz=self.fs_hz, channel_names=list(cal.channel_names),
-                         emg_unit=cal.emg_unit, metadata=meta, source=source)
+                         emg_unit=cal.emg_unit, pitch_rad=pitch if known.size else None,
+                         metadata=meta, source=source)
 
     def report(self) -> dict[str, Any]:
         """The session's figures: the ``live --json`` contract (docs/FORMAT.md)."""
@@ -447,14 +534,19 @@ class LiveGrasp:
         simulated = k * s.control_dt_s
         physics = self.loop.physics_s
         processing = self.loop.physics_s + self.loop.controller_s
-        metrics = grasp_metrics(traces, info, lift_after_s=self.lift_after_s,
-                                hold_from_s=s.duration_s - s.hold_s,
+        t, referee = traces["t_s"], self.referee
+        rising = np.flatnonzero(traces["wrist_height_m"] > 0.0)
+        lift_s = float(t[rising[0]]) if rising.size else simulated
+        hold = hold_window(t, traces["wrist_height_m"], referee.secure_lift_s, referee.fell_s,
+                           down_m=LOWERED_M)
+        metrics = grasp_metrics(traces, info, lift_after_s=lift_s, hold_from_s=simulated,
+                                hold=hold, referee=referee,
                                 window_values_n=np.asarray(self.window_values),
                                 window_dt_s=self.windows.step / self.fs_hz)
         out: dict[str, Any] = {
             "samples": {"received": int(self.received), "expected": int(expected),
                         "lost": int(max(expected - self.received, 0))},
-            "latency_ms": {"p50": _pct(lat_ms, 50), "p99": _pct(lat_ms, 99)},
+            "latency_ms": {"p50": percentile(lat_ms, 50), "p99": percentile(lat_ms, 99)},
             "deadline_misses": int(self.deadline_misses),
             "control_steps": int(k),
             "gaps": [{"t_s": round(g["t_s"], 4), "duration_s": round(g["duration_s"], 4)}
@@ -463,7 +555,8 @@ class LiveGrasp:
             "bad_samples": {"non_numeric": self.guard.non_numeric,
                             "out_of_range": self.guard.out_of_range},
             "stale_skipped": self.stale_skipped,
-            "transport_ms": {"p50": _pct(transport_ms, 50), "p99": _pct(transport_ms, 99)},
+            "transport_ms": {"p50": percentile(transport_ms, 50),
+                             "p99": percentile(transport_ms, 99)},
             "latency_max_ms": float(lat_ms.max()) if lat_ms.size else None,
             "realtime_factor": {
                 "physics": simulated / physics if physics > 0 else None,
@@ -474,113 +567,13 @@ class LiveGrasp:
             "ended": self.ended,
             "traces": {key: traces[key].tolist() for key in
                        ("t_s", "reference_n", "grip_force_n", "object_height_m",
-                        "slip_speed_m_s", "feedback")},
+                        "slip_speed_m_s", "feedback", "wrist_height_m")},
             "feedback": self.feedback.mode,
+            "arm": {**self.arm.summary(),
+                    "lift_start_s": float(t[rising[0]]) if rising.size else None,
+                    "secure_lift_s": referee.secure_lift_s},
+            "events": [{"t_s": round(t_e, 4), "marker": m} for t_e, m in self.events],
+            "source_changes": list(self.source_changes),
         }
         out["warnings"] = warnings_for(out)
         return out
-
-
-def _pct(values: np.ndarray, q: float) -> float | None:
-    return float(np.percentile(values, q)) if values.size else None
-
-
-def warnings_for(report: Mapping[str, Any]) -> list[str]:
-    """What a session's report says about the machine or the stream keeping up."""
-    out = []
-    steps = report["control_steps"]
-    dt_ms = 1e3 * report["control_dt_s"]
-    if steps and report["deadline_misses"] > 0.01 * steps:
-        out.append(f"the machine cannot keep up: {report['deadline_misses']} of {steps} control "
-                   f"steps ({100 * report['deadline_misses'] / steps:.1f} %) took longer than "
-                   f"the {dt_ms:g} ms control period")
-    p99 = report["latency_ms"]["p99"]
-    if p99 is not None and p99 > 0.5 * dt_ms:
-        out.append(f"latency p99 {p99:.1f} ms is over half the {dt_ms:g} ms control period")
-    rtf = report["realtime_factor"]["physics"]
-    if rtf is not None and rtf < 2.0:
-        out.append(f"the physics runs at only {rtf:.1f}x real time: little headroom")
-    samples = report["samples"]
-    if samples["expected"] and samples["lost"] > 0.01 * samples["expected"]:
-        out.append(f"{samples['lost']} of {samples['expected']} samples "
-                   f"({100 * samples['lost'] / samples['expected']:.1f} %) were lost: "
-                   "check the stream's link")
-    bad = report["bad_samples"]
-    if bad["non_numeric"] or bad["out_of_range"]:
-        out.append(f"{bad['non_numeric']} non-numeric and {bad['out_of_range']} out-of-range "
-                   "samples were replaced by 0 or clipped")
-    return out
-
-
-def run_session(grasp: LiveGrasp, connect: Callable[[], Any], *,
-                stop: Callable[[], bool] | None = None, max_chunk: int = 64) -> Any:
-    """Feed ``grasp`` from an LSL inlet until the session ends.
-
-    The hand is reset and the garbage collected before the inlet connects, so that
-    the first samples (a player such as ``griploop stream`` starts when a consumer
-    connects) do not queue behind the preparations. Automatic garbage collection
-    is off during the session (young objects are collected every 5 s of session
-    time between two control steps), and BLAS runs one thread.
-
-    Parameters
-    ----------
-    grasp : LiveGrasp
-        Started here.
-    connect : callable
-        Returns the open inlet (:func:`scenarios.live.lsl.open_inlet`), time stamps
-        on this machine's clock.
-    stop : callable, optional
-        Polled every loop; the session ends (``interrupted``) when it returns True.
-
-    Returns
-    -------
-    pylsl.StreamInlet
-        The inlet, its stream closed.
-    """
-    from pylsl.util import LostError as lost_error
-
-    from scenarios.live.lsl import pylsl_module
-
-    lsl = pylsl_module()
-    clock = grasp._clock
-    local_clock = lsl.local_clock
-    was_enabled = gc.isenabled()
-    inlet = None
-    try:
-        with one_blas_thread():
-            grasp.start()
-            gc.collect()
-            gc.disable()
-            inlet = connect()
-            numeric = inlet.channel_format != lsl.cf_string
-            buf = (np.zeros((max_chunk, inlet.channel_count), dtype=inlet.np_dtype) if numeric
-                   else None)
-            grasp.started_wall = clock()
-            while not grasp.finished:
-                if stop is not None and stop():
-                    grasp.finish("interrupted")
-                    break
-                wait = grasp.wait_s(clock())
-                try:
-                    if numeric:
-                        samples, stamps = inlet.pull_chunk(timeout=wait, max_samples=max_chunk,
-                                                           dest_obj=buf, min_samples=1,
-                                                           as_numpy=True)
-                    else:
-                        samples, stamps = inlet.pull_chunk(timeout=wait, max_samples=max_chunk,
-                                                           min_samples=1)
-                except lost_error:
-                    samples, stamps = None, []
-                arrival = clock()
-                if len(stamps):
-                    grasp.feed(samples, np.asarray(stamps), arrival, local_clock())
-                grasp.tick(clock())
-    except KeyboardInterrupt:
-        grasp.finish("interrupted")
-        raise
-    finally:
-        if inlet is not None:
-            inlet.close_stream()
-        if was_enabled:
-            gc.enable()
-    return inlet

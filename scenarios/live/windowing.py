@@ -3,7 +3,7 @@
 :func:`estimation.features.emg_features` computes every window of a recording from
 prefix sums; a live session receives one sample at a time and needs each window's
 features the moment its last sample arrives. :class:`IncrementalFeatures` keeps the
-same prefix sums (|x|, x^2 and |x(k) - x(k-1)|, per channel) in a ring of
+same prefix sums (``|x|``, ``x^2`` and ``|x(k) - x(k-1)|``, per channel) in a ring of
 ``window + 1`` entries and issues a feature row whenever a window completes, so that
 on the same samples it gives the same rows (integer counts bit for bit, float samples to
 the last bits):
@@ -16,7 +16,7 @@ the last bits):
 
 Window ``j`` covers samples ``[j*step, j*step + win)`` counted from the last
 :meth:`IncrementalFeatures.reset` (paper: 400 ms every 125 ms, 80/25 samples at
-200 Hz). :meth:`push` allocates nothing once constructed.
+200 Hz). :meth:`IncrementalFeatures.push` allocates nothing once constructed.
 """
 
 from __future__ import annotations
@@ -99,7 +99,7 @@ class IncrementalFeatures:
         ----------
         sample : ndarray, shape (n_channels_in,)
             One sample of every incoming channel: int64 counts when ``integer``,
-            else float64 (:attr:`dtype`).
+            else float64 (``dtype``).
 
         Returns
         -------

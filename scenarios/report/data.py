@@ -2,7 +2,8 @@
 
 Everything here is plain data (no figures, no HTML), so each aggregation can be
 tested against an independent re-computation. Input enters at
-:func:`read_reproduction_json`, :func:`split_rows` and :func:`check_traces`,
+:func:`~scenarios.report.reproduction_data.read_reproduction_json`, :func:`split_rows` and
+:func:`check_traces`,
 which raise :class:`ReportInputError` with one line saying what was expected
 and what was found.
 """
@@ -32,6 +33,7 @@ EPISODE_FIELDS = (
 )  # fmt: skip
 #: Traces an episode row must carry.
 EPISODE_TRACES = ("t_s", "intent_n", "reference_n", "grip_force_n")
+#: Traces of a row's loop matrices (A, B, C, D) for the loop figures.
 LOOP_TRACES = ("loop_A", "loop_B", "loop_C", "loop_D")
 
 

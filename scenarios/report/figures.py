@@ -320,10 +320,11 @@ def held_rate_figure(x_name: str, x_levels: Sequence[str],
 def loop_figure(designs: Sequence[LoopDesign]) -> Figure:
     """Bode magnitude and phase, Nyquist curve and closed-loop poles of several loops, overlaid.
 
-    Each loop is evaluated from its stored matrices (:func:`controllers.response.
-    state_space_response`), from a thousandth of its gain crossover (or 0.01 rad/s) to the
-    Nyquist frequency; the legend gives each design's stored phase and gain margin, and the
-    dot on each magnitude curve is its stored gain crossover.
+    Each loop is evaluated from its stored matrices
+    (:func:`controllers.response.state_space_response`), from a thousandth of its gain
+    crossover (or 0.01 rad/s) to the Nyquist frequency; the legend gives each design's
+    stored phase and gain margin, and the dot on each magnitude curve is its stored gain
+    crossover.
     """
     fig = Figure(figsize=(10.5, 7.2))  # fixed margins: constrained layout doubles the cost
     (ax_mag, ax_nyq), (ax_ph, ax_pole) = fig.subplots(2, 2)

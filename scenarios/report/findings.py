@@ -122,7 +122,8 @@ class FactorEffect:
 
 
 def level_outcomes(episodes: Sequence[Mapping[str, Any]], factor: str) -> list[LevelOutcomes]:
-    """Outcome counts at each level of ``factor`` (levels in :func:`data.levels` order)."""
+    """Outcome counts at each level of ``factor`` (levels in
+    :func:`~scenarios.report.factors.levels` order)."""
     by_level: dict[Any, dict[str, int]] = {}
     for e in episodes:
         counts = by_level.setdefault(FA.level_key(e, factor), dict.fromkeys(OUTCOMES, 0))
@@ -175,7 +176,7 @@ def factor_effects(episodes: Sequence[Mapping[str, Any]],
     episodes : sequence of dict
         ``ok`` episode rows.
     factors : sequence of str
-        Swept factors (:func:`scenarios.report.data.swept_factors`); a factor with one
+        Swept factors (:func:`scenarios.report.factors.swept_factors`); a factor with one
         level among ``episodes`` is skipped.
 
     Returns

@@ -3,7 +3,7 @@ sections, the page.
 
 The templates live in ``scenarios/report/templates`` and are rendered with
 autoescaping on, so every value passed in is escaped unless it is
-:class:`markupsafe.Markup` (HTML this module built). The page is one
+``markupsafe.Markup`` (HTML this module built). The page is one
 self-contained file: inline CSS, images as base64 ``data:`` URIs (SVG figures, the
 PNG of the rendered grasp) or inline SVG charts, no script and no external address.
 """
@@ -55,7 +55,7 @@ _ENV = jinja2.Environment(
 def render(template: str, **context: Any) -> str:
     """Render one of the report's templates (autoescaped) to an HTML string.
 
-    Plain ``str`` (not :class:`Markup`), so that the fragments concatenate like
+    Plain ``str`` (not ``Markup``), so that the fragments concatenate like
     any string; they are marked safe again where they enter a template.
     """
     return _ENV.get_template(template).render(**context)

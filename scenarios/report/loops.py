@@ -113,7 +113,7 @@ def loop_designs(episodes: Sequence[Mapping[str, Any]],
     episodes : sequence of dict
         ``ok`` episode rows.
     traces : dict of str to dict
-        Store hash -> that row's traces (must hold :data:`LOOP_TRACES`).
+        Store hash -> that row's traces (must hold :data:`~scenarios.report.data.LOOP_TRACES`).
     label : callable, optional
         Condition text of an episode row (default: :func:`condition_label` of
         its result).

@@ -45,6 +45,7 @@ class EstimatorScores:
     step_us_median: float | None = None
 
 
+#: Estimator -> mode -> its scores over the subjects.
 ScoreTable = dict[str, dict[str, EstimatorScores]]
 """mode -> estimator -> scores; modes are never mixed."""
 
@@ -105,7 +106,7 @@ def _mode_key(key: tuple[str, str]) -> tuple[int, int, str]:
 
 
 def load_reproduction_json(path: str | Path) -> ScoreTable:
-    """Read the JSON of ``griploop reproduce --json`` into a :data:`ScoreTable`.
+    """Read the JSON of ``griploop reproduce --json`` into a ``ScoreTable``.
 
     :func:`read_reproduction_json`, then :func:`reproduction_scores`.
 
@@ -151,7 +152,7 @@ def read_reproduction_json(path: str | Path) -> dict[str, Any]:
 
 
 def reproduction_scores(data: Mapping[str, Any], path: str | Path = "reproduction") -> ScoreTable:
-    """The :data:`ScoreTable` of a reproduction JSON object (:func:`read_reproduction_json`).
+    """The ``ScoreTable`` of a reproduction JSON object (:func:`read_reproduction_json`).
 
     Raises
     ------

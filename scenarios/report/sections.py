@@ -1,4 +1,5 @@
-"""Report sections by name: :func:`register_section` and the data every section reads.
+"""Report sections by name: :func:`~scenarios.report.sections.register_section` and the data
+every section reads.
 
 A section is a function ``section(context) -> Section`` of a
 :class:`ReportContext` (the rows of the results store, split by kind, with

@@ -24,7 +24,7 @@ class SummaryRow:
     n : int
         Episodes.
     counts : dict of str to int
-        Episodes per outcome of :data:`OUTCOMES`.
+        Episodes per outcome of :data:`~scenarios.outcomes.OUTCOMES`.
     intervals : dict of str to (float, float)
         95 % Wilson interval of each outcome's rate.
     tracking_rmse_n, contact_peak_ratio, slip_distance_m : float
@@ -143,7 +143,8 @@ def paired_differences(episodes: Sequence[Mapping[str, Any]], factors: Sequence[
     episodes : sequence of dict
         Episode rows (``result`` and ``config``).
     factors : sequence of str
-        The swept factors (:func:`swept_factors`); must include ``controller``.
+        The swept factors (:func:`~scenarios.report.factors.swept_factors`); must include
+        ``controller``.
     controller : str
         The factor compared.
     metrics : sequence of str

@@ -25,6 +25,7 @@ from sim.hand.objects import ObjectSpec
 from sim.user.subjects import VirtualSubject
 
 DEFAULT_REFERENCES = ("ss_kf", "mlp", "features_mav", ORACLE)
+#: Per-reference means reported beside the outcome counts.
 COLUMNS = ("reference_volatility_n_per_s", "estimation_rmse_n", "tracking_rmse_n",
            "slip_events", "slip_distance_m", "dropped", "crushed", "peak_force_n",
            "user_corrections", "attempts", "time_to_lift_s", "safety_margin_pct")
@@ -70,7 +71,7 @@ def compare_references(
     controller_spec : mapping, optional
         Design specification (keyword arguments of
         :func:`controllers.design.design_for_object`); default
-        :data:`controllers.design.DEFAULT_SPECS` of ``controller``.
+        ``controllers.design.DEFAULT_SPECS`` of ``controller``.
     subject_ids : sequence of int
         Virtual subjects of ``population_seed``.
     seed : int

@@ -2,7 +2,7 @@
 
 :func:`run_scenario` is the default task of a sweep. It looks the scenario's
 ``kind`` (``reproduction``, ``calibration`` or ``episode``) up in a registry
-and calls the function registered for it, which returns a :data:`ResultRow`:
+and calls the function registered for it, which returns a ``ResultRow``:
 a flat mapping of result names to scalars (``bool``, ``int``, ``float``,
 ``str`` or ``None``) and, optionally, under the key ``"traces"``, a mapping of
 trace names to numeric arrays of shape ``(n_samples,)`` or

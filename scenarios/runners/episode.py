@@ -187,7 +187,7 @@ def run_episode(
         User kind (:mod:`sim.user.operators`: ``reacting``, the default, sees, corrects
         and moves their own arm; ``scripted`` follows the intent profile) and feedback.
     operator_params, estimator_options : optional
-        The user's parameters (default :class:`OperatorParams`); the estimator's own.
+        The user's parameters (default ``OperatorParams``); the estimator's own.
     practice, window_ms, step_ms : int, float, float
         Practice lifts of the object's class first (a user who learns; 0: the novice);
         the feature window and its increment, ms (the paper's 400 and 125).

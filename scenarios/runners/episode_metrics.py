@@ -19,7 +19,8 @@ SETTLE_BAND = 0.05  # settling band: 5 % of the hold reference (at least SETTLE_
 SETTLE_FLOOR_N = 0.2
 CONTACT_N = 0.5  # grip force that counts as contact in the metrics
 CONTACT_PEAK_WINDOW_S = 0.5  # contact_peak_ratio: peak within this long after both sides touch
-LIFTED_FRACTION = 0.5  # lifted: the object rose at least this fraction of the lift height
+#: Lifted: the object rose at least this fraction of the lift height.
+LIFTED_FRACTION = 0.5
 
 
 def contact_peak_ratio(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray,

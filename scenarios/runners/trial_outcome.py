@@ -87,9 +87,13 @@ class TrialReferee:
 
 
 def hold_window(t_s: np.ndarray, wrist_height_m: np.ndarray, secure_lift_s: float | None,
-                fell_s: float | None = None) -> np.ndarray:
+                fell_s: float | None = None, *, down_m: float = 1e-9) -> np.ndarray:
     """Control steps of the in-air hold: from the secure lift (plus :data:`SETTLE_S`) until
-    the wrist starts down again, the object fell, or the trial ended (a boolean mask)."""
+    the wrist starts down again, the object fell, or the trial ended (a boolean mask).
+
+    The wrist starts down when it is more than ``down_m`` below its highest point since
+    the secure lift (a measured arm's wrist trembles by a millimetre: give it a tolerance).
+    """
     mask = np.zeros(t_s.size, dtype=bool)
     if secure_lift_s is None:
         return mask
@@ -97,7 +101,8 @@ def hold_window(t_s: np.ndarray, wrist_height_m: np.ndarray, secure_lift_s: floa
     after = np.flatnonzero(t_s >= secure_lift_s)
     end = np.inf if fell_s is None else fell_s
     if after.size > 1:
-        down = after[1:][np.diff(wrist_height_m[after]) < -1e-9]
+        height = wrist_height_m[after]
+        down = after[height < np.maximum.accumulate(height) - down_m]
         if down.size:
             end = min(end, float(t_s[down[0]]))
     mask[(t_s >= start) & (t_s < end)] = True

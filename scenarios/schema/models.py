@@ -218,7 +218,8 @@ class EstimatorConfig(_Model):
     ----------
     name : str
         An estimator registered in :mod:`estimation.registry`, or ``"oracle"``
-        (the user's true intent: a perfect estimator), see :func:`estimator_choices`.
+        (the user's true intent: a perfect estimator), see
+        :func:`~scenarios.schema.names.estimator_choices`.
     mode : {"one_step", "free_run"}
         ``one_step`` feeds measured force up to k-1 (the paper's evaluation);
         ``free_run`` uses sEMG only (what a prosthesis can do).

@@ -60,8 +60,9 @@ def object_names() -> tuple[str, ...]:
 
 
 def estimator_choices() -> tuple[str, ...]:
-    """Estimators registered in :mod:`estimation.registry`, then :data:`ORACLE` and
-    :data:`INTACT`."""
+    """Estimators registered in :mod:`estimation.registry`, then
+    :data:`~scenarios.schema.names.ORACLE` and
+    :data:`~scenarios.schema.names.INTACT`."""
     from estimation.registry import estimator_names
 
     return (*estimator_names(), *NO_ESTIMATOR)
@@ -117,7 +118,7 @@ def controller_own_options(kind: str) -> dict[str, Any]:
 
 
 class OptionError(GriploopError, ValueError):
-    """An option the component does not declare; :attr:`key` names it (for the file line)."""
+    """An option the component does not declare; ``key`` names it (for the file line)."""
 
     def __init__(self, message: str, key: str) -> None:
         super().__init__(message)

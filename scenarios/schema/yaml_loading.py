@@ -5,7 +5,7 @@ validate mappings. The YAML loader reads ``1e5`` as a float (YAML 1.2), refuses
 nesting deeper than :data:`MAX_YAML_DEPTH` and more than :data:`MAX_YAML_NODES`
 nodes (aliases counted as copies, never expanded), and records the line of every
 key so that a validation error becomes one line of the form
-``FILE:LINE: FIELD.PATH: reason (found VALUE)`` (:class:`ScenarioError`).
+``FILE:LINE: FIELD.PATH: reason (found VALUE)`` (:class:`~scenarios.schema.models.ScenarioError`).
 """
 
 from __future__ import annotations
@@ -288,7 +288,7 @@ def load_sweep(path: str | Path) -> SweepConfig:
     -------
     SweepConfig
         Validated sweep; ``name`` defaults to the file stem. Design paths and
-        values are checked too (see :func:`expand_sweep`).
+        values are checked too (see :func:`~scenarios.schema.expansion.expand_sweep`).
 
     Raises
     ------

@@ -208,22 +208,23 @@ class GraspEnv(gym.Env):
         self._load_n = f
         self.data.xfrc_applied[self._obj_body, 2] = -f
 
-    def move_wrist(self, height_m: float, duration_s: float) -> None:
+    def move_wrist(self, height_m: float, duration_s: float, path: str = "min_jerk") -> None:
         """Start a wrist move to ``height_m`` (m above the approach pose) over ``duration_s``.
 
         The move starts now (the current episode time) from the wrist's
-        set-point along a minimum-jerk path (:class:`sim.hand.wrist.CommandedWrist`).
+        set-point along a minimum-jerk path, or with ``path="follow"`` as one
+        segment of a measured arm's path (:class:`sim.hand.wrist.CommandedWrist`).
 
         Raises
         ------
         HandSpecError
-            The environment was made with ``wrist="scheduled"``, or a height or
-            duration out of range.
+            The environment was made with ``wrist="scheduled"``, or a height,
+            duration or path out of range.
         """
         if self.commanded is None:
             raise HandSpecError("move_wrist: this environment's wrist follows its schedule; "
                                 "make it with wrist='commanded' to move it")
-        self.commanded.move(self.data.time, height_m, duration_s)
+        self.commanded.move(self.data.time, height_m, duration_s, path)
 
     def set_reference(self, force_n: float) -> None:
         """Push the next reference value (N), e.g. an estimator's output.
@@ -244,7 +245,7 @@ class GraspEnv(gym.Env):
         seed : int, optional
             Seeds ``self.np_random`` (object placement jitter).
         options : dict, optional
-            ``"reference"``: a new reference (any :func:`as_reference` input);
+            ``"reference"``: a new reference (any :func:`~sim.references.as_reference` input);
             ``"object"``: a new object (rebuilds the model).
         """
         super().reset(seed=seed)

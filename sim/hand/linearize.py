@@ -264,14 +264,14 @@ def linearize_grasp(object: Any = "ball", grip_force_n: float = 10.0, *,
         Relative Hankel singular value threshold of the truncation.
     settle_s : float
         Settling time of each grip correction before linearizing, s
-        (:meth:`GraspEnv.hold_grip`).
+        (:meth:`~sim.hand.grasp_env.GraspEnv.hold_grip`).
     weightless : bool
         Cancel gravity on the object (MuJoCo's ``body_gravcomp``). A grip below
         the slip threshold cannot hold the object in the air, so there is no
         steady lifted grasp to linearize; the squeeze dynamics (pads, digits,
         drive) are those of the held object without its weight.
     env_kwargs : dict, optional
-        Further :class:`GraspEnv` arguments.
+        Further :class:`~sim.hand.grasp_env.GraspEnv` arguments.
 
     Returns
     -------

@@ -13,7 +13,14 @@ one of two forms:
     starts a minimum-jerk move from wherever the wrist's set-point is to a new
     height over a given duration, as point-to-point arm movements are (Flash and
     Hogan 1985, J Neurosci 5:1688). A command given mid-move starts from the
-    current set-point with zero velocity assumed (a new submovement).
+    current set-point with zero velocity assumed (a new submovement). A move
+    may instead ``follow`` a measured arm: the set-point approaches the new height
+    as a critically damped second-order system of time constant ``duration_s``,
+    from where it is at the speed it has. A stream of them, one per sample of
+    the arm, keeps the set-point's position and speed continuous (restarting a
+    minimum-jerk move at every sample would stop the wrist at each one, and
+    straight segments between samples would jolt it at each one: both shake a
+    held object).
 
 Heights are offsets from the approach pose, m; times are episode time, s.
 """
@@ -27,6 +34,10 @@ from sim.hand.errors import HandSpecError
 
 MAX_WRIST_HEIGHT_M = 0.2
 """Highest wrist offset a command may ask for, m (the scene's free space above the table)."""
+#: Paths a commanded move may take.
+PATHS = ("min_jerk", "follow")
+FOLLOW_SETTLE = 20.0
+"""A follow move has ended after this many time constants (within 1e-7 of its height)."""
 
 
 @dataclass(frozen=True)
@@ -95,7 +106,7 @@ class WristSchedule:
             Interval, episode time in s.
         lift_start_s : float or None
             When the lift started (``None``: not yet; ``-inf``: lifted by
-            :meth:`GraspEnv.steady_grasp`).
+            :meth:`~sim.hand.grasp_env.GraspEnv.steady_grasp`).
 
         Returns
         -------
@@ -146,17 +157,35 @@ class CommandedWrist:
         self.target_m = 0.0
         self._t0_s = 0.0
         self._duration_s = 0.0
+        self._follow = False
+        self._v0 = 0.0  # a follow move's initial speed, m/s
         self.first_rise_s: float | None = None
 
-    def move(self, t_s: float, height_m: float, duration_s: float) -> None:
+    def move(self, t_s: float, height_m: float, duration_s: float,
+             path: str = "min_jerk") -> None:
         """Start a move at ``t_s`` to ``height_m`` taking ``duration_s``.
+
+        Parameters
+        ----------
+        t_s : float
+            Start, episode time, s.
+        height_m : float
+            Where the move ends, m above the approach pose.
+        duration_s : float
+            How long it takes, s; for ``follow``, the time constant.
+        path : {"min_jerk", "follow"}
+            Minimum-jerk (a point-to-point movement, from rest to rest), or
+            following a measured arm (module notes).
 
         Raises
         ------
         HandSpecError
             A height outside ``0..MAX_WRIST_HEIGHT_M``, a non-positive or
-            non-finite duration.
+            non-finite duration, an unknown path.
         """
+        if path not in PATHS:
+            raise HandSpecError(f"wrist move path: expected one of {', '.join(PATHS)}, "
+                                f"found {path!r}")
         h, d = float(height_m), float(duration_s)
         if not (math.isfinite(h) and 0.0 <= h <= MAX_WRIST_HEIGHT_M):
             raise HandSpecError(f"wrist height: expected 0..{MAX_WRIST_HEIGHT_M:g} m, "
@@ -164,27 +193,59 @@ class CommandedWrist:
         if not (math.isfinite(d) and d > 0.0):
             raise HandSpecError(f"wrist move duration: expected a positive time in s, "
                                 f"found {duration_s!r}")
-        self._from_m = self.height_m(t_s)
+        from_m = self.height_m(t_s)
+        follow = path == "follow"
+        self._v0 = self.speed_m_s(t_s) if follow else 0.0
+        self._from_m = from_m
         self.target_m = h
         self._t0_s = float(t_s)
         self._duration_s = d
+        self._follow = follow
         if self.first_rise_s is None and h > self._from_m:
             self.first_rise_s = float(t_s)
 
     def height_m(self, t_s: float) -> float:
         """The wrist set-point at ``t_s``, m."""
-        if self._duration_s <= 0.0:
+        d = self._duration_s
+        if d <= 0.0:
             return self.target_m
-        s = (t_s - self._t0_s) / self._duration_s
+        if self._follow:
+            tau = t_s - self._t0_s
+            if tau <= 0.0:
+                return self._from_m
+            w = 1.0 / d
+            e0 = self._from_m - self.target_m
+            h = self.target_m + (e0 + (self._v0 + w * e0) * tau) * math.exp(-w * tau)
+            return 0.0 if h < 0.0 else MAX_WRIST_HEIGHT_M if h > MAX_WRIST_HEIGHT_M else h
+        s = (t_s - self._t0_s) / d
         if s >= 1.0:
             return self.target_m
         return self._from_m + (self.target_m - self._from_m) * min_jerk(s)
 
+    def speed_m_s(self, t_s: float) -> float:
+        """The set-point's vertical speed at ``t_s``, m/s (0 once a minimum-jerk move ended)."""
+        d = self._duration_s
+        tau = t_s - self._t0_s
+        if d <= 0.0 or tau < 0.0:
+            return 0.0
+        if self._follow:
+            w = 1.0 / d
+            b = self._v0 + w * (self._from_m - self.target_m)
+            return (self._v0 - w * b * tau) * math.exp(-w * tau)
+        s = tau / d
+        if s >= 1.0:
+            return 0.0
+        return (self.target_m - self._from_m) * 30.0 * s * s * (1.0 - s) * (1.0 - s) / d
+
+    def _end_s(self) -> float:
+        """When the move has ended: a follow move after :data:`FOLLOW_SETTLE` time constants."""
+        return self._t0_s + self._duration_s * (FOLLOW_SETTLE if self._follow else 1.0)
+
     def moves_during(self, t0_s: float, t1_s: float) -> bool:
         """Whether the set-point changes anywhere in ``[t0_s, t1_s]``."""
-        return (self._duration_s > 0.0 and t0_s < self._t0_s + self._duration_s
-                and self._t0_s < t1_s and self._from_m != self.target_m)
+        return (self._duration_s > 0.0 and t0_s < self._end_s() and self._t0_s < t1_s
+                and (self._from_m != self.target_m or self._v0 != 0.0))
 
     def settled(self, t_s: float) -> bool:
         """Whether the last move has ended by ``t_s``."""
-        return t_s >= self._t0_s + self._duration_s - 1e-9
+        return t_s >= self._end_s() - 1e-9

@@ -1,7 +1,8 @@
 """Units, limits and the value checks every part of the recording package shares.
 
 The limits bound what a file may make griploop allocate or believe (a grip force of
-1e300 N, a sampling rate of 0 Hz); the checks raise :class:`RecordingError` naming
+1e300 N, a sampling rate of 0 Hz); the checks raise
+:class:`~sim.recording.errors.RecordingError` naming
 the source and the field.
 """
 
@@ -20,8 +21,9 @@ TIME_UNITS = ("s", "ms", "us")
 #: Seconds per unit of a CSV time column.
 TIME_UNIT_S = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
 DUPLICATES = ("average", "spread")
-#: Ground-truth columns of simulated recordings, written and read by name.
-OPTIONAL_COLUMNS = ("intent", "intent_force_n")
+#: Optional per-sample columns written and read by name: the simulated ground truth
+#: (``intent``, ``intent_force_n``) and the forearm's pitch from an armband's IMU.
+OPTIONAL_COLUMNS = ("intent", "intent_force_n", "pitch_rad")
 MIN_FS_HZ = 10.0
 """Lowest sampling rate a CSV time column may imply, Hz (lower means a wrong time unit)."""
 MAX_GAP_STEPS = 20
@@ -32,14 +34,16 @@ MAX_FORCE_N = 1e4
 """Largest grip force a recording may hold, N (a hand squeezes a few hundred at most)."""
 MAX_INTENT = 10.0
 """Largest normalized intent (0..1 of MVC; 10 leaves room for calibration error)."""
+MAX_PITCH_RAD = float(np.pi)
+"""Largest forearm pitch magnitude a recording may hold, rad."""
 MAX_EMG_ABS = 1e9
 """Largest float sEMG magnitude in any unit."""
 MAX_FS_HZ = 1e6
 """Highest sampling rate accepted, Hz."""
 MAX_FILE_BYTES = 256 * 2**20
 """Default cap on a recording's size: the file (CSV) or its arrays uncompressed (NPZ)."""
-MAX_CSV_COLUMNS = 1 + 256 + 3
-"""Widest CSV accepted: t, up to 256 sEMG channels, force and ground truth."""
+MAX_CSV_COLUMNS = 1 + 256 + 4
+"""Widest CSV accepted: t, up to 256 sEMG channels, force, ground truth and pitch."""
 
 
 def positive_rate(value: Any, src: str, field: str, *, option: str | None = None) -> float:
@@ -54,7 +58,7 @@ def positive_rate(value: Any, src: str, field: str, *, option: str | None = None
     field : str
         What the value is, for the message (``"fs_hz"``, ``"sampling rate"``).
     option : str, optional
-        The layout option it came from (:attr:`RecordingError.option`).
+        The layout option it came from (``RecordingError.option``).
 
     Raises
     ------

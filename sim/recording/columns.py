@@ -3,7 +3,7 @@
 A :class:`ColumnMap` names the columns; :func:`read_column_file` reads one, with the
 other layout options, from a YAML or JSON file; :func:`resolve_columns` finds the
 named columns in a CSV header. When the columns are not where the map says, the
-error suggests the option to set (:attr:`~sim.recording.errors.RecordingError.fixes`),
+error suggests the option to set (``RecordingError.fixes``),
 from the header's names where it can guess (``timestamp`` for the time column).
 """
 
@@ -345,8 +345,8 @@ def resolve_columns(
     emg : list of int
     force : int or None
     extra : dict
-        Positions of the simulated ground truth (``intent``, ``intent_force_n``)
-        found by griploop's names and otherwise unused.
+        Positions of the simulated ground truth (``intent``, ``intent_force_n``) and
+        the forearm pitch (``pitch_rad``) found by griploop's names and otherwise unused.
 
     Raises
     ------

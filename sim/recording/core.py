@@ -22,6 +22,7 @@ from sim.recording.checks import (
     MAX_EMG_ABS,
     MAX_FORCE_N,
     MAX_INTENT,
+    MAX_PITCH_RAD,
     positive_rate,
 )
 from sim.recording.errors import RecordingError
@@ -50,6 +51,10 @@ class Recording:
     intent_force_n : ndarray, shape (n_samples,), optional
         Ground-truth muscle grip force in newtons (simulated recordings only),
         before the force sensor.
+    pitch_rad : ndarray, shape (n_samples,), optional
+        Forearm pitch from the armband's IMU at each sEMG sample, rad (what
+        ``griploop live --imu-lsl`` turns into the wrist's height); a virtual
+        subject's grasp recording derives it from the simulated wrist height.
     metadata : dict
         JSON-serializable provenance (subject id, seed, generator, muscles...).
     """
@@ -61,6 +66,7 @@ class Recording:
     emg_unit: str = "int8"
     intent: np.ndarray | None = None
     intent_force_n: np.ndarray | None = None
+    pitch_rad: np.ndarray | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
     source: str = "<array>"
 
@@ -68,7 +74,7 @@ class Recording:
         self.emg = self._checked_emg()
         n, c = self.emg.shape
         self.channel_names = self._checked_names(c)
-        for name in ("force_n", "intent", "intent_force_n"):
+        for name in ("force_n", "intent", "intent_force_n", "pitch_rad"):
             value = getattr(self, name)
             if value is not None:
                 setattr(self, name, self._checked_series(name, value, n))
@@ -129,7 +135,8 @@ class Recording:
         return [str(name) for name in names]
 
     def _checked_series(self, name: str, value: Any, n: int) -> np.ndarray:
-        """One of ``force_n``, ``intent``, ``intent_force_n`` as ``n`` finite floats in range."""
+        """One of the per-sample series (``force_n``, ``intent``, ``intent_force_n``,
+        ``pitch_rad``) as ``n`` finite floats in range."""
         src = self.source
         raw = np.asarray(value)
         if raw.dtype.kind not in "iuf":
@@ -141,10 +148,10 @@ class Recording:
             )
         if not np.all(np.isfinite(arr)):
             raise RecordingError(f"{src}: column {name} contains NaN or inf")
-        limit = MAX_INTENT if name == "intent" else MAX_FORCE_N
+        limit, unit = {"intent": (MAX_INTENT, ""),
+                       "pitch_rad": (MAX_PITCH_RAD, " rad")}.get(name, (MAX_FORCE_N, " N"))
         peak = float(np.max(np.abs(arr)))
         if peak > limit:
-            unit = "" if name == "intent" else " N"
             raise RecordingError(
                 f"{src}: {name}: expected |values| <= {limit:g}{unit}, found {peak:.6g}"
             )
@@ -202,6 +209,7 @@ class Recording:
             emg_unit=self.emg_unit,
             intent=cut(self.intent),
             intent_force_n=cut(self.intent_force_n),
+            pitch_rad=cut(self.pitch_rad),
             metadata=dict(self.metadata),
             source=self.source,
         )
@@ -216,7 +224,8 @@ class Recording:
         return writing.save_npz(self, path)
 
     def save_csv(self, path: str | Path) -> Path:
-        """Save as plain CSV ``t,emg1..emgN[,force,intent,intent_force_n]`` plus a JSON sidecar.
+        """Save as plain CSV ``t,emg1..emgN[,force,intent,intent_force_n,pitch_rad]`` plus a
+        JSON sidecar.
 
         The CSV has one header line and one row per sample (``t`` in seconds,
         sEMG in ``emg_unit``, forces in newtons), so ``pandas.read_csv``,

@@ -102,6 +102,7 @@ def load_csv(path: Path, emg_unit: str | None, max_bytes: int, columns: ColumnMa
         emg_unit=unit,
         intent=col(extra.get("intent")),
         intent_force_n=col(extra.get("intent_force_n")),
+        pitch_rad=col(extra.get("pitch_rad")),
         metadata=metadata,
         source=str(path),
     )
@@ -157,7 +158,7 @@ def _csv_header(path: Path, lines: list[str], max_bytes: int
     if len(header) > MAX_CSV_COLUMNS:
         raise RecordingError(
             f"{path}: {len(header)} columns (expected at most {MAX_CSV_COLUMNS}: "
-            "t, emg1..emg256, force, intent, intent_force_n)"
+            "t, emg1..emg256, force, intent, intent_force_n, pitch_rad)"
         )
     if not in_file_meta:
         meta = _read_sidecar(path, max_bytes)

@@ -3,11 +3,11 @@
 A :class:`RecordingError` names the source (file or argument), the field and what
 was expected versus what was found. Where a layout option of
 :func:`~sim.recording.load_recording` is at fault or would fix the file's reading,
-the error also carries it as data: :attr:`RecordingError.option` (the option whose
-value was refused) and :attr:`RecordingError.fixes` (what to set instead). Its
+the error also carries it as data: ``RecordingError.option`` (the option whose
+value was refused) and ``RecordingError.fixes`` (what to set instead). Its
 message says them in the library's terms (``set time_unit='ms'``); a front end says
 them in its own (the command line's ``pass --time-unit ms``,
-:mod:`scenarios.cli.recording_options`), from :attr:`RecordingError.detail`, the
+:mod:`scenarios.cli.recording_options`), from ``RecordingError.detail``, the
 message without them.
 
 Options are named as the keys of a column-map file (:data:`OPTIONS`):
@@ -37,7 +37,7 @@ class Fix:
     Attributes
     ----------
     settings : tuple of (option, value)
-        Each option (one of :data:`OPTIONS`) and the value to give it, as text
+        Each option (one of :data:`~sim.recording.errors.OPTIONS`) and the value to give it, as text
         (``"ms"``, ``"time_s"``; ``"none"`` for no such column), or ``None`` when
         the caller must choose it (a rate, a column name).
     when : str
@@ -82,7 +82,7 @@ class RecordingError(GriploopError, ValueError):
     detail : str
         The message without the option and the fixes.
     option : str, optional
-        The layout option (one of :data:`OPTIONS`) whose value was refused.
+        The layout option (one of :data:`~sim.recording.errors.OPTIONS`) whose value was refused.
     fixes : sequence of Fix
         Ways past the error, most likely first.
 

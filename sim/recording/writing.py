@@ -7,8 +7,9 @@ CSV layout written by griploop (one header line, one row per sample)::
 
 ``t`` is in seconds; channel columns are named ``emg1..emgN`` (1-based, as on the
 MYO); ``force`` is in newtons; optional ``intent`` and ``intent_force_n`` carry the
-simulated ground truth. Metadata (rate, sEMG unit, channel names, provenance) go to
-the JSON sidecar ``FILE.csv.json`` (:func:`sidecar_path`).
+simulated ground truth, ``pitch_rad`` the forearm's pitch (rad). Metadata (rate, sEMG
+unit, channel names, provenance) go to the JSON sidecar ``FILE.csv.json``
+(:func:`sidecar_path`).
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ def save_npz(rec: Recording, path: str | Path) -> Path:
         "emg_unit": np.array(rec.emg_unit),
         "metadata_json": np.array(json.dumps(rec.metadata, sort_keys=True)),
     }
-    for name in ("force_n", "intent", "intent_force_n"):
+    for name in ("force_n", "intent", "intent_force_n", "pitch_rad"):
         value = getattr(rec, name)
         if value is not None:
             arrays[name] = value
@@ -82,7 +83,7 @@ def save_csv(rec: Recording, path: str | Path) -> Path:
             header.append(name)
             columns.append(value[:, None])
             formats.append("%.6g")
-            units[name] = "1 (0..1 of MVC)" if name == "intent" else "N"
+            units[name] = {"intent": "1 (0..1 of MVC)", "pitch_rad": "rad"}.get(name, "N")
     np.savetxt(path, np.hstack(columns), fmt=formats, delimiter=",",
                header=",".join(header), comments="")
     meta = {

@@ -27,6 +27,7 @@ import numpy as np
 
 from sim.recording import RecordingError
 
+#: Names of the statistics :func:`recording_difficulty` returns, in order.
 STATISTICS = ("squeezes", "peak_cv", "duty", "r2_lin_in", "r2_lin_out", "drift", "lag_ms",
               "nonlin")
 WINDOW_S = 0.4

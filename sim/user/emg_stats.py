@@ -29,6 +29,7 @@ import numpy as np
 
 from sim.recording import RecordingError
 
+#: Keys of the statistics :func:`emg_statistics` returns, in order.
 STAT_KEYS = ("rest_std_lsb", "active_rms_lsb", "median_frequency_hz", "adjacent_abs_r",
              "saturated_fraction", "flexor_extensor_ratio")
 

@@ -1,4 +1,5 @@
-"""sEMG generators by name: :func:`register_generator` and :func:`make_generator`.
+"""sEMG generators by name: :func:`~sim.user.generators.register_generator` and
+:func:`~sim.user.generators.make_generator`.
 
 ========================  ===================================================
 name                      generator

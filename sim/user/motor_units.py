@@ -169,7 +169,8 @@ class MotorUnitEmgGenerator:
         )
 
     def rates_hz(self, excitation: np.ndarray) -> np.ndarray:
-        """Firing rates for excitations, shape (*excitation.shape, n_units); 0 if not recruited."""
+        """Firing rates for excitations, shape ``(*excitation.shape, n_units)``; 0 if not
+        recruited."""
         e = np.asarray(excitation, dtype=float)[..., None]
         rte = self.thresholds()
         rate = np.minimum(self.rate_gain_hz * (e - rte) + self.min_rate_hz, self.peak_rates_hz())

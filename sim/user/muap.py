@@ -1,13 +1,13 @@
 """Motor-unit action potential (MUAP) waveforms and their power spectra.
 
 A MUAP is modelled as a mix of the first and second derivative of a Gaussian
-of width ``sigma`` (normalized so that the peak of the envelope is 1):
+of width ``sigma`` (normalized so that the peak of the envelope is 1)::
 
     psi_1(t) = -(t / sigma) exp(-t^2 / (2 sigma^2))         (biphasic)
     psi_2(t) = (1 - t^2 / sigma^2) exp(-t^2 / (2 sigma^2))  (triphasic)
 
 Their Fourier transforms are in quadrature, so the power spectrum of
-``c1 psi_1 + c2 psi_2`` is the sum of the two:
+``c1 psi_1 + c2 psi_2`` is the sum of the two::
 
     |X(f)|^2 = 2 pi sigma^4 w^2 e^{-w^2 sigma^2} (c1^2 + c2^2 sigma^2 w^2),  w = 2 pi f.
 

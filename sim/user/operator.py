@@ -34,7 +34,8 @@ from sim.errors import GriploopError
 from sim.user.operator_params import OperatorParams, OperatorParamsError
 
 __all__ = ["DelayLine", "FRAGILE_MARGIN", "MIN_GRIP_N", "Operator", "OperatorError",
-           "OperatorParams", "OperatorParamsError", "Plan", "Scene", "TrialMemory", "WristMove"]
+           "OperatorParams", "OperatorParamsError", "Plan", "Scene", "TrialMemory", "WristMove",
+           "ramp", "started", "take"]
 
 MIN_GRIP_N = 2.0
 """The least grip force a user aims at, N."""

@@ -118,7 +118,7 @@ def _log_uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
 #: protocol (default 2; the real recordings hold 6-9 squeezes).
 #: The electrodes' noise drift, the FSR's contact and the rig's lag keep their default
 #: ranges: widening them lowers every estimator's figure far below the real ones, which
-#: the default ranges match (README, "How far the virtual verdicts hold").
+#: the default ranges match (docs/results/realism.md, "How far the virtual verdicts hold").
 WIDE = {
     "electrode_shift": (-1.5, 1.5),
     "extensor_factor": (0.6, 1.4),

@@ -89,7 +89,7 @@ class ReactingOperator:
     Parameters
     ----------
     params : OperatorParams, optional
-        Every setting (default :class:`OperatorParams`).
+        Every setting (default :class:`~sim.user.operator_params.OperatorParams`).
     feedback : FeedbackMode or str or None
         The artificial feedback (:mod:`sim.user.feedback`; a registered name
         or an instance); ``None`` or ``"none"``: vision only.

@@ -146,6 +146,20 @@ def test_sweep_dry_run_then_export(tmp_path, capsys):
     assert code == 2 and "no such results store" in err
 
 
+def test_a_sweep_then_a_read_only_open_leave_no_wal_or_shm_beside_the_store(tmp_path, capsys):
+    # what griploop demo does to its store: a sweep on two forked workers, then a read-only
+    # open (its report; here an export, which opens the store the same way)
+    path = write(tmp_path)
+    db = tmp_path / "results.sqlite"
+    for argv in (("sweep", str(path), "--db", str(db), "--task", "tasks:seeded",
+                  "--workers", "2"),
+                 ("export", str(db), "--out", str(tmp_path / "table"))):
+        code, _, err = run_main(capsys, *argv)
+        assert code == 0, err
+        assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(db.name)) == [
+            db.name], argv
+
+
 def test_reproduction_sweep_end_to_end(tmp_path, capsys):
     path = write(
         tmp_path,

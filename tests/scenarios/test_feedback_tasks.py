@@ -2,7 +2,7 @@
 
 The acceptance figures over ten virtual subjects are the ``slow`` tests at the end, one
 per benchmark; where the model does not reproduce a published direction the claim is a
-strict ``xfail`` naming the README section that says what the model lacks.
+strict ``xfail`` naming the results section (docs/results/) that says what the model lacks.
 """
 
 from __future__ import annotations
@@ -188,8 +188,8 @@ def test_slip_recovery_counts_ten_subjects(slip_results) -> None:
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="the losses come with dips of the estimate that the "
                    "force-tracking hand follows and with contact chatter once the can slides, "
-                   "not with how soon the slip is perceived: README, 'Slip recovery by "
-                   "feature window'")
+                   "not with how soon the slip is perceived: docs/results/person-in-the-loop.md, "
+                   "'Slip recovery by feature window'")
 def test_slip_vibration_recovers_at_least_95_percent_and_15_points_more(slip_results) -> None:
     vib, vision = slip_results["slip_vibration"], slip_results["none"]
     assert vib["recovered_rate"] >= 0.95
@@ -223,7 +223,8 @@ def test_force_vibration_lowers_the_absolute_error(force_results) -> None:
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="the hand's CV includes the estimator's fluctuation: "
-                   "README, 'Benchmarks that read like clinical tests', force matching")
+                   "docs/results/person-in-the-loop.md, 'Benchmarks that read like clinical "
+                   "tests', force matching")
 def test_force_matching_cv_at_the_middle_target_is_3_to_8_percent(force_results) -> None:
     assert 0.03 <= force_results["none"]["targets"][0]["cv"] <= 0.08
 

@@ -2,13 +2,17 @@
 
 The loopback tests stream a virtual subject's recordings with ``griploop stream`` in a
 separate process and run ``griploop live`` / ``griploop calibrate`` in this one, in
-real time (8 s sessions): they are the acceptance tests of issue 21.
+real time (8 s sessions): they are the acceptance tests of issue 21, and with the
+subject's arm on the IMU stream, of issue 29, with its faults on loopback (two outlets of
+one name, a source taking over the name, a stall of the IMU stream; the unit and
+deterministic tests of issue 29 are in test_live_faults.py). Every LSL session of the
+suite is in this file, so that the suite's workers never run two at once.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
-import subprocess
 import sys
 import threading
 import time
@@ -17,12 +21,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from lsl_players import Streamer
 from portable import assert_close_across_paths, steps_with_equal_inputs
 
+from controllers.bounds import slip_threshold_n
 from estimation.features import emg_features, extract_features
 from scenarios.cli.main import main
+from scenarios.live.arm import LIFT_HEIGHT_M
 from scenarios.live.calibrate import cue_levels, cue_schedule
 from scenarios.live.display import render_states
+from scenarios.live.lsl import StreamQuery, local_host
 from scenarios.live.recorded import episode_on_recording, fit_calibration
 from scenarios.live.samples import SampleGuard
 from scenarios.live.session import LiveGrasp, SessionSettings
@@ -62,21 +70,49 @@ def offline(files, calibration):
                                 controller=CONTROLLER, episode_s=SESSION_S)
 
 
-class Streamer:
-    """``griploop stream FILE`` in its own process (as a lab's player or armband would be)."""
+class ScheduleArm:
+    """A test arm that lifts as the offline episode's scripted wrist does.
 
-    def __init__(self, path: Path, name: str, *extra: str) -> None:
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "scenarios.cli", "stream", str(path), "--name", name, *extra],
-            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    At the first control step at or after ``lift_after_s`` where both sides touch and
+    the grip reaches 1 N, a 0.6 s minimum-jerk move to the lift height: the live core
+    then moves the wrist exactly as ``episode_on_recording`` does. Not a thing
+    ``griploop live`` offers: a person's lift is their own.
+    """
 
-    def __enter__(self) -> Streamer:
-        return self
+    source = "schedule"
 
-    def __exit__(self, *exc: object) -> None:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-        self.output = self.proc.communicate(timeout=10)[0]
+    def __init__(self, lift_after_s: float) -> None:
+        self.lift_after_s = lift_after_s
+        self.grasp = None
+        self.lifted = False
+
+    def reset(self) -> None:
+        self.lifted = False
+
+    def bind(self, emit, notify) -> None:
+        pass
+
+    def tick(self, now: float, t_s: float) -> None:
+        pass
+
+    def summary(self) -> dict:
+        return {"source": self.source}
+
+    def command(self, t_s: float, setpoint_m: float):
+        info = self.grasp.info
+        if (not self.lifted and t_s >= self.lift_after_s - 1e-9 and info["thumb_contact"]
+                and info["finger_contact"] and info["grip_force_n"] >= 1.0):
+            self.lifted = True
+            return (LIFT_HEIGHT_M, 0.6, "min_jerk")
+        return None
+
+
+def scripted_grasp(calibration, **kwargs) -> LiveGrasp:
+    """A live core whose wrist lifts at the offline episode's time (5.4 s of 8)."""
+    arm = ScheduleArm(SESSION_S - 2.0 - 0.6)
+    grasp = LiveGrasp(calibration, CAN, arm=arm, controller=CONTROLLER, **kwargs)
+    arm.grasp = grasp
+    return grasp
 
 
 def _stream_name(what: str) -> str:
@@ -84,9 +120,10 @@ def _stream_name(what: str) -> str:
 
 
 def _live(name: str, files: dict[str, Path], json_path: Path, *extra: str) -> dict:
-    status = main(["live", "--lsl", name, "--calibration", str(files["cal"]),
-                   "--controller", CONTROLLER, "--object", "can", "--json", str(json_path),
-                   "--no-video", "--resolve-timeout-s", "20", *extra])
+    """``griploop live`` on the stream ``name`` with its arm on ``name.imu``."""
+    status = main(["live", "--lsl", name, "--imu-lsl", name + ".imu", "--calibration",
+                   str(files["cal"]), "--controller", CONTROLLER, "--object", "can", "--json",
+                   str(json_path), "--no-video", "--resolve-timeout-s", "20", *extra])
     assert status == 0
     return json.loads(json_path.read_text())
 
@@ -131,9 +168,10 @@ def test_incremental_windows_on_a_subject_recording(files) -> None:
 @pytest.mark.portable
 def test_the_live_core_fed_sample_by_sample_is_the_offline_episode(files, calibration,
                                                                     offline) -> None:
+    """With the wrist moved as the offline episode moves it, every trace is the same."""
     rec = load_recording(files["grasp"])
-    grasp = LiveGrasp(calibration, CAN, controller=CONTROLLER,
-                      settings=SessionSettings(duration_s=SESSION_S, frame_dt_s=0.04))
+    grasp = scripted_grasp(calibration,
+                           settings=SessionSettings(duration_s=SESSION_S, frame_dt_s=0.04))
     grasp.start()
     for i in range(rec.n_samples):
         grasp.feed(rec.emg[i:i + 1], np.array([1000.0 + i / rec.fs_hz]), time.perf_counter())
@@ -151,13 +189,19 @@ def test_the_live_core_fed_sample_by_sample_is_the_offline_episode(files, calibr
         assert np.array_equal(grasp.traces[key][:k], offline.traces[key][:k]), key
     live, off = report["metrics"], offline.metrics
     assert set(live) == set(off)
-    for key, value in off.items():
-        if key not in ("estimation_rmse_n",):
-            assert live[key] == value, key
+    # the same run, judged as a trial the person paced (secure lift, hold after it)
+    assert live["outcome"] == off["outcome"] == "held"
+    if k == offline.traces["reference_n"].size:  # the same references: the same metrics
+        for key in ("peak_force_n", "slip_events", "contact_time_s", "grasp_start_s",
+                    "contact_peak_ratio"):
+            assert live[key] == off[key], key
+    assert report["arm"]["lift_start_s"] == pytest.approx(SESSION_S - 2.6, abs=1e-9)
     assert report["samples"] == {"received": int(round(SESSION_S * rec.fs_hz)) - 1,
                                  "expected": int(round(SESSION_S * rec.fs_hz)) - 1, "lost": 0}
     assert report["control_steps"] == int(round(SESSION_S / 0.01))
     assert report["ended"] == "duration" and report["gaps"] == []
+    assert [e["marker"] for e in report["events"]] == ["session_start", "slip", "lift",
+                                                       "session_end"]
 
 
 def test_a_gap_holds_the_grip_on_the_wall_clock_and_control_resumes(files, calibration,
@@ -166,9 +210,9 @@ def test_a_gap_holds_the_grip_on_the_wall_clock_and_control_resumes(files, calib
     rec = load_recording(files["grasp"])
     fs, now = rec.fs_hz, [0.0]
     events: list[tuple[float, str]] = []
-    grasp = LiveGrasp(calibration, CAN, controller=CONTROLLER,
-                      settings=SessionSettings(duration_s=SESSION_S), clock=lambda: now[0],
-                      event=lambda t, marker: events.append((t, marker)))
+    grasp = scripted_grasp(calibration, settings=SessionSettings(duration_s=SESSION_S),
+                           clock=lambda: now[0],
+                           event=lambda t, marker: events.append((t, marker)))
     grasp.start()
     gap = (int(6.2 * fs), int(7.2 * fs))
     for i in range(rec.n_samples):
@@ -257,11 +301,15 @@ def test_live_over_loopback_matches_the_offline_episode(files, offline, tmp_path
     episode = json.loads(off_json.read_text())["metrics"]
     assert episode["outcome"] == offline.metrics["outcome"]
     name = _stream_name("accept")
-    with Streamer(files["grasp"], name):
+    with Streamer(files["grasp"], name) as player:
         report = _live(name, files, tmp_path / "live.json",
                        "--record", str(tmp_path / "received.npz"),
                        "--feedback", "force_vibration")
     print(capsys.readouterr().out)
+    # the session pinned the player's streams, each by its own source_id
+    assert f"source_id {report['stream']['source_id']!r}" in player.output
+    assert f"source_id {report['imu_stream']['source_id']!r}" in player.output
+    assert report["stream"]["source_id"] != report["imu_stream"]["source_id"]
     for key, kind in CONTRACT.items():
         assert isinstance(report[key], kind), key
     assert set(report["samples"]) == {"received", "expected", "lost"}
@@ -277,6 +325,15 @@ def test_live_over_loopback_matches_the_offline_episode(files, offline, tmp_path
     assert m["peak_force_n"] == pytest.approx(episode["peak_force_n"], rel=0.10)
     assert report["gaps"] == [] and report["bad_samples"] == {"non_numeric": 0,
                                                               "out_of_range": 0}
+    # the subject's own arm lifted: when their forearm rose past the dead band (5 % of the
+    # way, 0.14 s into its 0.6 s lift), plus the smoothing and the wrist's follow lag
+    arm = report["arm"]
+    lift_s = load_recording(files["grasp"]).metadata["arm_lift_s"]
+    assert arm["source"] == "imu" and arm["imu_gaps"] == []
+    assert lift_s + 0.1 <= arm["lift_start_s"] <= lift_s + 0.3
+    assert arm["imu_samples"] >= 0.99 * SESSION_S * 50
+    assert max(report["traces"]["wrist_height_m"]) == pytest.approx(LIFT_HEIGHT_M, abs=0.002)
+    assert "lift" in [e["marker"] for e in report["events"]]
     # the stimulator's intensity went out as griploop.feedback: the grip force's level
     assert "griploop.feedback" in report["outlets"] and report["feedback"] == "force_vibration"
     from sim.user.feedback import FeedbackDevice
@@ -294,19 +351,20 @@ def test_live_over_loopback_matches_the_offline_episode(files, offline, tmp_path
 
 @pytest.mark.slow
 def test_stopping_the_stream_mid_hold_holds_the_grip(files, tmp_path, capsys) -> None:
-    """A 7 s session: lift from 4.4 s, in the air from 5.0 s, no sample from 5.5 to 6.5 s.
+    """An 8 s session: the arm lifts from 5.4 s, the can is in the air from about 6.1 s,
+    and the armband's link drops from 6.6 to 7.6 s (no sEMG, no orientation).
 
     The gap starts half a second into the in-air hold, once the lift's load step has
     settled (right after the lift the MPC is still raising the grip to its sensed slip
     bound, which a gap must not stop).
     """
     name = _stream_name("gap")
-    with Streamer(files["grasp"], name, "--dropout", "5.5:1.0"):
-        report = _live(name, files, tmp_path / "gap.json", "--duration-s", "7")
+    with Streamer(files["grasp"], name, "--dropout", "6.6:1.0"):
+        report = _live(name, files, tmp_path / "gap.json")
     print(capsys.readouterr().out)
     assert len(report["gaps"]) == 1
     gap = report["gaps"][0]
-    assert gap["t_s"] == pytest.approx(5.5, abs=0.01)
+    assert gap["t_s"] == pytest.approx(6.6, abs=0.01)
     assert gap["duration_s"] == pytest.approx(1.0, abs=0.1)
     assert report["metrics"]["outcome"] == "held" and not report["metrics"]["dropped"]
     t = np.array(report["traces"]["t_s"])
@@ -315,28 +373,263 @@ def test_stopping_the_stream_mid_hold_holds_the_grip(files, tmp_path, capsys) ->
     during = grip[(t >= gap["t_s"]) & (t < gap["t_s"] + gap["duration_s"])]
     assert during.size >= 90
     assert np.all(np.abs(during - before) <= 0.1 * before)
-    assert report["ended"] == "duration" and report["control_steps"] == 700
+    # the link carries the arm too: the wrist held still through the same silence
+    (stall,) = report["arm"]["imu_gaps"]
+    assert stall["t_s"] == pytest.approx(6.6, abs=0.021)
+    wrist = np.array(report["traces"]["wrist_height_m"])
+    assert np.ptp(wrist[(t >= 6.6 + 0.45) & (t < 7.6)]) < 5e-5  # once at the last sample
+    assert report["ended"] == "duration" and report["control_steps"] == 800
 
 
 @pytest.mark.slow
 def test_calibrate_over_lsl_writes_a_file_evaluate_accepts(files, tmp_path, capsys) -> None:
+    """With the armband's IMU: the pitch beside the sEMG, and the two arm poses after it."""
+    import dataclasses
+
+    sent = load_recording(files["cal"])
+    t = sent.t_s  # the subject rests the forearm, then raises it by 0.3 rad when asked,
+    pitch = np.where(t < 31.0, 0.0, 0.3) + 0.01 * np.sin(2 * np.pi * 0.5 * t)  # swaying
+    with_arm = tmp_path / "cal_arm.npz"
+    dataclasses.replace(sent, pitch_rad=pitch).save(with_arm)
     out = tmp_path / "cal_live.npz"
     name = _stream_name("cal")
-    with Streamer(files["cal"], name, "--speed", "16", "--loop"):
+    with Streamer(with_arm, name, "--speed", "16", "--loop"):
         assert main(["calibrate", "--lsl", name, "--out", str(out),
                      "--resolve-timeout-s", "20"]) == 0
     text = capsys.readouterr().out
     assert "SQUEEZE SMALL" in text and "SQUEEZE STRONG" in text
+    assert "ARM AT REST" in text and "ARM RAISED" in text
     rec = load_recording(out)
-    assert rec.n_samples == 28 * 200
+    assert rec.n_samples + rec.metadata["lost_samples"] == 28 * 200, rec.metadata
     assert rec.metadata["force_source"] == f"lsl:{name}.force"
-    sent = load_recording(files["cal"])
     assert np.array_equal(rec.emg, sent.emg[:rec.n_samples])
+    # the pitch went out as a 50 Hz float32 quaternion and came back interpolated at each
+    # sEMG stamp (the two inlets' clock offsets differ by microseconds)
+    assert rec.metadata["imu_stream"] == f"{name}.imu"
+    np.testing.assert_allclose(rec.pitch_rad, pitch[:rec.n_samples], atol=1e-4)
+    poses = rec.metadata["arm_poses"]
+    # medians of the last 2 s of each pose (29-31 s at rest, 32-34 s raised)
+    assert poses["rest_pitch_rad"] == pytest.approx(np.median(pitch[(t >= 29) & (t < 31)]),
+                                                    abs=0.002)
+    assert poses["raised_pitch_rad"] == pytest.approx(
+        np.median(pitch[(t >= 32) & (t < 34)]), abs=0.002)
     # the force is interpolated at each sEMG time stamp: the two inlets' clock offsets differ
     # by microseconds, a fraction of a sample period at 16x
     force = sent.force_n[:rec.n_samples]
     assert np.max(np.abs(rec.force_n - force)) < 0.05 * np.max(force)
     assert main(["evaluate", "--recording", str(out), "--estimators", "ridge"]) == 0
+
+
+# ----------------------------------------------------------------------------- faults (issue 29)
+def _live_status(name: str, files: dict[str, Path], *extra: str) -> int:
+    return main(["live", "--lsl", name, "--calibration", str(files["cal"]), "--controller",
+                 CONTROLLER, "--object", "can", "--no-video", "--resolve-timeout-s", "20",
+                 *extra])
+
+
+def _source_id(player: Streamer, stream: str) -> str:
+    """The source_id a player printed for ``stream``."""
+    text = "".join(player.lines)
+    start = text.index(f"'{stream}' (") if f"'{stream}' (" in text else text.index(stream)
+    tail = text[start:]
+    return tail[tail.index("source_id '") + 11:].split("'")[0]
+
+
+@pytest.mark.slow
+def test_two_outlets_of_one_name_are_refused_and_one_is_pinned_by_its_source_id(
+        files, tmp_path, capsys) -> None:
+    name = _stream_name("dup")
+    with Streamer(files["grasp"], name) as a, Streamer(files["cal"], name) as b:
+        a.wait_for("waiting for a consumer")
+        b.wait_for("waiting for a consumer")
+        sid_a, sid_b = _source_id(a, name), _source_id(b, name)
+        assert sid_a != sid_b
+        assert _live_status(name, files, "--imu-lsl", name + ".imu") == 2
+        line = _one_error_line(capsys)
+        assert f"2 LSL streams match {name!r}" in line
+        for sid in (sid_a, sid_b):
+            assert (f"host {local_host()!r}, source_id {sid!r} (EMG, 8 ch, 200 Hz, int8)"
+                    in line)
+        assert line.endswith(f"(--lsl {name}@HOST or --lsl-source-id ID)")
+        out = tmp_path / "pinned.json"
+        assert _live_status(name, files, "--lsl-source-id", sid_a, "--imu-lsl", name + ".imu",
+                     "--duration-s", "1.5", "--json", str(out), "--record",
+                     str(tmp_path / "pinned.npz")) == 0
+    report = json.loads(out.read_text())
+    assert report["stream"]["source_id"] == sid_a and report["ended"] == "duration"
+    received = load_recording(tmp_path / "pinned.npz")
+    assert np.array_equal(received.emg, load_recording(files["grasp"]).emg[:received.n_samples])
+
+
+class Markers(threading.Thread):
+    """Reads a session's ``PREFIX.events`` outlet until ``session_end``."""
+
+    def __init__(self, name: str) -> None:
+        super().__init__(daemon=True)
+        self.name_, self.markers = name, []
+
+    def run(self) -> None:
+        from scenarios.live.lsl import pylsl_module
+
+        lsl = pylsl_module()
+        found = lsl.resolve_byprop("name", self.name_, 1, 30.0)
+        if not found:
+            return
+        inlet = lsl.StreamInlet(found[0])
+        deadline = time.monotonic() + 40
+        while time.monotonic() < deadline and "session_end" not in self.markers:
+            sample, _ = inlet.pull_sample(timeout=0.2)
+            if sample is not None:
+                self.markers.append(sample[0])
+
+
+@pytest.mark.slow
+def test_a_source_taking_over_the_name_ends_the_session_with_the_grip_held(
+        files, tmp_path, capsys) -> None:
+    """The player stops after 3.5 s; another player of the same name (a different
+    recording, its own source_id) is already on the network."""
+    name, prefix = _stream_name("takeover"), _stream_name("out")
+    events = Markers(prefix + ".events")
+    events.start()
+    other: list[Streamer] = []
+    try:
+        with Streamer(files["grasp"], name, "--stop-after-s", "3.5") as a:
+
+            def start_other() -> None:  # once the session has pinned the first player
+                a.wait_for("a consumer connected")
+                other.append(Streamer(files["cal"], name, "--no-wait", "--loop"))
+
+            starter = threading.Thread(target=start_other, daemon=True)
+            starter.start()
+            out = tmp_path / "takeover.json"
+            status = _live_status(name, files, "--imu-lsl", name + ".imu", "--outlet-prefix",
+                           prefix, "--json", str(out), "--record",
+                           str(tmp_path / "takeover.npz"), "--timeout-s", "8")
+            starter.join(10)
+            other[0].wait_for("streaming")
+            sid_a, sid_b = _source_id(a, name), _source_id(other[0], name)
+    finally:
+        for b in other:
+            b.__exit__()
+    events.join(10)
+    text = capsys.readouterr().out
+    assert status == 0
+    report = json.loads(out.read_text())
+    assert report["ended"] == "source_changed"
+    (change,) = report["source_changes"]
+    assert change["stream"] == "emg"
+    assert change["pinned"]["source_id"] == sid_a and change["found"]["source_id"] == sid_b
+    assert change["found"]["host"] == local_host()
+    # one line for the person, the event in the JSON, the recording and the outlet
+    said = [ln for ln in text.splitlines() if "source_changed at" in ln]
+    assert len(said) == 1 and sid_b in said[0] and "the hand holds its grip" in said[0]
+    markers = [e["marker"] for e in report["events"]]
+    assert markers.index("gap_start") < markers.index("source_changed") < \
+        markers.index("session_end")
+    assert "source_changed" in events.markers
+    rec = load_recording(tmp_path / "takeover.npz")
+    assert "source_changed" in [m for _, m in rec.metadata["events"]]
+    # nothing of the other player's recording was used
+    assert rec.n_samples <= 3.5 * 200
+    assert np.array_equal(rec.emg, load_recording(files["grasp"]).emg[:rec.n_samples])
+    t = np.array(report["traces"]["t_s"])
+    grip = np.array(report["traces"]["grip_force_n"])
+    gap_s = report["gaps"][0]["t_s"]
+    assert gap_s == pytest.approx(3.5, abs=0.01)
+    before = grip[np.flatnonzero(t < gap_s)[-1]]
+    assert before > 1.0 and np.all(np.abs(grip[t >= gap_s] - before) <= 0.1 * before)
+    assert report["session_s"] < gap_s + 4.0  # ended by the change, not by the timeout
+
+
+@pytest.mark.slow
+def test_a_one_second_imu_stall_over_loopback_holds_the_wrist_still(files, tmp_path,
+                                                                     capsys) -> None:
+    """The subject's arm lifts 2 s earlier than in their recording (at 3.4 s, the grip
+    formed), and the IMU stream stalls for 1 s from 3.75 s, mid-lift."""
+    rec = load_recording(files["grasp"])
+    early = tmp_path / "early_lift.npz"
+    dataclasses.replace(rec, pitch_rad=np.interp(rec.t_s + 2.0, rec.t_s, rec.pitch_rad)).save(
+        early)
+    name = _stream_name("stall")
+    out = tmp_path / "stall.json"
+    with Streamer(early, name, "--imu-dropout", "3.75:1.0"):
+        assert _live_status(name, files, "--imu-lsl", name + ".imu", "--duration-s", "5.5",
+                     "--json", str(out)) == 0
+    text = capsys.readouterr().out
+    report = json.loads(out.read_text())
+    (gap,) = report["arm"]["imu_gaps"]
+    assert gap["t_s"] == pytest.approx(3.76, abs=0.011)
+    assert gap["duration_s"] == pytest.approx(1.0, abs=0.1)
+    assert len([ln for ln in text.splitlines() if "IMU stream stalled" in ln]) == 1
+    t = np.array(report["traces"]["t_s"])
+    wrist = np.array(report["traces"]["wrist_height_m"])
+    still = (t >= gap["t_s"] + 0.45) & (t < gap["t_s"] + gap["duration_s"] - 0.05)
+    assert np.ptp(wrist[still]) < 1e-4 and 0.01 < wrist[still][0] < LIFT_HEIGHT_M - 0.01
+    # the grip follows the person's sEMG, never below the can's slip force, and the can
+    # stays where the stalled wrist holds it
+    grip = np.array(report["traces"]["grip_force_n"])
+    assert grip[still].min() > slip_threshold_n(CAN.mass_kg, CAN.friction)
+    assert np.ptp(np.array(report["traces"]["object_height_m"])[still]) < 0.001
+    assert report["metrics"]["outcome"] == "held" and report["ended"] == "duration"
+    assert report["samples"]["lost"] == 0 and report["latency_ms"]["p99"] <= 5.0
+    assert wrist[-1] == pytest.approx(LIFT_HEIGHT_M, abs=0.003)
+
+
+def test_an_imu_stream_without_orientation_is_refused_naming_its_channels(files,
+                                                                         capsys) -> None:
+    from scenarios.live.lsl import pylsl_module
+
+    lsl = pylsl_module()
+    name = _stream_name("noorient")
+    emg = lsl.StreamOutlet(lsl.StreamInfo(name, "EMG", 8, 200.0, lsl.cf_int8, name))
+    info = lsl.StreamInfo(name + ".imu", "IMU", 3, 50.0, lsl.cf_float32, name + ".imu")
+    channels = info.desc().append_child("channels")
+    for label in ("acc_x", "acc_y", "acc_z"):
+        channels.append_child("channel").append_child_value("label", label)
+    imu = lsl.StreamOutlet(info)
+    status = _live_status(name, files, "--imu-lsl", name + ".imu", "--resolve-timeout-s", "5")
+    line = _one_error_line(capsys)
+    del emg, imu
+    assert status == 2
+    assert f"IMU stream '{name}.imu' has no orientation channel" in line
+    assert "found 3 channels: 'acc_x', 'acc_y', 'acc_z'" in line
+
+
+@pytest.mark.slow
+def test_a_watch_tells_a_replaced_source_from_a_restarted_one() -> None:
+    """By source_id when the stream has one (a streamer restarted on the same device is
+    the same source), by uid when it has none (any other outlet is another source)."""
+    from scenarios.live.lsl import SourceWatch, pylsl_module, resolve_stream
+
+    lsl = pylsl_module()
+
+    def outlet(name: str, sid: str):
+        return lsl.StreamOutlet(lsl.StreamInfo(name, "EMG", 8, 200.0, lsl.cf_int8, sid))
+
+    def wait_for(watch, replaced: bool, timeout_s: float = 6.0):
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            found = watch.replacement(time.monotonic())
+            if (found is not None) == replaced:
+                return found
+            time.sleep(0.1)
+        raise AssertionError(f"replacement never {'found' if replaced else 'absent'}")
+
+    for sid in ("armband-1", ""):
+        name = _stream_name(f"watch{len(sid)}")
+        first = outlet(name, sid)
+        watch = SourceWatch(resolve_stream(StreamQuery(name), 10.0))
+        assert wait_for(watch, False, 1.0) is None  # the pinned source is there
+        del first
+        again = outlet(name, sid)  # same source_id (or none) from a new outlet
+        found = wait_for(watch, bool(not sid))
+        if sid:
+            time.sleep(1.6)  # the old outlet forgotten (1.5 s): still not replaced
+            assert watch.replacement(time.monotonic() + 1) is None
+        else:
+            assert found.uid() != watch.uid
+        watch.close()
+        del again
 
 
 # ----------------------------------------------------------------------------- bad input
@@ -406,7 +699,7 @@ def test_bad_samples_are_counted_and_a_lost_stream_ends_the_session_cleanly(
     out = tmp_path / "bad.json"
     status = main(["live", "--lsl", name, "--calibration", str(files["cal"]),
                    "--controller", CONTROLLER, "--object", "can", "--duration-s", "4",
-                   "--hold-s", "1", "--timeout-s", "0.5", "--json", str(out)])
+                   "--timeout-s", "0.5", "--json", str(out)])
     player.join(5)
     text = capsys.readouterr().out
     assert status == 0

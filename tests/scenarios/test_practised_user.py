@@ -1,7 +1,8 @@
 """The practised, self-paced user across the commands: options, contracts, verdicts.
 
 The acceptance over rigid objects draws its cans, subjects and seeds from a generator
-rather than naming them; the README's table over ten subjects is
+rather than naming them; the results' table over ten subjects
+(docs/results/person-in-the-loop.md) is
 ``benchmarks/closed_loop_verdicts.py``.
 """
 

@@ -65,13 +65,13 @@ def test_package_version_is_the_installed_distribution():
     assert package_version() == version("griploop")
 
 
-def test_store_uses_wal_and_survives_reopen(tmp_path):
+def test_store_uses_wal_while_open_and_survives_reopen(tmp_path):
     path = tmp_path / "r.sqlite"
     sc = scenario()
     with ResultStore(path) as store:
         assert record(store, sc, outcome(sc, r2=0.9))
-    with sqlite3.connect(path) as conn:
-        assert conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
+        with sqlite3.connect(path) as conn:
+            assert conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
     with ResultStore(path) as store:
         (row,) = store.rows()
     assert row["status"] == "ok" and row["result"] == {"r2": 0.9}
@@ -185,3 +185,31 @@ def test_export_of_one_status_only(tmp_path):
         record(store, c, outcome(c, "failed"))
         (path,) = export_store(store, tmp_path / "ok", ["csv"], status="ok")
     assert pa_csv.read_csv(path).num_rows == 1
+
+
+def leftovers(directory) -> list[str]:
+    return sorted(p.name for p in directory.iterdir() if p.name.endswith(("-wal", "-shm")))
+
+
+def test_closing_leaves_no_wal_or_shm_even_after_a_read_only_open(tmp_path):
+    path = tmp_path / "r.sqlite"
+    sc = scenario()
+    with ResultStore(path) as store:
+        assert record(store, sc, outcome(sc, r2=0.9))
+    assert leftovers(tmp_path) == []
+    with ResultStore(path, read_only=True) as store:  # what report and export do
+        assert len(store.rows()) == 1
+    assert leftovers(tmp_path) == []
+
+
+def test_a_second_writer_keeps_the_wal_until_the_last_one_closes(tmp_path):
+    path = tmp_path / "r.sqlite"
+    first, second = ResultStore(path), ResultStore(path)
+    sc = scenario()
+    assert record(second, sc, outcome(sc, r2=0.5))
+    first.close()  # does not wait for the other writer, nor disturb it
+    assert record(second, scenario(mass_kg=0.4), outcome(scenario(mass_kg=0.4), r2=0.6))
+    second.close()
+    assert leftovers(tmp_path) == []
+    with ResultStore(path, read_only=True) as store:
+        assert len(store.rows()) == 2

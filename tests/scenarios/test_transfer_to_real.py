@@ -148,7 +148,7 @@ def _reasons(result):
 
 def test_fitting_an_estimator_that_learns_from_virtual_subjects_takes_under_2_s(result):
     # pretraining is cached (and built once above); fitting is what a person waits for. The
-    # other estimators' times are in the README (benchmarks/bench_estimation.py): the
+    # other estimators' times are in docs/results/ (benchmarks/bench_estimation.py): the
     # paper's MLP (mini-batch 1) takes 1-2 s on a two-round session.
     for name in ("transfer_mlp", "adaptive_mlp"):
         assert result["timing"][name]["train_ms_median"] < 2000, name

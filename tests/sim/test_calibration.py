@@ -110,7 +110,7 @@ def single_feature_r2(recording, feature: str) -> float:
 @pytest.mark.parametrize("feature", ["mav", "rms", "wl"])
 def test_single_feature_linear_fit_is_as_hard_as_in_the_paper(sessions, feature):
     r2 = [single_feature_r2(rec, feature) for rec in sessions]
-    # paper Fig. 7A: 0.796 +/- 0.061; the two-round sessions of the real recordings (README)
+    # paper Fig. 7A: 0.796 +/- 0.061; the two-round sessions of the real recordings (docs/results/)
     # put the strongest squeeze in both halves, which the virtual channels 6-8 exploit more
     # than real ones (0.86-0.89 here): a known gap, see docs/SUBJECTS.md
     assert 0.70 <= np.mean(r2) <= 0.90

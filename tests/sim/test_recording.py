@@ -130,3 +130,31 @@ def test_slice_keeps_alignment() -> None:
     assert part.n_samples == 100
     np.testing.assert_array_equal(part.emg, rec.emg[100:200])
     np.testing.assert_array_equal(part.force_n, rec.force_n[100:200])
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".csv"])
+def test_the_forearm_pitch_round_trips_and_is_sliced_with_the_emg(tmp_path: Path,
+                                                                    suffix: str) -> None:
+    import dataclasses
+
+    rng = np.random.default_rng(4)
+    pitch = rng.uniform(-0.5, 0.5, 400)
+    rec = dataclasses.replace(_recording(), pitch_rad=pitch)
+    back = load_recording(rec.save(tmp_path / f"p{suffix}"))
+    np.testing.assert_allclose(back.pitch_rad, pitch, rtol=1e-5)  # CSV: 6 digits
+    np.testing.assert_array_equal(rec.slice(100, 150).pitch_rad, pitch[100:150])
+    assert load_recording(_recording().save(tmp_path / f"none{suffix}")).pitch_rad is None
+    if suffix == ".csv":
+        header = (tmp_path / "p.csv").read_text().splitlines()[0]
+        assert header.endswith(",pitch_rad")
+
+
+@pytest.mark.parametrize(("pitch", "match"), [
+    (np.full(400, 3.5), "pitch_rad: expected |values| <= 3.14159 rad, found 3.5"),
+    (np.full(399, 0.1), r"pitch_rad must have shape \(400,\)"),
+    (np.r_[np.full(399, 0.1), np.nan], "column pitch_rad contains NaN")])
+def test_an_impossible_pitch_is_refused(pitch, match) -> None:
+    import dataclasses
+
+    with pytest.raises(RecordingError, match=match):
+        dataclasses.replace(_recording(), pitch_rad=pitch)

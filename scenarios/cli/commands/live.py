@@ -1,4 +1,5 @@
-"""``griploop live``: a person's sEMG over LSL drives the simulated hand in real time."""
+"""``griploop live``: a person's sEMG over LSL drives the simulated hand in real time, and
+their own arm (the armband's IMU, or a key) moves the wrist."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from typing import Any
 
 from scenarios.cli.choices import controller_names, object_names, one_of
 from scenarios.cli.errors import UsageError
+from scenarios.cli.lsl_options import add_stream_options, resolve_pinned, stream_query
 from scenarios.cli.recording_options import add_recording_options, load_with_options
 from sim.user.feedback import FeedbackDevice
 
@@ -27,17 +29,28 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "live",
         help="drive the simulated hand in real time from a live sEMG stream (LSL)",
-        description="Resolve an sEMG stream by name, check its channel count and rate against "
+        description="Resolve one sEMG stream (refused when several match, or when it comes "
+        "from another host without --allow-remote), check its channel count and rate against "
         "the calibration recording, fit the estimator on that recording, then run windowing, "
         "features, estimate, controller and the MuJoCo hand in real time, paced by the "
-        "incoming samples, for one grasp-lift-hold. Publishes griploop.reference, "
-        "griploop.grip and griploop.events as LSL outlets. Shows the hand in the MuJoCo viewer "
-        "when a display exists, else writes a GIF of the session. Prints the timing report "
-        "(samples received and lost, latency from sample arrival to motor command, deadlines "
-        "missed, physics real-time factor) and the episode's metrics; docs/FORMAT.md "
-        "describes the JSON.",
+        "incoming samples, for one grasp-lift-hold. The wrist follows the person: the "
+        "forearm's pitch on the armband's IMU stream (--imu-lsl), mapped to the wrist's height "
+        "by the arm poses of the calibration recording, or else the Enter key (lift / put "
+        "down). The session keeps its streams' sources: another source taking over a name "
+        "ends it with the hand holding its grip. Publishes griploop.reference, griploop.grip "
+        "and griploop.events as LSL outlets. Shows the hand in the MuJoCo viewer when a "
+        "display exists, else writes a GIF of the session. Prints the timing report (samples "
+        "received and lost, latency from sample arrival to motor command, deadlines missed, "
+        "physics real-time factor) and the episode's metrics; docs/FORMAT.md describes the "
+        "JSON, docs/LIVE.md a lab's session.",
     )
-    p.add_argument("--lsl", required=True, metavar="NAME", help="name of the sEMG LSL stream")
+    add_stream_options(p, imu_help="the armband's orientation stream (a channel labelled pitch, "
+                       "or a quaternion qw, qx, qy, qz): the wrist follows the forearm's pitch; "
+                       "without it, Enter lifts the wrist and Enter again puts it down")
+    p.add_argument("--arm-poses", default=None, metavar="REST_DEG:RAISED_DEG",
+                   help="the forearm's pitch at rest (hand at the object) and raised as for a "
+                   "lift, degrees (default: the calibration recording's arm_poses, which "
+                   "griploop calibrate records with an IMU stream)")
     p.add_argument("--calibration", required=True, metavar="CAL",
                    help="calibration recording of the same person and armband (.npz or .csv, "
                    "with force): griploop calibrate --lsl writes one")
@@ -57,8 +70,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--friction", type=float, default=None, help="override the friction coeff.")
     p.add_argument("--duration-s", type=float, default=8.0,
                    help="session length in stream time, s (default 8)")
-    p.add_argument("--hold-s", type=float, default=2.0,
-                   help="in-air hold at the end, s (default 2; the wrist lifts 0.6 s before)")
     p.add_argument("--json", type=Path, default=None, metavar="FILE",
                    help="also write the report as JSON here")
     p.add_argument("--record", type=Path, default=None, metavar="FILE.npz",
@@ -72,7 +83,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--timeout-s", type=float, default=5.0,
                    help="end the session when no sample arrives for this long, s (default 5)")
     p.add_argument("--resolve-timeout-s", type=float, default=5.0,
-                   help="how long to look for the stream, s (default 5)")
+                   help="how long to look for the streams, s (default 5; once every stream "
+                   "asked for has appeared, 1 s more for others of the same names)")
+    p.add_argument("--outlet-prefix", default="griploop", metavar="PREFIX",
+                   help="name prefix of the session's outlets (default griploop: "
+                   "griploop.reference, griploop.grip, griploop.events)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the estimators that draw random numbers (default 0)")
     add_recording_options(p)
@@ -86,28 +101,95 @@ def _check(args: argparse.Namespace) -> None:
     check_choice("--controller", args.controller, controller_names())
     check_choice("--object", args.object, object_names())
     for flag, value in (("--duration-s", args.duration_s), ("--timeout-s", args.timeout_s),
-                        ("--resolve-timeout-s", args.resolve_timeout_s),
-                        ("--hold-s", args.hold_s)):
+                        ("--resolve-timeout-s", args.resolve_timeout_s)):
         if not (math.isfinite(value) and value > 0):
             raise UsageError(f"{flag}: expected a positive number of seconds, found {value}")
     if args.video is not None and args.video.suffix.lower() != ".gif":
         raise UsageError(f"--video: expected a .gif file, found {args.video.name!r}")
     if args.record is not None and args.record.suffix not in (".npz", ".csv"):
         raise UsageError(f"--record: expected a .npz or .csv file, found {args.record.name!r}")
+    if not args.outlet_prefix.strip() or any(c.isspace() for c in args.outlet_prefix):
+        raise UsageError(f"--outlet-prefix: expected a name without spaces, found "
+                         f"{args.outlet_prefix!r}")
+    if args.arm_poses is not None and args.imu_lsl is None:
+        raise UsageError("--arm-poses: maps the IMU's pitch, expected with --imu-lsl")
+    if args.imu_source_id is not None and args.imu_lsl is None:
+        raise UsageError("--imu-source-id: expected with --imu-lsl NAME")
+
+
+def _arm_poses(args: argparse.Namespace, cal_recording: Any) -> Any:
+    """The arm poses: ``--arm-poses``, else the calibration recording's.
+
+    Raises
+    ------
+    UsageError
+        A malformed ``--arm-poses``, or none anywhere.
+    """
+    from scenarios.live.arm import ArmPoses
+    from scenarios.live.errors import ArmPosesError
+
+    if args.arm_poses is not None:
+        try:
+            rest, raised = (float(v) for v in args.arm_poses.split(":"))
+        except ValueError:
+            raise UsageError(f"--arm-poses: expected REST_DEG:RAISED_DEG such as 0:17, found "
+                             f"{args.arm_poses!r}") from None
+        try:
+            return ArmPoses(math.radians(rest), math.radians(raised), source="given")
+        except ArmPosesError as exc:
+            raise UsageError(f"--arm-poses: {exc}") from None
+    poses = ArmPoses.from_metadata(cal_recording.metadata, cal_recording.source)
+    if poses is None:
+        raise UsageError(
+            f"--imu-lsl: the calibration recording {cal_recording.source} has no arm poses "
+            "(metadata arm_poses) to map the forearm's pitch to the wrist's height; expected "
+            "a calibration recorded by griploop calibrate --lsl with the IMU stream, or "
+            "--arm-poses REST_DEG:RAISED_DEG")
+    return poses
+
+
+def _open_imu(args: argparse.Namespace, info: Any, cal_recording: Any,
+              lsl: Any) -> tuple[Any, Any]:
+    """The IMU stream's open inlet and the arm that follows it.
+
+    Raises
+    ------
+    ImuChannelError
+        The stream has no orientation channel (one line naming its channels).
+    """
+    from scenarios.live.arm import OrientationChannels, PitchArm
+
+    poses = _arm_poses(args, cal_recording)
+    inlet = lsl.open_inlet(info)
+    try:
+        channels = OrientationChannels.of_inlet(inlet, stream=f"IMU stream {info.name()!r}")
+    except BaseException:
+        inlet.close_stream()
+        raise
+    return inlet, PitchArm(poses, channels, imu_fs_hz=info.nominal_srate())
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``griploop live``; returns the exit status."""
+    import sys
+
     from estimation.reproduce import parse_channels
     from scenarios.live import lsl
+    from scenarios.live.arm import KeyArm, LineKeys
     from scenarios.live.display import FRAME_DT_S, Viewer, has_display, render_states
+    from scenarios.live.inlets import run_session
     from scenarios.live.recorded import fit_calibration
-    from scenarios.live.session import LiveGrasp, SessionSettings, run_session
+    from scenarios.live.session import LiveGrasp, SessionSettings
     from sim.hand.objects import make_object
 
     _check(args)
     lsl.pylsl_module()  # one line with the fix if liblsl cannot load, before any work
+    query = stream_query(args, "lsl")
+    if args.imu_lsl is not None:
+        stream_query(args, "imu")  # its form, before any work
     cal_recording = load_with_options(args.calibration, args)
+    if args.imu_lsl is not None:
+        _arm_poses(args, cal_recording)
     cal = fit_calibration(cal_recording, args.estimator, channels=parse_channels(args.channels),
                           seed=args.seed)
     overrides = {k: v for k, v in (("mass_kg", args.mass_kg), ("friction", args.friction))
@@ -118,10 +200,29 @@ def run(args: argparse.Namespace) -> int:
     if video is None and not args.no_video and not viewer_wanted:
         video = (args.json.with_suffix(".gif") if args.json is not None
                  else Path("griploop-live.gif"))
-    settings = SessionSettings(duration_s=args.duration_s, hold_s=args.hold_s,
-                               timeout_s=args.timeout_s,
+    settings = SessionSettings(duration_s=args.duration_s, timeout_s=args.timeout_s,
                                frame_dt_s=FRAME_DT_S if video is not None else None)
-    outlets = lsl.SessionOutlets(1.0 / settings.control_dt_s,
+    wanted = [(query, "lsl", "stream")]
+    if args.imu_lsl is not None:
+        wanted.append((stream_query(args, "imu"), "imu", "IMU stream"))
+    info, *rest = resolve_pinned(wanted, args.resolve_timeout_s)
+    lsl.check_stream(info, n_channels=cal.n_channels, fs_hz=cal.fs_hz,
+                     source=cal_recording.source)
+    imu_info = rest[0] if rest else None
+    imu_inlet = None
+    if imu_info is not None:
+        imu_inlet, arm = _open_imu(args, imu_info, cal_recording, lsl)
+        arm_text = (f"the wrist follows the forearm's pitch on {lsl.describe(imu_info)} "
+                    f"({arm.channels.kind} {', '.join(arm.channels.labels)}; rest "
+                    f"{math.degrees(arm.poses.rest_pitch_rad):.1f} deg, raised "
+                    f"{math.degrees(arm.poses.raised_pitch_rad):.1f} deg = "
+                    f"{100 * arm.poses.lift_height_m:g} cm)")
+    else:
+        keys = LineKeys(sys.stdin)
+        arm = KeyArm(keys.presses, closed=lambda: keys.closed)
+        arm_text = ("no --imu-lsl: press Enter to lift the wrist, Enter again to put it down"
+                    + ("" if sys.stdin.isatty() else " (each line read from stdin)"))
+    outlets = lsl.SessionOutlets(1.0 / settings.control_dt_s, prefix=args.outlet_prefix,
                                  feedback=None if args.feedback == "none" else args.feedback)
     grasp: LiveGrasp | None = None
 
@@ -131,11 +232,14 @@ def run(args: argparse.Namespace) -> int:
     def event(t_s: float, marker: str) -> None:
         outlets.event(grasp.ts0 + t_s, marker)
 
-    grasp = LiveGrasp(cal, obj, controller=args.controller, settings=settings,
-                      publish=publish, event=event, feedback=args.feedback)
-    info = lsl.resolve(args.lsl, args.resolve_timeout_s)
-    lsl.check_stream(info, n_channels=cal.n_channels, fs_hz=cal.fs_hz,
-                     source=cal_recording.source)
+    def notify(line: str) -> None:
+        print(f"live: {line}", flush=True)
+
+    grasp = LiveGrasp(cal, obj, arm=arm, controller=args.controller, settings=settings,
+                      publish=publish, event=event, notify=notify, feedback=args.feedback)
+    watches = [("emg", lsl.SourceWatch(info))]
+    if imu_info is not None:
+        watches.append(("imu", lsl.SourceWatch(imu_info)))
     viewer = Viewer.open(grasp.env) if viewer_wanted else None
     grasp.viewer = viewer
     if viewer_wanted and viewer is None and video is None and not args.no_video:
@@ -143,16 +247,17 @@ def run(args: argparse.Namespace) -> int:
         grasp.frame_every = max(1, int(round(FRAME_DT_S / settings.control_dt_s)))
     print(f"live: {args.estimator} (free_run, calibration R2 {cal.calibration.r2:.3f}) -> "
           f"{args.controller} on {obj.name} ({obj.mass_kg:g} kg, mu {obj.friction:g}); "
-          f"stream {lsl.describe(info)}; outlets {', '.join(outlets.names)}", flush=True)
+          f"stream {lsl.describe(info)} from {lsl.source_of(info)}; "
+          f"{arm_text}; outlets {', '.join(outlets.names)}", flush=True)
     try:
-        run_session(grasp, lambda: lsl.open_inlet(info))
+        run_session(grasp, lambda: lsl.open_inlet(info), imu=imu_inlet, watches=watches)
     except KeyboardInterrupt:
-        _finish(args, grasp, info, cal, obj, outlets, None, lsl)
+        _finish(args, grasp, info, imu_info, cal, obj, outlets, None, lsl)
         raise
     finally:
         if viewer is not None:
             viewer.close()
-    report = _finish(args, grasp, info, cal, obj, outlets, video, lsl)
+    report = _finish(args, grasp, info, imu_info, cal, obj, outlets, video, lsl)
     if video is not None and grasp.frames:
         render_states(obj, grasp.frames, video)
         print(f"wrote {video}")
@@ -164,14 +269,13 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _finish(args: argparse.Namespace, grasp: Any, info: Any, cal: Any, obj: Any, outlets: Any,
-            video: Path | None, lsl: Any) -> dict[str, Any]:
+def _finish(args: argparse.Namespace, grasp: Any, info: Any, imu_info: Any, cal: Any, obj: Any,
+            outlets: Any, video: Path | None, lsl: Any) -> dict[str, Any]:
     """Report, print, and write the JSON and the recording."""
     report = grasp.report()
     report.update({
-        "stream": {"name": info.name(), "type": info.type(), "n_channels": info.channel_count(),
-                   "fs_hz": info.nominal_srate(),
-                   "format": lsl.format_name(info.channel_format())},
+        "stream": lsl.identity(info),
+        "imu_stream": None if imu_info is None else lsl.identity(imu_info),
         "calibration": cal.summary(),
         "controller": args.controller,
         "object": {"name": obj.name, "mass_kg": obj.mass_kg, "friction": obj.friction,
@@ -185,12 +289,26 @@ def _finish(args: argparse.Namespace, grasp: Any, info: Any, cal: Any, obj: Any,
         print(f"wrote {args.json}")
     if args.record is not None and grasp.received:
         rec = grasp.recording(str(args.record), {"stream": report["stream"],
+                                                 "imu_stream": report["imu_stream"],
                                                  "calibration": report["calibration"]})
         args.record.parent.mkdir(parents=True, exist_ok=True)
         rec.save(args.record)
         print(f"wrote {args.record}")
     outlets.close()
     return report
+
+
+def _arm_line(arm: dict[str, Any]) -> str:
+    lift = arm.get("lift_start_s")
+    text = (f"{arm['source']}: " + ("never lifted" if lift is None else
+                                    f"lift started at {lift:.2f} s"))
+    if arm["source"] == "imu":
+        stalls = ", ".join(f"at {g['t_s']:.2f} s for {g['duration_s']:.2f} s"
+                           for g in arm["imu_gaps"])
+        text += f"; {arm['imu_samples']} IMU samples, stalls: {stalls or 'none'}"
+    else:
+        text += f"; {arm['presses']} key presses"
+    return text
 
 
 def _ms(value: float | None) -> str:
@@ -223,7 +341,11 @@ def format_report(report: dict[str, Any]) -> str:
         + ("-" if peak is None else f"{peak:.2f} N")
         + ", hold grip " + ("-" if hold is None else f"{hold:.2f} N")
         + f", slip events {m.get('slip_events')}",
+        f"  {'arm':<18} {_arm_line(report['arm'])}",
         f"  {'ended':<18} {report['ended']} after {report['session_s']:.2f} s of session time",
     ]
+    lines += [f"  {'source changed':<18} at {c['t_s']:.2f} s: {c['stream']} stream "
+              f"{c['found']['name']!r} now from source_id {c['found']['source_id']!r} on host "
+              f"{c['found']['host']!r}" for c in report["source_changes"]]
     lines += [f"warning: {w}" for w in report["warnings"]]
     return "\n".join(lines)

@@ -37,8 +37,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--grasp", metavar="OBJECT", default=None,
                         help="also record each subject grasping, lifting and holding this object "
                         "(DIR/subjectNN_grasp.npz, aiming at the force an episode's user aims at "
-                        "through this session's calibration): a recording to stream to "
-                        "griploop live")
+                        "through this session's calibration, the forearm's pitch of their lift "
+                        "as pitch_rad; the calibration files then carry the subject's arm poses): "
+                        "a recording to stream to griploop live")
     parser.add_argument("--grasp-s", type=float, default=9.0,
                         help="length of the grasp recording, s (default 9)")
     parser.set_defaults(func=run)
@@ -62,6 +63,10 @@ def run(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     for subject in make_population(args.n, args.seed):
         rec = subject.paper_session(generator=args.generator, fs_hz=args.fs_hz)
+        if obj is not None:  # the arm poses griploop calibrate would have asked for
+            from scenarios.live.arm import virtual_arm_poses
+
+            rec.metadata["arm_poses"] = virtual_arm_poses().to_metadata()
         stem = out / f"subject{subject.subject_id:02d}"
         rec.save_npz(stem.with_suffix(".npz"))
         rec.save_csv(stem.with_suffix(".csv"))
