@@ -137,8 +137,8 @@ PAIR_ALPHA = 0.05
 
 #: Agreement thresholds (over estimators reaching ``AGREEMENT_FLOOR`` on a side): issue 18's
 #: mean and largest difference; issue 28's rank correlation (0.6: ten people rank the close
-#: estimators too unsteadily for issue 18's 0.8, docs/results/realism.md, "How far the virtual verdicts hold")
-#: and the order of every pair in :data:`SEPARATED_PAIRS`.
+#: estimators too unsteadily for issue 18's 0.8: docs/results/realism.md, "How far the
+#: virtual verdicts hold") and the order of every pair in :data:`SEPARATED_PAIRS`.
 AGREEMENT_FLOOR = 0.5
 MIN_SPEARMAN = 0.6
 MAX_MEAN_ABS_DIFF = 0.04

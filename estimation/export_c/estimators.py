@@ -17,7 +17,9 @@ Two C families cover the exportable estimators:
 ``mlp``
     Logistic multilayer perceptrons on the current and ``lags`` past windows'
     normalized features (the first window repeated before the start), averaged
-    over an ensemble: ``mlp`` (one network, no lags) and ``transfer_mlp``.
+    over an ensemble: ``mlp`` (one network, no lags), ``transfer_mlp``, and
+    ``adaptive_mlp`` (the person's network on the current window, weight ``w``, and
+    the adapted ensemble on the lagged windows sharing ``1 - w``).
 
 An estimator kind is exported by the emitter registered for its name
 (:func:`register_c_export`); a plugin registers its own. An emitter returns
@@ -132,17 +134,32 @@ def lti_tables(pipeline: Any, mode: str) -> EstimatorTables:
     return EstimatorTables("lti", tables, constants, M[:ns, :ns], doc)
 
 
-def _networks(estimator: Any) -> tuple[list[tuple[list[np.ndarray], list[np.ndarray]]], int]:
-    """``([(coefs, intercepts) per network], lags)`` of an MLP or a TransferMLP."""
+def _networks(estimator: Any) -> tuple[list[tuple[list[np.ndarray], list[np.ndarray]]], int,
+                                       list[float] | None]:
+    """``([(coefs, intercepts) per network], lags, weights)`` of an MLP-based estimator.
+
+    ``weights`` is None for a plain mean (``mlp``, ``transfer_mlp``); for ``adaptive_mlp``
+    the scratch network's share first, then the ensemble's networks sharing the rest.
+    """
+    scratch = getattr(estimator, "scratch_", None)
+    if scratch is not None:  # AdaptiveMLP: its own network, then the adapted ensemble
+        net = scratch.net_
+        nets = [(list(net.coefs_), list(net.intercepts_))]
+        nets += [(list(n.coefs), list(n.intercepts)) for n in estimator.networks_]
+        w = float(estimator.weight_)
+        rest = len(estimator.networks_)
+        weights = [w] + ([(1.0 - w) / rest] * rest if rest else [])
+        return nets, int(estimator.lags) if rest else 0, weights
     if hasattr(estimator, "networks_"):
         nets = [(list(n.coefs), list(n.intercepts)) for n in estimator.networks_]
-        return nets, int(estimator.lags)
+        return nets, int(estimator.lags), None
     net = estimator.net_
-    return [(list(net.coefs_), list(net.intercepts_))], 0
+    return [(list(net.coefs_), list(net.intercepts_))], 0, None
 
 
 def mlp_tables(pipeline: Any, mode: str) -> EstimatorTables:
-    """Tables of a logistic MLP or an ensemble of them (``mlp``, ``transfer_mlp``).
+    """Tables of a logistic MLP or an ensemble of them (``mlp``, ``transfer_mlp``,
+    ``adaptive_mlp``).
 
     Raises
     ------
@@ -150,10 +167,11 @@ def mlp_tables(pipeline: Any, mode: str) -> EstimatorTables:
         A network with an activation other than logistic, or a second output.
     """
     est = pipeline.estimator_
-    act = getattr(getattr(est, "net_", None), "activation", "logistic")
+    own = getattr(est, "scratch_", est)  # adaptive_mlp: the person's network is checked
+    act = getattr(getattr(own, "net_", None), "activation", "logistic")
     if act != "logistic":
         raise ExportError(f"{type(est).__name__}: expected logistic hidden units, found {act}")
-    nets, lags = _networks(est)
+    nets, lags, weights = _networks(est)
     tables, scalars = _scaling_tables(pipeline)
     layers = []
     for n, (coefs, intercepts) in enumerate(nets):
@@ -169,6 +187,7 @@ def mlp_tables(pipeline: Any, mode: str) -> EstimatorTables:
     width = max(max(n_out for _, n_out in sizes) for sizes in layers)
     constants = {"n_inputs": m, "lags": lags, "n_x": m * (lags + 1), "layers": layers,
                  "n_networks": len(nets), "width": width, "uses_force": False,
+                 "weights": weights,
                  "delayed": False, **scalars}
     doc = f"the normalized features of the current and {lags} past windows ({m * (lags + 1)})"
     return EstimatorTables("mlp", tables, constants, np.zeros((0, 0)), doc)
@@ -177,7 +196,7 @@ def mlp_tables(pipeline: Any, mode: str) -> EstimatorTables:
 for _name in ("ss_kf", "ss", "latent_kf", "features_mav", "features_rms", "features_wl",
               "persistence"):
     register_c_export(_name, lti_tables)
-for _name in ("mlp", "transfer_mlp"):
+for _name in ("mlp", "transfer_mlp", "adaptive_mlp"):
     register_c_export(_name, mlp_tables)
 
 

@@ -56,13 +56,19 @@ def test_a_virtual_subjects_recording_replays_alike(c_compiler, sessions, tmp_pa
     assert np.ptp(r.estimate_py_n) > 5.0
 
 
-def test_the_recommended_ensemble_replays_alike(c_compiler, sessions, tmp_path):
+@pytest.mark.parametrize("estimator", ["transfer_mlp", "adaptive_mlp"])
+def test_the_ensembles_replay_alike(c_compiler, sessions, tmp_path, estimator):
+    # adaptive_mlp (the recommended estimator) weights the person's network, which reads
+    # the current window only, against the adapted ensemble on the lagged windows
     fit, replay_rec = sessions
-    fitted, ex, library = _export(tmp_path, fit, "transfer_mlp", "free_run", channels=range(1, 9))
+    fitted, ex, library = _export(tmp_path, fit, estimator, "free_run", channels=range(1, 9))
     r = _replay(library, fitted, ex, replay_rec)
     assert ex.estimator.summary["n_inputs"] == 24
     assert r.feature_ulps <= check.FEATURE_TOLERANCE_ULPS
     assert r.estimate_error_n <= check.ESTIMATE_TOLERANCE_N
+    assert np.ptp(r.estimate_py_n) > 5.0
+    if estimator == "adaptive_mlp":
+        assert fitted.calibration.pipeline.estimator_.networks_  # the weighted form ran
 
 
 def test_an_imported_csv_recording_replays_alike(c_compiler, sessions, tmp_path):

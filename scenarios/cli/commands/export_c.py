@@ -31,7 +31,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="calibration recording (.npz or .csv, with the measured force)")
     add_recording_options(p)
     p.add_argument("--estimator", required=True, metavar="NAME",
-                   help="the estimator to export (ss_kf, latent_kf, mlp, transfer_mlp, ...)")
+                   help="the estimator to export (ss_kf, latent_kf, mlp, adaptive_mlp, "
+                        "transfer_mlp, ...)")
     p.add_argument("--mode", default="free_run", help="free_run (default) or one_step")
     p.add_argument("--channels", default="6,7,8",
                    help="'all' or comma-separated channels (default: 6,7,8)")
