@@ -44,7 +44,11 @@ def markdown(result: dict) -> str:
     for r in tr["rows"]:
         diff = (None if r["real_mean"] is None or r["virtual_mean"] is None
                 else r["virtual_mean"] - r["real_mean"])
-        lines.append(f"| {estimator_label(r['estimator'])} | {_f(r['virtual_mean'], 3)} | "
+        label = estimator_label(r["estimator"])
+        if r.get("sim_trained"):  # judged on subjects it never saw; its own population aside
+            label += (f", out of population (in population {_f(r['in_population_mean'], 3)}, "
+                      f"worst {_f(r['in_population_min'], 2)})")
+        lines.append(f"| {label} | {_f(r['virtual_mean'], 3)} | "
                      f"{_f(r['virtual_min'], 2)} | {_f(r['real_mean'], 3)} | "
                      f"{_f(r['real_min'], 2)} | "
                      f"{'-' if diff is None else f'{diff:+.3f}'} |")
