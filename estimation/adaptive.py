@@ -51,8 +51,9 @@ from estimation.transfer import (
 )
 from sim.errors import GriploopError
 
-#: Fine-tuning of the pretrained networks on the person (epochs, Adam step size).
+#: Fine-tuning epochs of the pretrained networks on the person.
 FINETUNE_EPOCHS = 80
+#: Adam step size of that fine-tuning.
 FINETUNE_RATE = 1e-3
 #: Share of the scratch MLP in the estimate.
 SCRATCH_WEIGHT = 0.5
