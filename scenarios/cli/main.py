@@ -28,7 +28,8 @@ import os
 import signal
 import sys
 import traceback
-from collections.abc import Sequence
+import warnings
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from scenarios.execution.interrupt import exit_status, raise_on_stop
@@ -153,6 +154,27 @@ def build_parser(command: str | None = "*") -> argparse.ArgumentParser:
     return parser
 
 
+def one_line_warnings(command: str) -> Callable[..., None]:
+    """A ``warnings.showwarning`` that prints griploop's own warnings in one line.
+
+    A warning that is also a :class:`~sim.errors.GriploopError` (for example
+    :class:`estimation.adaptive.AdaptationWarning`) is a message for the person at the
+    terminal: ``griploop COMMAND: warning: MESSAGE`` on stderr, no file and line. Any
+    other warning is shown as Python shows it.
+    """
+    default = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, GriploopError):
+            text = str(message).splitlines()[0] if str(message) else category.__name__
+            print(f"griploop {command}: warning: {text}", file=sys.stderr if file is None
+                  else file)
+            return
+        default(message, category, filename, lineno, file, line)
+
+    return show
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``griploop`` console script; returns the exit status."""
     os.environ.setdefault("MPLBACKEND", "Agg")
@@ -165,7 +187,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser(_chosen(argv))
     args = parser.parse_args(argv)
     try:
-        with raise_on_stop():
+        with raise_on_stop(), warnings.catch_warnings():
+            warnings.showwarning = one_line_warnings(args.command)
             return int(args.func(args) or 0)
     except USER_ERRORS as exc:
         if os.environ.get("GRIPLOOP_TRACEBACK"):

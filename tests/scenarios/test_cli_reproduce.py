@@ -13,10 +13,11 @@ from scenarios.cli import main
 from sim.recording import Recording
 
 
-def _toy(path: Path, *, with_force: bool = True, fs_hz: float = 500.0) -> Path:
+def _toy(path: Path, *, with_force: bool = True, fs_hz: float = 500.0,
+         duration_s: float = 30.0) -> Path:
     """A recording at a non-MYO rate whose sEMG amplitude follows the force."""
     rng = np.random.default_rng(0)
-    t = np.arange(int(30 * fs_hz)) / fs_hz
+    t = np.arange(int(duration_s * fs_hz)) / fs_hz
     intent = np.clip(np.sin(2 * np.pi * t / 10.0), 0, None) * np.repeat([0.3, 0.6, 1.0],
                                                                         t.size // 3 + 1)[:t.size]
     emg = (1.0 + 20.0 * intent[:, None] * np.ones(8)) * rng.standard_normal((t.size, 8))
@@ -52,6 +53,22 @@ def test_evaluate_on_a_recording_file(tmp_path, capsys) -> None:
     assert data["recording"]["dt_s"] == 62 / 500 and data["recording"]["fs_hz"] == 500.0
     assert data["model"]["order"] == 4 and data["model"]["dt_s"] == 62 / 500
     assert "ss_kf" in capsys.readouterr().out
+
+
+def test_an_identification_half_too_short_to_adapt_is_said_in_one_line(tmp_path, capsys):
+    # 20 s: 157 windows of 400 ms every 125 ms, 78 to identify, under adaptive_mlp's 96;
+    # it fits the person's MLP alone and the terminal gets one line, not Python's
+    # file-and-line warning
+    rec = _toy(tmp_path / "short.npz", fs_hz=200.0, duration_s=20.0)
+    out = tmp_path / "eval.json"
+    code = main(["evaluate", "--recording", str(rec), "--channels", "all",
+                 "--estimators", "adaptive_mlp", "--json", str(out)])
+    assert code == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["griploop evaluate: warning: AdaptiveMLP: 78 identification windows are "
+                   "too few to adapt the pretrained ensemble (at least 96); using the "
+                   "person's own MLP alone"], err
+    assert json.loads(out.read_text())["estimators"]["adaptive_mlp"]["free_run"]["r2_mean"] > 0.5
 
 
 def test_user_errors_are_one_line(tmp_path, capsys, monkeypatch) -> None:
