@@ -43,7 +43,8 @@ def paper_section(sources: Sequence[tuple[str, RD.ScoreTable]],
         from_json = reproduction is not None and label.startswith(Path(reproduction).name)
         config = data.get("config") if isinstance(data.get("config"), dict) else {}
         channels = config.get("channels") if from_json else None
-        parts.append(note(_deployment_sentence(scores, channels)))
+        parts.append(note(deployment_note(scores, channels,
+                                          data.get("recommendation") if from_json else None)))
         if from_json:
             parts.append(_transfer_table(data.get("transfer")))
         parts.append(_timing_table(scores))
@@ -66,6 +67,20 @@ def _summary_table(scores: Mapping[str, RD.EstimatorScores], mode: str) -> str:
             row += [pm(ref[0], ref[1]), pm(ref[2], ref[3])] if ref else ["-", "-"]
         rows.append(row)
     return table(headers, rows, f"Summary, mode {mode}")
+
+
+def deployment_note(scores: RD.ScoreTable, channels: Any = None,
+                    recommendation: Any = None) -> str:
+    """The reproduction's own recommendation when its JSON carries one, else the sweep's.
+
+    ``griploop reproduce --json`` judges the estimators that learn from virtual subjects
+    on another population and writes its sentence in ``recommendation``; the report
+    prints that sentence, so report and reproduction never name two estimators. Rows of
+    a results store carry none: :func:`_deployment_sentence` decides from their scores.
+    """
+    if isinstance(recommendation, Mapping) and recommendation.get("reason"):
+        return str(recommendation["reason"])
+    return _deployment_sentence(scores, channels)
 
 
 def _deployment_sentence(scores: RD.ScoreTable, channels: Any = None) -> str:
