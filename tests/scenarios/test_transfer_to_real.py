@@ -147,12 +147,8 @@ def _reasons(result):
     return format_report(result)
 
 
-def test_fitting_an_estimator_that_learns_from_virtual_subjects_takes_under_2_s(result):
-    # pretraining is cached (and built once above); fitting is what a person waits for. The
-    # other estimators' times are in docs/results/ (benchmarks/bench_estimation.py): the
-    # paper's MLP (mini-batch 1) takes 1-2 s on a two-round session.
-    for name in ("transfer_mlp", "adaptive_mlp"):
-        assert result["timing"][name]["train_ms_median"] < 2000, name
+# Training time (< 2 s per subject for every estimator, adaptive_mlp about 1.1 s) is a
+# speed goal: benchmarks/bench_estimation.py measures it, not a timed test here.
 
 
 def test_choosing_per_person_on_the_identification_half_is_as_weak_a_guide_as_on_real_people(
