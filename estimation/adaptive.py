@@ -47,7 +47,7 @@ from estimation.transfer import (
     _TransferStream,
     finetune,
     lagged,
-    pretrained,
+    pretrained_for,
 )
 from sim.errors import GriploopError
 
@@ -195,12 +195,7 @@ class AdaptiveMLP(ForceEstimator):
                               f"; using the person's own MLP alone")
             warnings.warn(AdaptationWarning(self.decision_), stacklevel=2)
             return self
-        model = pretrained(U.shape[1], corpus=self.corpus, n_subjects=self.pretrain_subjects,
-                           seed=self.pretrain_seed, hidden=tuple(self.transfer_hidden),
-                           lags=self.lags, n_networks=self.n_networks,
-                           epochs=self.pretrain_epochs,
-                           validation_subjects=self.validation_subjects,
-                           population=self.population)
+        model = pretrained_for(self, U.shape[1], self.transfer_hidden)
         X = lagged(U, self.lags)
         self.networks_ = tuple(
             finetune(net, X, y, epochs=int(self.finetune_epochs),

@@ -277,9 +277,10 @@ def inner_scores(features: FeatureSet, estimators: Sequence[str], *,
                  rng: np.random.Generator | int | None, order: int = PAPER_ORDER,
                  nn_params: Mapping[str, object] | None = None,
                  fraction: float = IDENTIFICATION_FRACTION,
-                 options: Mapping[str, Mapping[str, object]] | None = None
+                 options: Mapping[str, Mapping[str, object]] | None = None,
+                 only: Sequence[str] | None = None
                  ) -> dict[str, float | None]:
-    """free_run R^2 of every estimator on the *inner* split of the identification half.
+    """free_run R^2 of estimators on the *inner* split of the identification half.
 
     The identification half (the first ``fraction`` of the windows) is evaluated on its
     own, as a recording of its own would be: its first ``fraction`` fits, the rest
@@ -302,6 +303,9 @@ def inner_scores(features: FeatureSet, estimators: Sequence[str], *,
         Identification fraction, of the recording and of its identification half.
     options : mapping, optional
         Per-estimator hyperparameters (:func:`estimator_params`).
+    only : sequence of str, optional
+        Score only these of ``estimators`` (default: all). The seeds are drawn for all of
+        ``estimators``, so each keeps the seed :func:`fit_and_score` gives it.
 
     Returns
     -------
@@ -312,6 +316,8 @@ def inner_scores(features: FeatureSet, estimators: Sequence[str], *,
     n_id = split_index(features.n_windows, fraction)
     params = estimator_params(estimators, np.random.default_rng(rng), order, nn_params,
                               dt_s=features.dt_s, options=options)
+    if only is not None:
+        params = {name: p for name, p in params.items() if name in only}
     with one_blas_thread():
         res = evaluate_subject(features.X[:n_id], features.y[:n_id], params,
                                dt_s=features.dt_s, fraction=fraction, time_steps=False)

@@ -171,7 +171,7 @@ def score_recording(
     nn_params: Mapping[str, object] | None = None,
     orders: Sequence[int] | None = None,
     subject_id: int | None = None,
-    inner: bool = False,
+    inner: Sequence[str] = (),
 ) -> tuple[SubjectScore, FeatureSet]:
     """The paper's protocol on one recording: features, then fit-then-score.
 
@@ -193,9 +193,10 @@ def score_recording(
         Candidate orders for the AIC curve (needs ``ss_kf``); ``None``: no curve.
     subject_id : int, optional
         For the score's ``info``.
-    inner : bool
-        Also score every estimator on the inner split of the identification half, with
-        the same seeds (``SubjectScore.inner``).
+    inner : sequence of str
+        Estimators (of ``estimators``) also scored on the inner split of the
+        identification half, each with its outer fit's seed (``SubjectScore.inner``);
+        empty: none.
 
     Returns
     -------
@@ -216,7 +217,8 @@ def score_recording(
     inner_r2 = None
     if inner:
         seeds.bit_generator.state = seed_state  # the outer fits' seeds, as on the real halves
-        inner_r2 = inner_scores(fs, estimators, rng=seeds, order=order, nn_params=nn_params)
+        inner_r2 = inner_scores(fs, estimators, rng=seeds, order=order, nn_params=nn_params,
+                                only=inner)
     return SubjectScore(results, params, info, curve, inner_r2), fs
 
 

@@ -330,6 +330,21 @@ def pretrained(n_inputs: int, *, corpus: str = "virtual", n_subjects: int = 40,
     return model
 
 
+def pretrained_for(estimator: Any, n_inputs: int, hidden: Sequence[int]) -> Pretrained:
+    """The ensemble an estimator's pretraining settings name (:func:`pretrained`).
+
+    ``estimator`` carries ``corpus``, ``pretrain_subjects``, ``pretrain_seed``, ``lags``,
+    ``n_networks``, ``pretrain_epochs``, ``validation_subjects`` and ``population``
+    (:class:`TransferMLP`, :class:`estimation.adaptive.AdaptiveMLP`); ``hidden`` are the
+    pretrained networks' layer sizes.
+    """
+    return pretrained(n_inputs, corpus=estimator.corpus, n_subjects=estimator.pretrain_subjects,
+                      seed=estimator.pretrain_seed, hidden=tuple(hidden), lags=estimator.lags,
+                      n_networks=estimator.n_networks, epochs=estimator.pretrain_epochs,
+                      validation_subjects=estimator.validation_subjects,
+                      population=estimator.population)
+
+
 #: Feature layouts whose default ensembles ship: all 8 channels and channels 6-8 (MAV, RMS
 #: and WL of each; ``scenarios.runners.pretraining.LAYOUTS``).
 SHIPPED_LAYOUTS = (24, 9)
@@ -444,11 +459,7 @@ class TransferMLP(ForceEstimator):
         U = check_features(U, who="TransferMLP", min_samples=8)
         y = check_target(y, U.shape[0])
         self._check_settings()
-        model = pretrained(U.shape[1], corpus=self.corpus, n_subjects=self.pretrain_subjects,
-                           seed=self.pretrain_seed, hidden=tuple(self.hidden), lags=self.lags,
-                           n_networks=self.n_networks, epochs=self.pretrain_epochs,
-                           validation_subjects=self.validation_subjects,
-                           population=self.population)
+        model = pretrained_for(self, U.shape[1], self.hidden)
         seeds = np.random.default_rng(self.random_state).integers(0, 2**31 - 1, self.n_networks)
         X = lagged(U, self.lags)
         self.networks_ = tuple(

@@ -104,8 +104,9 @@ def run_reproduction(
         that learns from virtual subjects is evaluated (``None``: never; the
         recommendation then leaves such estimators out).
     inner : bool
-        Also score the inner split of every identification half and compare the choice
-        it makes with the real recordings' (``inner_outer`` in the result).
+        Also score the inner split of every identification half, for the
+        :data:`INNER_OUTER_ESTIMATORS` evaluated, and compare the choice it makes with the
+        real recordings' (``inner_outer`` in the result).
 
     Returns
     -------
@@ -120,8 +121,11 @@ def run_reproduction(
     if judge is not None:
         population_description(judge)  # an unknown variant is refused before any work
     with one_blas_thread():
+        # the inner split only for the estimators whose choice is compared with the real one
+        inner_names = tuple(n for n in INNER_OUTER_ESTIMATORS if n in estimators) if inner \
+            else ()
         jobs = _jobs(make_population(n=n_subjects, seed=seed), seed, generator, estimators,
-                     channels, order, nn_params, orders, inner)
+                     channels, order, nn_params, orders, inner_names)
         scores = _map_subjects(jobs, int(workers))
         config = {"n_subjects": n_subjects, "seed": seed, "generator": generator,
                   "order": order, "channels": channel_label(channels),
@@ -134,7 +138,7 @@ def run_reproduction(
                          "generator": judge_generator(generator), "seed": judge_seed}
             judged = _map_subjects(_jobs(make_population(n_subjects, judge_seed, variant=judge),
                                          judge_seed, described["generator"], estimators,
-                                         channels, order, nn_params, None, False),
+                                         channels, order, nn_params, None, ()),
                                    int(workers))
         result = population_result(scores, config=config, order=order, judged=judged,
                                    judge=described)
@@ -144,7 +148,8 @@ def run_reproduction(
 
 
 def _jobs(subjects: Sequence[Any], seed: int, generator: str, estimators: Sequence[str],
-          channels: Any, order: int, nn_params: Any, orders: Any, inner: bool) -> list[tuple]:
+          channels: Any, order: int, nn_params: Any, orders: Any,
+          inner: Sequence[str]) -> list[tuple]:
     """One job per subject for :func:`_score_subject`, seeded from ``[seed, SESSION_SALT]``."""
     children = np.random.SeedSequence([seed, SESSION_SALT]).spawn(len(subjects))
     return [(subject, child, generator, estimators, channels, order, nn_params, orders, inner)
