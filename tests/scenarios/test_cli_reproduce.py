@@ -93,3 +93,11 @@ def test_reproduce_exits_nonzero_on_bad_option() -> None:
     proc = subprocess.run([sys.executable, "-m", "scenarios.cli", "reproduce", "--subjects", "0"],
                           capture_output=True, text=True, check=False)
     assert proc.returncode == 2 and "positive integer" in proc.stderr
+
+
+def test_an_unknown_judge_population_is_refused_before_any_work(capsys, monkeypatch) -> None:
+    monkeypatch.delenv("GRIPLOOP_TRACEBACK", raising=False)
+    assert main(["reproduce", "--subjects", "1", "--judge", "nope"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["griploop reproduce: error: unknown population 'nope'; expected one of "
+                   "default, wide"]
