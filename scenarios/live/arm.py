@@ -61,6 +61,7 @@ from typing import Any, Protocol, TextIO
 import numpy as np
 
 from scenarios.live.errors import ArmPosesError, ImuChannelError
+from scenarios.live.samples import parse_numbers
 from scenarios.runners.trial import LIFT_DURATION_S
 from sim.hand.wrist import MAX_WRIST_HEIGHT_M, WristSchedule
 
@@ -184,19 +185,11 @@ class OrientationChannels:
     def pitch_rad(self, samples: Any) -> np.ndarray:
         """The pitch of each sample, rad (NaN where the channels are not numbers)."""
         x = np.asarray(samples)
-        if x.dtype.kind not in "iuf":
-            x = np.array([[_number(v) for v in row] for row in x.reshape(x.shape[0], -1)])
-        x = x.astype(float).reshape(x.shape[0], -1)
+        x = x.reshape(x.shape[0], -1)
+        x = x.astype(float) if x.dtype.kind in "iuf" else parse_numbers(x)
         if self.kind == "pitch":
             return x[:, self.index[0]] * self.rad_per_unit
         return pitch_of_quaternion(x[:, list(self.index)])
-
-
-def _number(value: Any) -> float:
-    try:
-        return float(value.decode() if isinstance(value, bytes) else value)
-    except (TypeError, ValueError, UnicodeDecodeError):
-        return math.nan
 
 
 @dataclass(frozen=True)

@@ -340,11 +340,6 @@ def resolve_stream(query: StreamQuery, timeout_s: float, *, what: str = "stream"
     return resolve_streams([query], timeout_s, whats=[what], settle_s=settle_s)[0]
 
 
-def resolve(name: str, timeout_s: float, *, what: str = "stream") -> Any:
-    """The one local LSL stream named ``name`` (:func:`resolve_stream` with the name alone)."""
-    return resolve_stream(StreamQuery(name), timeout_s, what=what)
-
-
 class SourceWatch:
     """Whether a session's stream has been replaced by another source of its name.
 

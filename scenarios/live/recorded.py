@@ -38,7 +38,6 @@ from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
 from scenarios.live.arm import FOREARM_M, LIFT_HEIGHT_M, forearm_pitch_rad
 from scenarios.live.errors import SessionError
-from scenarios.outcomes import outcome_of
 from scenarios.runners.calibration import Calibration, fit_on_features
 from scenarios.runners.dispatch import DivergedError
 from scenarios.runners.episode import (
@@ -51,7 +50,6 @@ from scenarios.runners.episode_metrics import (
     CONTACT_N,
     contact_peak_ratio,
     episode_metrics,
-    was_lifted,
 )
 from scenarios.runners.reference import (
     RAMP_S,
@@ -60,6 +58,7 @@ from scenarios.runners.reference import (
     reference_from_windows,
     stream_estimates,
 )
+from scenarios.runners.trial_outcome import judge_trial
 from scenarios.schema import ORACLE
 from sim.hand.objects import ObjectSpec
 from sim.hand.wrist import min_jerk
@@ -397,13 +396,7 @@ def grasp_metrics(traces: Mapping[str, np.ndarray], info: Mapping[str, Any], *,
                            window_values_n=np.asarray(window_values_n),
                            window_dt_s=window_dt_s)
     ratio, _ = contact_peak_ratio(t, traces["tracked_reference_n"], grip, traces["both_sides"])
-    if referee is not None:
-        lifted, crushed = referee.secure_lift_s is not None, referee.crushed
-        dropped, outcome = referee.fell_s is not None, referee.outcome
-    else:
-        lifted = was_lifted(traces["object_height_m"])
-        dropped, crushed = bool(info.get("dropped", False)), bool(info.get("crushed", False))
-        outcome = outcome_of(lifted=lifted, dropped=dropped, crushed=crushed)
+    lifted, dropped, crushed, outcome = judge_trial(traces, info, referee)
     held = t >= hold_from_s if hold is None else hold
     out: dict[str, Any] = {
         "outcome": outcome,

@@ -13,6 +13,18 @@ from sim.recording import MAX_EMG_ABS
 INT8_RANGE = (-128, 127)
 
 
+
+def parse_numbers(arr: np.ndarray) -> np.ndarray:
+    """Float values of a string, bytes or object array, same shape; what does not parse is NaN."""
+    out = np.empty(arr.shape, dtype=np.float64)
+    flat, values = out.reshape(-1), arr.reshape(-1)
+    for i, v in enumerate(values):
+        try:
+            flat[i] = float(v.decode() if isinstance(v, bytes) else v)
+        except (TypeError, ValueError, UnicodeDecodeError):
+            flat[i] = math.nan
+    return out
+
 class SampleGuard:
     """Turns whatever a stream delivers into samples the windows can take.
 
@@ -47,7 +59,7 @@ class SampleGuard:
                 np.clip(x, self.lo, self.hi, out=x)
             return x
         if arr.dtype.kind not in "iuf":
-            arr = self._numbers(arr)
+            arr = parse_numbers(arr)
         x = arr.astype(np.float64)
         finite = np.isfinite(x)
         if not finite.all():
@@ -60,15 +72,3 @@ class SampleGuard:
         if self.integer:
             return np.rint(x).astype(np.int64)
         return x
-
-    @staticmethod
-    def _numbers(arr: np.ndarray) -> np.ndarray:
-        """Float values of a string or object array; what does not parse becomes NaN."""
-        out = np.empty(arr.shape, dtype=np.float64)
-        flat, values = out.reshape(-1), arr.reshape(-1)
-        for i, v in enumerate(values):
-            try:
-                flat[i] = float(v.decode() if isinstance(v, bytes) else v)
-            except (TypeError, ValueError, UnicodeDecodeError):
-                flat[i] = math.nan
-        return out

@@ -58,17 +58,15 @@ from controllers.design_cache import grasp_design
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
 from scenarios.deploy.compiled import maybe_compiled
-from scenarios.outcomes import PHASE_CODES, outcome_of
+from scenarios.outcomes import PHASE_CODES
 from scenarios.rows import WORST_FIELDS, EpisodeRow
 from scenarios.runners.calibration import Calibration, CalibrationSettings
-from scenarios.runners.dispatch import DivergedError
 from scenarios.runners.episode_metrics import (
     contact_peak_ratio,
     episode_metrics,
     margin_fields,
     mpc_failures,
     operating_forces,
-    was_lifted,
 )
 from scenarios.runners.operator_loop import STEP_MS, WINDOW_MS
 from scenarios.runners.practice import (
@@ -81,6 +79,7 @@ from scenarios.runners.reference import grasp_task, intended_grip_n
 from scenarios.runners.subject import subject_for
 from scenarios.runners.trial import (  # noqa: F401  (re-exported: the episode's pieces)
     LIFT_DURATION_S,
+    TIMING_KEYS,
     Trial,
     closed_loop,
     default_episode_s,
@@ -88,7 +87,7 @@ from scenarios.runners.trial import (  # noqa: F401  (re-exported: the episode's
     paces_itself,
     run_trial,
 )
-from scenarios.runners.trial_outcome import hold_window, safety_margin_pct
+from scenarios.runners.trial_outcome import hold_window, judge_trial, safety_margin_pct
 from scenarios.schema import Scenario
 from sim.codec import state_space_matrices
 from sim.hand.objects import ObjectSpec, make_object
@@ -230,7 +229,7 @@ sim.user.operator.OperatorError
                           timings=timings, record_frames=record_frames,
                           task=grasp_task(obj, hold_s=hold_s) if self_paced else None,
                           window_ms=window_ms, step_ms=step_ms)
-    _raise_on_divergence(trial)
+    trial.raise_if_diverged()
     row = {"subject_id": subject.subject_id, "seed": int(seed), **_object_fields(obj),
            "controller": controller, "estimator": estimator, "mode": mode,
            "scheduled": bool(design.scheduled), "user": user, "feedback": feedback,
@@ -245,18 +244,6 @@ sim.user.operator.OperatorError
 def seed_sequences(seed: int) -> list[np.random.SeedSequence]:
     """The episode's five seeds: calibration, the trial's sEMG, the hand, the user, practice."""
     return np.random.SeedSequence(seed).spawn(5)
-
-
-def _raise_on_divergence(trial: Trial) -> None:
-    """:class:`DivergedError` naming MuJoCo's warning if the trial's physics diverged."""
-    if trial.failure is not None:
-        raise DivergedError(f"physics diverged at t = {trial.info['time_s']:.3f} s: "
-                            f"{trial.failure}")
-
-
-#: The timing fields of a row, s (wall time in each part of the loop).
-TIMING_KEYS = ("t_semg_s", "t_features_s", "t_estimator_s", "t_operator_s", "t_controller_s",
-               "t_physics_s")
 
 
 def _belief_fields(belief: ProsthesisBelief | None, params: OperatorParams) -> dict[str, Any]:
@@ -313,13 +300,7 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
         hold = hold_window(t, traces["wrist_height_m"], referee.secure_lift_s, referee.fell_s)
         rising = np.flatnonzero(traces["wrist_height_m"] > 0.0)
         lift_after_s = float(t[rising[0]]) if rising.size else float(t[-1]) + control_dt_s
-        lifted, crushed = referee.secure_lift_s is not None, referee.crushed
-        dropped = referee.fell_s is not None
-        outcome = referee.outcome
-    else:
-        lifted = was_lifted(traces["object_height_m"])
-        dropped, crushed = bool(info["dropped"]), bool(info["crushed"])
-        outcome = outcome_of(lifted=lifted, dropped=dropped, crushed=crushed)
+    lifted, dropped, crushed, outcome = judge_trial(traces, info, referee)
     metrics = episode_metrics(stream.t_s[:n_run], stream.reference_n[:n_run],
                               traces["grip_force_n"], stream.oracle_n[:n_run],
                               start_s=stream.start_s, lift_s=lift_after_s,
@@ -334,8 +315,7 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
     held = analysed[-1] if held_n is not None else None
     worst = worst_case(analysed[:len(visited_n)]) if visited_n else {}
     simulated = t[-1] + control_dt_s
-    loop_time = sum(timings[k] for k in ("t_estimator_s", "t_controller_s", "t_physics_s",
-                                         "t_semg_s", "t_features_s", "t_operator_s"))
+    loop_time = sum(timings[k] for k in TIMING_KEYS)
     if hold is None:  # the scripted schedule: the last hold_s, where the object was in the air
         hold = (t >= hold_from_s) if lifted and not dropped else np.zeros(t.size, dtype=bool)
     row = EpisodeRow.build(**{

@@ -47,24 +47,24 @@ from controllers.design_cache import grasp_design
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
 from scenarios.runners.calibration import CalibrationSettings
-from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
+from scenarios.runners.dispatch import UnsupportedScenarioError
 from scenarios.runners.episode import (
     HAND_FORCE_AT_MVC_N,
-    TIMING_KEYS,
     controller_spec,
     scenario_object,
 )
-from scenarios.runners.episode_metrics import was_lifted
 from scenarios.runners.practice import Interface, practice_object_for, practise
 from scenarios.runners.reference import Task, grasp_task, hold_level_for, intended_grip_n
 from scenarios.runners.subject import subject_for
 from scenarios.runners.trial import (
+    TIMING_KEYS,
     Trial,
     default_episode_s,
     lift_time_s,
     paces_itself,
     run_trial,
 )
+from scenarios.runners.trial_outcome import judge_trial
 from scenarios.schema import Scenario
 from sim.hand.grasp_env import WristSchedule
 from sim.user.operators import make_operator
@@ -146,19 +146,12 @@ class TaskSetup:
                       control_dt_s=self.dt, hand_force_at_mvc_n=HAND_FORCE_AT_MVC_N,
                       timings=self.timings, task=task if self.self_paced else None,
                       **self.window, **kw)
-        if t.failure is not None:
-            raise DivergedError(f"physics diverged at t = {t.info['time_s']:.3f} s: {t.failure}")
+        t.raise_if_diverged()
         return t
 
     def outcome(self, t: Trial) -> str:
         """The trial's outcome: its referee's, or on the scripted schedule the flags'."""
-        if t.referee is not None:
-            return t.referee.outcome
-        lifted = was_lifted(t.traces["object_height_m"])
-        if t.info["crushed"]:
-            return "crushed"
-        return "dropped" if lifted and t.info["dropped"] else (
-            "held" if lifted else "not_lifted")
+        return judge_trial(t.traces, t.info, t.referee)[3]
 
     def identity(self) -> dict[str, Any]:
         """The row fields naming the user, the object and the loop."""
@@ -276,7 +269,7 @@ def run_slip_recovery_scenario(scenario: Scenario) -> dict[str, Any]:
         slip_loads: list[float] = []
         reactions: list[float] = []
         for i in range(p.trials):
-            load = _RisingLoad(WristSchedule().lift_height_m, p.load_rate_n_s)
+            load = _RisingLoad(task.lift_height_m, p.load_rate_n_s)
             t = setup.trial(i, goal_n=goal_n, hold_s=p.hold_s, task=task, load=load,
                             until=load.done)
             corrections += setup.operator.corrections

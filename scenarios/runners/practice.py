@@ -31,9 +31,8 @@ import numpy as np
 
 from controllers.design_cache import grasp_design
 from scenarios.runners.calibration import Calibration, CalibrationSettings
-from scenarios.runners.dispatch import DivergedError
 from scenarios.runners.reference import grasp_task, intended_grip_n
-from scenarios.runners.trial import default_episode_s, lift_time_s, run_trial
+from scenarios.runners.trial import TIMING_KEYS, default_episode_s, lift_time_s, run_trial
 from sim import cache as sim_cache
 from sim.hand.objects import ObjectSpec, make_object, object_names
 from sim.user.belief import ProsthesisBelief
@@ -168,8 +167,7 @@ def _practise(subject: VirtualSubject, cal: Calibration, interface: Interface, o
                           dict(interface.controller_spec))
     task = grasp_task(obj, hold_s=PRACTICE_HOLD_S)
     goal_n = intended_grip_n(obj)
-    timings = dict.fromkeys(("t_semg_s", "t_features_s", "t_estimator_s", "t_operator_s",
-                             "t_controller_s", "t_physics_s"), 0.0)
+    timings = dict.fromkeys(TIMING_KEYS, 0.0)
     lift_after_s = lift_time_s(trial_s, PRACTICE_HOLD_S)
     for seqs in seed_seq.spawn(n_lifts):
         c = interface.calibration
@@ -178,9 +176,7 @@ def _practise(subject: VirtualSubject, cal: Calibration, interface: Interface, o
                           lift_after_s=lift_after_s, control_dt_s=interface.control_dt_s,
                           hand_force_at_mvc_n=interface.hand_force_at_mvc_n, timings=timings,
                           task=task, window_ms=c.window_ms, step_ms=c.step_ms)
-        if trial.failure is not None:
-            raise DivergedError(f"practice lift: physics diverged at "
-                                f"t = {trial.info['time_s']:.3f} s: {trial.failure}")
+        trial.raise_if_diverged("practice lift: ")
     return operator.belief
 
 

@@ -26,7 +26,7 @@ import numpy as np
 from controllers.design import ControllerDesign
 from controllers.drive import HandLoop
 from scenarios.runners.calibration import Calibration
-from scenarios.runners.dispatch import UnsupportedScenarioError
+from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.operator_loop import STEP_MS, WINDOW_MS, LiveUser, scene_from_info
 from scenarios.runners.reference import (
     RAMP_S,
@@ -79,6 +79,12 @@ def lift_time_s(episode_s: float, hold_s: float) -> float:
     return lift_after_s
 
 
+#: The timing fields of a row, s (wall time in each part of the loop); ``run_trial`` adds
+#: to a dict of these.
+TIMING_KEYS = ("t_semg_s", "t_features_s", "t_estimator_s", "t_operator_s", "t_controller_s",
+               "t_physics_s")
+
+
 @dataclass
 class Trial:
     """One closed-loop trial: the traces, how it ended, and the reference it ran on.
@@ -108,6 +114,16 @@ class Trial:
     referee: TrialReferee | None = None
     phases: list[tuple[float, str]] | None = None
     attempts: int | None = None
+
+    def raise_if_diverged(self, what: str = "") -> None:
+        """Raise :class:`~scenarios.runners.dispatch.DivergedError` if the physics diverged.
+
+        The message names MuJoCo's warning and the time, after ``what`` (e.g.
+        ``"practice lift: "``).
+        """
+        if self.failure is not None:
+            raise DivergedError(f"{what}physics diverged at t = {self.info['time_s']:.3f} s: "
+                                f"{self.failure}")
 
 
 def run_trial(subject: VirtualSubject, obj: ObjectSpec, cal: Calibration,

@@ -27,6 +27,7 @@ import numpy as np
 
 from controllers.bounds import slip_threshold_n
 from scenarios.outcomes import outcome_of
+from scenarios.runners.episode_metrics import was_lifted
 from sim.hand.objects import ObjectSpec
 
 LIFTED_FRACTION = 0.5
@@ -116,3 +117,20 @@ def safety_margin_pct(grip_n: np.ndarray, hold: np.ndarray, obj: ObjectSpec) -> 
         return None
     return float(100.0 * (np.mean(grip_n[hold]) / slip_threshold_n(obj.mass_kg, obj.friction)
                           - 1.0))
+
+
+def judge_trial(traces: Mapping[str, np.ndarray], info: Mapping[str, Any],
+                referee: TrialReferee | None) -> tuple[bool, bool, bool, str]:
+    """``(lifted, dropped, crushed, outcome)`` of one trial.
+
+    A trial the user paced is judged by its referee; on the scripted schedule, by the
+    object's height trace (``object_height_m``) and the environment's last ``info``
+    (``dropped``, ``crushed``; absent counts as False).
+    """
+    if referee is not None:
+        return (referee.secure_lift_s is not None, referee.fell_s is not None,
+                referee.crushed, referee.outcome)
+    lifted = was_lifted(traces["object_height_m"])
+    dropped, crushed = bool(info.get("dropped", False)), bool(info.get("crushed", False))
+    return lifted, dropped, crushed, outcome_of(lifted=lifted, dropped=dropped,
+                                                crushed=crushed)
