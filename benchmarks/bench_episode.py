@@ -52,7 +52,7 @@ HELP_LIMIT_S = 0.5
 
 def episode_loop(user: str = "reacting") -> float:
     """Real-time factor of the episode loop with ``user``, printing the split by stage."""
-    from scenarios.runners.episode import run_episode
+    from scenarios.runners.episode import EpisodeSpec, run_episode
     from sim.errors import GriploopError
     from sim.hand.objects import make_object
     from sim.user.subjects import VirtualSubject
@@ -67,8 +67,8 @@ def episode_loop(user: str = "reacting") -> float:
     for seed in range(9):  # the first episode that runs warms the caches, untimed
         start = time.perf_counter()
         try:
-            row = run_episode(subject, can, estimator="ss_kf", controller="pid", seed=seed,
-                              user=user).row
+            row = run_episode(subject, can, EpisodeSpec(estimator="ss_kf", controller="pid",
+                                                        seed=seed, user=user)).row
         except GriploopError as err:  # an unstable fit, a diverged episode: say so, go on
             failed.append(f"seed {seed}: {err}")
             continue

@@ -342,7 +342,7 @@ def evaluate_options(seeds: int = 4) -> None:
     from importlib import resources
 
     import sim.hand.model as hand_model
-    from scenarios.runners.episode import run_episode
+    from scenarios.runners.episode import EpisodeSpec, run_episode
     from sim.user.subjects import VirtualSubject
 
     root = Path(__file__).resolve().parent.parent
@@ -376,8 +376,9 @@ def evaluate_options(seeds: int = 4) -> None:
                 lo, hi, jump = _lift_jumps()
                 parts = []
                 for obj in objects:
-                    rows = [run_episode(subject, obj, estimator="ss_kf", controller="pid",
-                                        seed=seed).row for seed in range(seeds)]
+                    rows = [run_episode(subject, obj, EpisodeSpec(
+                        estimator="ss_kf", controller="pid", seed=seed)).row
+                        for seed in range(seeds)]
                     parts.append(f"{obj.name} " + " ".join(
                         f"{'D' if r['dropped'] else 'h'}{r['slip_events']}/"
                         f"{1e3 * r['slip_distance_m']:.0f}" for r in rows))

@@ -40,7 +40,7 @@ from _timing import goal_line  # noqa: E402
 from controllers.design import design_for_object  # noqa: E402
 from controllers.mpc import MPC  # noqa: E402
 from controllers.qp import CasadiSolver, DaqpSolver  # noqa: E402
-from scenarios.runners.episode import _closed_loop  # noqa: E402
+from scenarios.runners.trial_loop import given_reference_trial  # noqa: E402
 from sim.hand.objects import make_object  # noqa: E402
 
 DT_S = 0.01
@@ -95,10 +95,9 @@ def record() -> tuple[list[tuple[str, object, tuple]], list[tuple[MPC, np.ndarra
 
         mpc.solve = recorded_solve
     t = np.arange(int(EPISODE_S / DT_S)) * DT_S
-    timings = dict.fromkeys(("t_controller_s", "t_physics_s"), 0.0)
-    _, failure, info = _closed_loop(obj, d, reference(t), t, DT_S, EPISODE_S, LIFT_AFTER_S,
-                                    np.random.SeedSequence(0), timings, False)
-    info = {**info, "failure": failure, "n_designs": len(core.designs)}
+    loop = given_reference_trial(obj, d, reference(t), control_dt_s=DT_S,
+                                 lift_at_s=LIFT_AFTER_S)
+    info = {**loop.info, "failure": loop.failure, "n_designs": len(core.designs)}
     return calls, qps, info
 
 

@@ -47,19 +47,34 @@ ESTIMATOR, CONTROLLER, SEED = "latent_kf", "pid", 1
 def _scheduled_arm() -> type:
     """The reacting user whose wrist follows the schedule: griploop 0.4's reacting episode."""
     from sim.user.reacting import ReactingOperator
+    from sim.user.scripted import ScriptedArm
 
     class ScheduledArm(ReactingOperator):
-        """Sees, feels and corrects, but does not move the arm (no ``wrist_move``)."""
+        """Sees, feels and corrects, but the arm lifts as the scripted user's does (at a set
+        time once the grip is established) and the trial runs to its limit."""
 
         name = "scheduled_arm"
-        wrist_move = None  # the runner then lifts on the scripted schedule
+        done = property(lambda self: False, lambda self, value: None)
+
+        def start(self, plan, *, control_dt_s, rng):  # type: ignore[no-untyped-def]
+            super().start(plan, control_dt_s=control_dt_s, rng=rng)
+            self.script_arm = ScriptedArm(self.params.lift_s)
+            self.script_arm.start(plan)
+
+        def perceive(self, scene):  # type: ignore[no-untyped-def]
+            super().perceive(scene)
+            self.script_arm.perceive(scene)
+
+        def wrist_move(self):  # type: ignore[no-untyped-def]
+            super().wrist_move()  # the user's own decision, not carried out
+            return self.script_arm.wrist_move()
 
     return ScheduledArm
 
 
 def trial_times(repeat: int) -> list[tuple[str, float, float, float, float]]:
     """Per case: practised trial and reference wall times (medians), their ratio, the length."""
-    from scenarios.runners.episode import run_episode
+    from scenarios.runners.episode import EpisodeSpec, run_episode
     from sim.hand.objects import make_object
     from sim.user.operators import register_operator, unregister_operator
     from sim.user.subjects import VirtualSubject
@@ -74,8 +89,9 @@ def trial_times(repeat: int) -> list[tuple[str, float, float, float, float]]:
                     ) -> tuple[float, dict]:
                 """Wall time per simulated second of one episode, and its row."""
                 t0 = time.perf_counter()
-                r = run_episode(subject, obj, estimator=ESTIMATOR, controller=CONTROLLER,
-                                seed=SEED, user=user, episode_s=episode_s)
+                r = run_episode(subject, obj, EpisodeSpec(estimator=ESTIMATOR,
+                                                          controller=CONTROLLER, seed=SEED,
+                                                          user=user, episode_s=episode_s))
                 return (time.perf_counter() - t0) / r.row["simulated_s"], r.row
 
             _, row = run("reacting", None)  # warm: design, calibration, practice cache

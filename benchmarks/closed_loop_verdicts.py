@@ -37,7 +37,7 @@ CONTROLLERS = ("pid", "lead_lag", "mpc")
 
 def _episode(job: tuple) -> dict:
     from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
-    from scenarios.runners.episode import run_episode
+    from scenarios.runners.episode import EpisodeSpec, run_episode
     from sim.hand.objects import make_object
     from sim.user.subjects import VirtualSubject
 
@@ -45,8 +45,8 @@ def _episode(job: tuple) -> dict:
     feedback = "touch" if estimator == "intact" else "none"
     try:
         row = run_episode(VirtualSubject.sample(0, subject), make_object(**obj),
-                          estimator=estimator, controller=controller, seed=seed,
-                          practice=practice, feedback=feedback).row
+                          EpisodeSpec(estimator=estimator, controller=controller, seed=seed,
+                          practice=practice, feedback=feedback)).row
     except (DivergedError, UnsupportedScenarioError) as exc:
         return {"job": job, "outcome": "failed", "error": str(exc)}
     return {"job": job, **{k: row[k] for k in ("outcome", "attempts", "time_to_lift_s",

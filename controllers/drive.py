@@ -38,6 +38,11 @@ class HandLoop:
     ----------
     info : dict
         The environment's ``info`` after the last reset or step.
+    observation : Observation or None
+        What the controller acted on at the last step.
+    computed : float
+        The command the controller computed at the last step (the hand receives it
+        at the next).
     controller_s, physics_s : float
         Wall time spent in ``controller.act`` and in ``env.step`` since the reset, s.
     """
@@ -50,6 +55,8 @@ class HandLoop:
         self.physics_s = 0.0
         self._pending = 0.0
         self._action = np.zeros(1, dtype=np.float32)
+        self.observation: Any = None
+        self.computed = 0.0
 
     def reset(self, seed: int) -> dict[str, Any]:
         """Reset the controller, then the environment with ``seed``; return its ``info``."""
@@ -80,12 +87,13 @@ class HandLoop:
             The environment terminated or truncated the episode.
         """
         t0 = time.perf_counter()
-        u = self.controller.act(observation_from_info(self.info, reference_n))
+        self.observation = observation = observation_from_info(self.info, reference_n)
+        u = self.controller.act(observation)
         t1 = time.perf_counter()
         delivered = self._pending
         self._action[0] = delivered + disturbance
         _, _, terminated, truncated, self.info = self.env.step(self._action)
         self.physics_s += time.perf_counter() - t1
         self.controller_s += t1 - t0
-        self._pending = u
+        self._pending = self.computed = u
         return delivered, float(self._action[0]), bool(terminated or truncated)

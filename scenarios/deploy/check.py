@@ -4,24 +4,24 @@
 window and the C estimator, and the same recording through
 :func:`estimation.features.extract_features` and the fitted pipeline's stream; each
 feeds its own features to its own estimator (``one_step``: both get the recording's
-force at the previous window's end). :func:`hand_observations` records what a
-designed Python controller saw and commanded while it held the MuJoCo hand on a
-reference; :func:`replay_controller` feeds those observations to the C controller
-and compares the commands. Tolerances (docs/DEPLOY.md): features within one unit in
-the last place of float32 (the C divides and takes square roots in float32, Python
-in float64), estimate and command within 1e-3 (N, command units).
+force at the previous window's end). :func:`hand_observations` replays the recording in
+a trial (the one trial loop, :mod:`scenarios.runners.trial_loop`: the recording's sEMG
+drives the hand, its forearm's pitch moves the wrist) and records what the designed
+Python controller saw and commanded; :func:`replay_controller` feeds those observations
+to the C controller and compares the commands. Tolerances (docs/DEPLOY.md): features
+within one unit in the last place of float32 (the C divides and takes square roots in
+float32, Python in float64), estimate and command within 1e-3 (N, command units).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from controllers.base import Observation
-from controllers.drive import HandLoop
 from estimation.features import extract_features
 from scenarios.deploy.library import (
     CompiledController,
@@ -29,9 +29,11 @@ from scenarios.deploy.library import (
     CompiledLibrary,
     CompiledStream,
 )
-from scenarios.runners.reference import reference_from_windows
+from scenarios.live.arm import LIFT_HEIGHT_M
+from scenarios.live.recorded import RecordedPerson, ReplaySpec, check_layout
+from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
+from scenarios.runners.trial_loop import TrialLoop
 from sim.c_source import ExportError
-from sim.hand.grasp_env import GraspEnv, WristSchedule
 from sim.hand.objects import ObjectSpec
 from sim.recording import Recording
 
@@ -124,37 +126,31 @@ def replay_estimator(library: CompiledLibrary, recording: Recording, pipeline: A
                           fs.t_s)
 
 
-class _Recorder:
-    """A controller that records what it saw and commanded."""
-
-    def __init__(self, inner: Any) -> None:
-        self.inner = inner
-        self.observations: list[Observation] = []
-        self.commands: list[float] = []
-
-    def reset(self) -> None:
-        self.inner.reset()
-
-    def act(self, observation: Observation) -> float:
-        u = float(self.inner.act(observation))
-        self.observations.append(observation)
-        self.commands.append(u)
-        return u
-
-
-def hand_observations(design: Any, obj: ObjectSpec, reference_n: np.ndarray, *,
+def hand_observations(design: Any, obj: ObjectSpec, recording: Recording, fitted: Any, *,
+                      hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N, duration_s: float,
                       seed: int = 0) -> tuple[list[Observation], np.ndarray]:
-    """What the design's Python controller saw and commanded holding the hand on a reference.
+    """What the design's Python controller saw and commanded in a trial on ``recording``.
 
-    The hand closes on the object standing on the table and holds it (the wrist does
-    not lift), so the run covers closing, approach, force control and release.
+    The trial starts 1 s before the first window whose reference exceeds 0.5 N (a
+    calibration recording's rest is skipped; the earlier samples warm the estimator up)
+    and lasts ``duration_s`` (shorter if the recording ends first). The wrist follows
+    the recording's forearm pitch when it has one
+    (:class:`~scenarios.live.recorded.RecordedPerson`), else the
+    hand holds the object on the table, so the run covers closing, approach, force
+    control and release.
 
     Parameters
     ----------
     design : controllers.design.ControllerDesign
     obj : ObjectSpec
-    reference_n : ndarray, shape (n_steps,)
-        Grip-force reference at each control step, N.
+    recording : Recording
+        The calibration's layout.
+    fitted : scenarios.live.recorded.RecordedCalibration
+        The fitted estimator.
+    hand_force_at_mvc_n : float
+        The force mapping's scale, N.
+    duration_s : float
+        The longest run, s.
     seed : int
         The environment's seed.
 
@@ -163,22 +159,30 @@ def hand_observations(design: Any, obj: ObjectSpec, reference_n: np.ndarray, *,
     observations : list of Observation
     commands : ndarray, shape (n_run,)
     """
+    check_layout(recording, fitted)
     dt = float(design.core.dt_s)
-    n = int(reference_n.size)
-    # the hand grasps and holds on the table (no lift: the run follows the reference whole)
-    env = GraspEnv(obj, 0.0, control_dt_s=dt, episode_s=n * dt,
-                   schedule=WristSchedule(lift_after_s=n * dt + 1.0))
-    recorder = _Recorder(design.controller)
-    loop = HandLoop(env, recorder)
-    try:
-        loop.reset(seed=seed)
-        for ref in reference_n:
-            env.set_reference(float(ref))
-            if loop.step(float(ref))[2]:
-                break
-    finally:
-        env.close()
-    return recorder.observations, np.asarray(recorder.commands)
+    pitched = recording.pitch_rad is not None
+    spec = ReplaySpec(control_dt_s=dt, hand_force_at_mvc_n=hand_force_at_mvc_n,
+                      lift_height_m=LIFT_HEIGHT_M if pitched else None)
+    start_s = _grasp_start_s(recording, fitted, spec)
+    limit_s = min(duration_s, recording.duration_s - start_s)
+    spec = replace(spec, episode_s=limit_s)
+    person = RecordedPerson(recording, fitted, spec, start_s=start_s)
+    loop = TrialLoop(obj, design, person, limit_s=limit_s, control_dt_s=dt,
+                     lift_height_m=spec.lift_height_m, seed=seed, keep_observations=True)
+    loop.run()
+    rec = loop.recorder
+    return list(rec.observations), np.asarray(rec.computed)
+
+
+def _grasp_start_s(recording: Recording, fitted: Any, spec: Any) -> float:
+    """1 s before the first window of ``recording`` whose reference exceeds 0.5 N, s."""
+    person = RecordedPerson(recording, fitted, spec)
+    person.samples_to(recording.duration_s)
+    chain = person.reference
+    values, t = np.asarray(chain.window_values_n), np.asarray(chain.window_t_s)
+    above = np.flatnonzero(values > 0.5)
+    return max(0.0, float(t[above[0]]) - 1.0) if above.size else 0.0
 
 
 def replay_controller(library: CompiledLibrary, design: Any,
@@ -186,19 +190,3 @@ def replay_controller(library: CompiledLibrary, design: Any,
     """The compiled controller's commands for an observation sequence (from a reset)."""
     c = CompiledController(library, dt_s=design.core.dt_s, name=design.kind)
     return np.array([c.act(o) for o in observations])
-
-
-def held_reference(estimate_n: np.ndarray, window_t_s: np.ndarray, *, to_hand: float,
-                   reference_max_n: float, control_dt_s: float, duration_s: float
-                   ) -> np.ndarray:
-    """The hand reference an episode holds from window estimates, from 1 s before the grasp.
-
-    Starts 1 s before the first window whose reference exceeds 0.5 N (so a calibration
-    recording's rest is skipped) and lasts ``duration_s`` (shorter if the record ends).
-    """
-    values = np.clip(estimate_n * to_hand, 0.0, reference_max_n)
-    above = np.flatnonzero(values > 0.5)
-    start = max(0.0, float(window_t_s[above[0]]) - 1.0) if above.size else 0.0
-    end = min(start + duration_s, float(window_t_s[-1]))
-    t = start + np.arange(int(round((end - start) / control_dt_s))) * control_dt_s
-    return reference_from_windows(values, window_t_s, t)

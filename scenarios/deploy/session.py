@@ -96,11 +96,8 @@ def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
     command_error = c_commands = None
     observations: list = []
     if design is not None:
-        reference = check.held_reference(replay.estimate_py_n, replay.t_s, to_hand=to_hand,
-                                         reference_max_n=1.2 * HAND_FORCE_AT_MVC_N,
-                                         control_dt_s=control_dt_s,
-                                         duration_s=CONTROLLER_CHECK_S)
-        observations, commands = check.hand_observations(design, obj, reference, seed=seed)
+        observations, commands = check.hand_observations(
+            design, obj, check_recording, fitted, duration_s=CONTROLLER_CHECK_S, seed=seed)
         c_commands = check.replay_controller(library, design, observations)
         command_error = float(np.max(np.abs(c_commands - commands), initial=0.0))
     report["check"] = {"samples": replay.samples, "windows": replay.windows,

@@ -8,13 +8,11 @@
   stream``: sEMG, force, orientation) with the faults a session must survive;
 - :mod:`scenarios.live.arm`: the person's arm moving the wrist, from the forearm's pitch
   on the armband's IMU stream or from a key;
-- :mod:`scenarios.live.windowing`: MAV/RMS/WL windows updated one sample at a time,
-  equal to :func:`estimation.features.extract_features` on the same samples (int8
-  counts bit for bit);
 - :mod:`scenarios.live.recorded`: an estimator fitted on a calibration recording, a
-  virtual subject's grasp recording, and the offline episode driven by a given recording
-  (the reference a live session is compared with);
-- :mod:`scenarios.live.session`: the real-time loop, paced by the incoming samples, with
+  virtual subject's grasp recording, and a recording replayed in a trial, its wrist
+  following the recorded forearm (the offline counterpart of a live session);
+- :mod:`scenarios.live.session`: the person of a live trial (the one trial loop,
+  :mod:`scenarios.runners.trial_loop`), paced by the incoming samples, with
   its timing report (:mod:`scenarios.live.timing`), gap handling and bad-sample
   accounting; :mod:`scenarios.live.inlets` feeds it from LSL inlets;
 - :mod:`scenarios.live.calibrate`: the paper's calibration session recorded from a live

@@ -62,11 +62,14 @@ import numpy as np
 
 from scenarios.live.errors import ArmPosesError, ImuChannelError
 from scenarios.live.samples import parse_numbers
-from scenarios.runners.trial import LIFT_DURATION_S
-from sim.hand.wrist import MAX_WRIST_HEIGHT_M, WristSchedule
+from sim.hand.wrist import LIFT_HEIGHT_M, MAX_WRIST_HEIGHT_M
+from sim.user.operator import OperatorParams, WristMove
 
-LIFT_HEIGHT_M = WristSchedule().lift_height_m
-"""Wrist height of the raised pose, m (the scripted lift's)."""
+LIFT_S = OperatorParams().lift_s
+"""Duration of a key's lift and set-down, s (a user's lift)."""
+TREMOR_M = 0.01
+"""A measured arm held still trembles and drifts by up to this much, m: the in-air hold
+ends when the wrist comes down by more (:func:`scenarios.runners.trial_outcome.hold_window`)."""
 DEAD_BAND = 0.05
 """Share of the way from the rest pose to the raised one that leaves the wrist on the table."""
 MIN_POSE_RANGE_RAD = math.radians(5.0)
@@ -276,6 +279,22 @@ class ArmPoses:
                                 "held; expected the IMU stream to send")
         return cls(float(np.median(rest)), float(np.median(raised)), source=source)
 
+    @classmethod
+    def from_text(cls, text: str) -> ArmPoses:
+        """Poses given as ``REST_DEG:RAISED_DEG`` (degrees), such as ``0:17``.
+
+        Raises
+        ------
+        ArmPosesError
+            Not two numbers, or poses too close together.
+        """
+        try:
+            rest, raised = (float(v) for v in str(text).split(":"))
+        except ValueError:
+            raise ArmPosesError(f"expected REST_DEG:RAISED_DEG such as 0:17, found "
+                                f"{text!r}") from None
+        return cls(math.radians(rest), math.radians(raised), source="given")
+
 
 def forearm_pitch_rad(height_m: np.ndarray, *, forearm_m: float = FOREARM_M,
                       rest_pitch_rad: float = 0.0) -> np.ndarray:
@@ -295,27 +314,24 @@ def virtual_arm_poses(*, forearm_m: float = FOREARM_M, rest_pitch_rad: float = 0
 
 
 # ----------------------------------------------------------------------------- arms
-Move = tuple[float, float, str]
-"""A wrist move: height (m), duration (s), path (``min_jerk`` or ``follow``)."""
-
-
 class Arm(Protocol):
-    """What moves the wrist in a live session.
+    """What moves the wrist of a person's trial (a live session, or the replay of one).
 
     ``reset()`` before a session; ``command(t_s, setpoint_m)`` before each control
     step (the wrist's set-point then, m) returns the move to start, or ``None``;
     ``tick(now, t_s)`` lets the wall clock act (stalls); ``bind(emit, notify)`` gives
     it the session's event and terminal line callbacks; ``summary()`` is its part of
-    the report.
+    the report. ``tremor_m`` is how much the wrist moves when the person holds still.
     """
 
     source: str
+    tremor_m: float
 
     def reset(self) -> None: ...
 
     def bind(self, emit: Callable[[str], None], notify: Callable[[str], None]) -> None: ...
 
-    def command(self, t_s: float, setpoint_m: float) -> Move | None: ...
+    def command(self, t_s: float, setpoint_m: float) -> WristMove | None: ...
 
     def tick(self, now: float, t_s: float) -> None: ...
 
@@ -353,6 +369,7 @@ class PitchArm:
     """
 
     source = "imu"
+    tremor_m = TREMOR_M
 
     def __init__(self, poses: ArmPoses, channels: OrientationChannels, *, imu_fs_hz: float,
                  gap_s: float = IMU_GAP_S, reacquire_s: float = REACQUIRE_S,
@@ -444,7 +461,7 @@ class PitchArm:
         if self.in_gap and self.gaps and math.isnan(self.gaps[-1]["duration_s"]):
             self.gaps[-1]["duration_s"] = float(now - self.last_arrival)
 
-    def command(self, t_s: float, setpoint_m: float) -> Move | None:
+    def command(self, t_s: float, setpoint_m: float) -> WristMove | None:
         """The move to start at control step ``t_s`` (module notes)."""
         pending = self._pending
         fresh = False
@@ -455,14 +472,14 @@ class PitchArm:
         if latest is None or self.in_gap:
             return None
         if self.following:
-            return (latest, self.follow_s, "follow") if fresh else None
+            return WristMove(latest, self.follow_s, "follow") if fresh else None
         if t_s < self._joined_s:  # joining the arm: let that move end
             return None
         if abs(latest - setpoint_m) <= FOLLOW_TOLERANCE_M:
             self.following = True
-            return (latest, self.follow_s, "follow")
+            return WristMove(latest, self.follow_s, "follow")
         self._joined_s = t_s + self.reacquire_s - 1e-9
-        return (latest, self.reacquire_s, "min_jerk")
+        return WristMove(latest, self.reacquire_s, "min_jerk")
 
     def summary(self) -> dict[str, Any]:
         """The arm's part of the report."""
@@ -526,9 +543,10 @@ class KeyArm:
     """
 
     source = "key"
+    tremor_m = 0.0
 
     def __init__(self, presses: Callable[[], int], *, lift_height_m: float = LIFT_HEIGHT_M,
-                 move_s: float = LIFT_DURATION_S,
+                 move_s: float = LIFT_S,
                  closed: Callable[[], str | None] | None = None) -> None:
         self._presses, self._closed = presses, closed
         self.lift_height_m, self.move_s = float(lift_height_m), float(move_s)
@@ -546,7 +564,7 @@ class KeyArm:
         self.n_presses = 0
         self._said_closed = False
 
-    def command(self, t_s: float, setpoint_m: float) -> Move | None:
+    def command(self, t_s: float, setpoint_m: float) -> WristMove | None:
         """A move when the key was pressed (an odd number of times) since the last step."""
         n = self._presses()
         if n <= 0:
@@ -556,7 +574,7 @@ class KeyArm:
             return None
         self.up = not self.up
         self._emit("key_lift" if self.up else "key_lower")
-        return (self.lift_height_m if self.up else 0.0, self.move_s, "min_jerk")
+        return WristMove(self.lift_height_m if self.up else 0.0, self.move_s)
 
     def tick(self, now: float, t_s: float) -> None:
         """Say once when the key's input has ended."""

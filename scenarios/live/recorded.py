@@ -1,7 +1,7 @@
-"""Sessions on recordings: the calibration fit, a virtual subject's grasp, the offline episode.
+"""Sessions on recordings: the calibration fit, a virtual subject's grasp, the replayed trial.
 
-A live session and an offline episode must be comparable, so both start from the
-same pieces:
+A live session and an offline replay of its recording must be comparable, so both run
+the one trial loop (:mod:`scenarios.runners.trial_loop`) from the same pieces:
 
 - :func:`fit_calibration` fits the estimator on a calibration recording (a
   virtual subject's paper session, a file from ``griploop calibrate --lsl`` or a
@@ -11,21 +11,24 @@ same pieces:
 - :func:`grasp_session` records a virtual subject grasping an object, aiming at the
   force an episode's user aims at through that calibration's force mapping, and
   lifting it with their own arm (the forearm's pitch, as an armband's IMU reads it);
-- :func:`episode_on_recording` is the offline episode driven by a given recording
-  instead of a freshly simulated one: :func:`estimation.features.extract_features`,
-  :func:`scenarios.runners.reference.stream_estimates`, the held reference, and the
-  episode's closed loop on the MuJoCo hand;
-- :func:`grasp_metrics` scores a run (offline or live) the way an episode is scored.
+- :class:`RecordedPerson` is a recording in a trial: its samples reach the hand's
+  reference as the trial's clock reaches them (the live session's windows, estimator,
+  gate and mapping: :class:`~scenarios.runners.semg_reference.SemgReference`), and the
+  wrist follows the recorded forearm's pitch through the live session's arm mapping
+  (:func:`recorded_arm`); only a recording without a pitch lifts on
+  the scripted user's schedule (``episode_s - hold_s - 0.6 s``, once the grip is
+  established: :class:`~sim.user.scripted.ScriptedArm`);
+- :func:`episode_on_recording` replays a recording in a trial;
+- :func:`grasp_metrics` scores a run (replayed or live) the way an episode is scored,
+  judged by the same referee (:func:`scenarios.runners.trial_outcome.judge`).
 
-The time base is the episode's: control step ``k`` at ``t = k * control_dt_s`` uses
-the latest feature window that ended at or before ``t``; the offline episode's wrist
-lifts at ``episode_s - hold_s - 0.6 s`` once the grip is established, which is when
-a virtual subject's recorded arm lifts.
+The time base is the live session's: control step ``k`` at ``t = k * control_dt_s``
+uses every sample at or before ``t`` and the latest feature window that ended by then.
 """
 
 from __future__ import annotations
 
-import time
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -33,37 +36,34 @@ from typing import Any
 import numpy as np
 
 from controllers.design_cache import grasp_design
-from estimation.features import PAPER_CHANNELS, align_to_windows, extract_features
+from estimation.features import PAPER_CHANNELS, extract_features
 from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
-from scenarios.live.arm import FOREARM_M, LIFT_HEIGHT_M, forearm_pitch_rad
-from scenarios.live.errors import SessionError
+from scenarios.live.arm import (
+    FOREARM_M,
+    LIFT_HEIGHT_M,
+    LIFT_S,
+    ArmPoses,
+    OrientationChannels,
+    PitchArm,
+    forearm_pitch_rad,
+    virtual_arm_poses,
+)
+from scenarios.live.errors import ArmPosesError, SessionError
 from scenarios.runners.calibration import Calibration, fit_on_features
-from scenarios.runners.dispatch import DivergedError
-from scenarios.runners.episode import (
-    HAND_FORCE_AT_MVC_N,
-    LIFT_DURATION_S,
-    _closed_loop,
-    _lift_time_s,
-)
-from scenarios.runners.episode_metrics import (
-    CONTACT_N,
-    contact_peak_ratio,
-    episode_metrics,
-)
-from scenarios.runners.reference import (
-    RAMP_S,
-    REST_S,
-    intended_grip_n,
-    reference_from_windows,
-    stream_estimates,
-)
-from scenarios.runners.trial_outcome import judge_trial
+from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
+from scenarios.runners.episode_metrics import contact_peak_ratio, episode_metrics
+from scenarios.runners.reference import RAMP_S, REST_S, intended_grip_n, reference_from_windows
+from scenarios.runners.semg_reference import SemgReference
+from scenarios.runners.trial_loop import Frames, TrialLoop
+from scenarios.runners.trial_outcome import TrialReferee, judge
 from scenarios.schema import ORACLE
 from sim.hand.objects import ObjectSpec
 from sim.hand.wrist import min_jerk
 from sim.recording import Recording, RecordingError
 from sim.user.intent import grasp_lift_hold
+from sim.user.operator import Scene, WristMove
+from sim.user.scripted import ScriptedArm
 from sim.user.subjects import VirtualSubject
 
 FS_HZ = 200.0
@@ -175,22 +175,74 @@ def fit_calibration(recording: Recording, estimator: str = "ridge", *, mode: str
     return RecordedCalibration(cal, recording, channel_list, index)
 
 
+@dataclass(frozen=True)
+class GraspScript:
+    """What a virtual subject does while a grasp is recorded (:func:`grasp_session`).
+
+    Attributes
+    ----------
+    rest_s : float
+        Rest before the squeeze, s (jittered by 10 %, as the ramp and the hold).
+    hold_s : float
+        The in-air hold the default arm leaves at the end of the session, s.
+    arm_moves : tuple of (float, float), optional
+        ``(start_s, height_m)`` of each move of the arm, each a 0.6 s minimum-jerk move
+        from where the previous one ended; default: one lift of 8 cm at
+        ``duration_s - hold_s - 0.6 s``, as the scripted user's.
+    safety_factor : float
+        The user's grip target, times the object's slip threshold.
+    hand_force_at_mvc_n : float
+        The force mapping's scale, N.
+    forearm_m : float
+        Elbow-to-wrist length, m.
+    generator : str
+        The sEMG model.
+    fs_hz : float
+        Sampling rate, Hz.
+    tail_s : float
+        Recorded beyond the session, s.
+    """
+
+    rest_s: float = REST_S
+    hold_s: float = 2.0
+    arm_moves: tuple[tuple[float, float], ...] | None = None
+    safety_factor: float = 1.5
+    hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N
+    forearm_m: float = FOREARM_M
+    generator: str = "noise"
+    fs_hz: float = FS_HZ
+    tail_s: float = 1.0
+
+    def moves(self, duration_s: float) -> tuple[tuple[float, float], ...]:
+        """The arm's moves in a session of ``duration_s``."""
+        if self.arm_moves is not None:
+            return tuple((float(t), float(h)) for t, h in self.arm_moves)
+        return ((duration_s - self.hold_s - LIFT_S, LIFT_HEIGHT_M),)
+
+
+def arm_height_m(t_s: np.ndarray, moves: Sequence[tuple[float, float]]) -> np.ndarray:
+    """The wrist's height at ``t_s`` after ``moves`` (:attr:`GraspScript.arm_moves`), m."""
+    height = np.zeros(np.shape(t_s))
+    for start_s, to_m in moves:
+        s = np.clip((np.asarray(t_s) - start_s) / LIFT_S, 0.0, 1.0)
+        height = np.where(s > 0.0, height + (to_m - height) * np.vectorize(min_jerk)(s), height)
+    return height
+
+
 def grasp_session(subject: VirtualSubject, obj: ObjectSpec, *, mvc_cal_n: float,
                   duration_s: float = 8.0, rng: np.random.Generator | int | None = 0,
-                  generator: str = "noise", safety_factor: float = 1.5,
-                  hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N,
-                  tail_s: float = 1.0, fs_hz: float = FS_HZ, hold_s: float = 2.0,
-                  forearm_m: float = FOREARM_M) -> Recording:
+                  script: GraspScript = GraspScript()) -> Recording:
     """A virtual subject's sEMG and forearm pitch while they grasp ``obj`` and lift it.
 
     The user aims at :func:`scenarios.runners.reference.intended_grip_n` on the hand,
     which they reach through the calibration's mapping (``mvc_cal_n``, the largest
-    force of the calibration recording): rest 1 s, a 0.5 s ramp, then a hold lasting
-    beyond the session (timings jittered by 10 %). Their arm lifts the wrist as the
-    episode's scripted wrist does, at ``duration_s - hold_s - 0.6 s`` by 8 cm along a
-    0.6 s minimum-jerk path, and stays up; the forearm pivots at the elbow, so its
-    pitch is ``asin(height / forearm_m)`` (:func:`scenarios.live.arm.forearm_pitch_rad`),
-    with :data:`IMU_NOISE_RAD` of noise drawn after the sEMG from the same generator.
+    force of the calibration recording): rest ``script.rest_s``, a 0.5 s ramp, then a
+    hold lasting beyond the session (timings jittered by 10 %). Their arm moves the
+    wrist as ``script`` says (by default it lifts as the scripted user's does, at
+    ``duration_s - hold_s - 0.6 s`` by 8 cm along a 0.6 s minimum-jerk path, and stays
+    up); the forearm pivots at the elbow, so its pitch is ``asin(height / forearm_m)``
+    (:func:`scenarios.live.arm.forearm_pitch_rad`), with :data:`IMU_NOISE_RAD` of noise
+    drawn after the sEMG from the same generator.
 
     Parameters
     ----------
@@ -199,60 +251,197 @@ def grasp_session(subject: VirtualSubject, obj: ObjectSpec, *, mvc_cal_n: float,
     mvc_cal_n : float
         Largest measured force of the calibration recording, N.
     duration_s : float
-        The session the recording is for, s; it lasts ``duration_s + tail_s``.
+        The session the recording is for, s; it lasts ``duration_s + script.tail_s``.
     rng : numpy.random.Generator, int or None
         Timing jitter and session noise.
-    generator : str
-        The sEMG model.
-    safety_factor, hand_force_at_mvc_n : float
-        The user's grip target (times the slip threshold) and the force mapping's scale.
-    tail_s : float
-        Recorded beyond ``duration_s``, s.
-    fs_hz : float
-        Sampling rate, Hz.
-    hold_s : float
-        The in-air hold the arm leaves at the end of ``duration_s``, s.
-    forearm_m : float
-        Elbow-to-wrist length, m.
+    script : GraspScript
+        What the subject does.
 
     Returns
     -------
     Recording
-        int8 sEMG at ``fs_hz`` with FSR force, ground truth and the forearm's pitch
+        int8 sEMG at ``script.fs_hz`` with FSR force, ground truth and the forearm's pitch
         (``pitch_rad``); metadata ``protocol`` ``grasp_lift_hold``, the object, the
-        target and ``arm_lift_s`` (when the arm starts the lift, s).
+        target, ``arm_moves`` and ``arm_lift_s`` (when the arm first starts up, s).
     """
     g = np.random.default_rng(rng) if not isinstance(rng, np.random.Generator) else rng
-    target_n = intended_grip_n(obj, safety_factor)
-    hold_level = float(np.clip(target_n / hand_force_at_mvc_n * mvc_cal_n / subject.mvc_n,
-                               0.0, 1.0))
-    profile = grasp_lift_hold(g, fs_hz=fs_hz, hold_level=hold_level, rest_s=REST_S,
+    fs_hz = script.fs_hz
+    target_n = intended_grip_n(obj, script.safety_factor)
+    hold_level = float(np.clip(target_n / script.hand_force_at_mvc_n * mvc_cal_n
+                               / subject.mvc_n, 0.0, 1.0))
+    profile = grasp_lift_hold(g, fs_hz=fs_hz, hold_level=hold_level, rest_s=script.rest_s,
                               ramp_s=RAMP_S, hold_s=duration_s, jitter=0.1)
-    recording = subject.record(profile, generator=generator, fs_hz=fs_hz, rng=g)
+    recording = subject.record(profile, generator=script.generator, fs_hz=fs_hz, rng=g)
     recording = recording.slice(0, min(recording.n_samples,
-                                       int(round((duration_s + tail_s) * fs_hz))))
-    lift_s = _lift_time_s(duration_s, hold_s)
-    height = LIFT_HEIGHT_M * np.array([min_jerk((t - lift_s) / LIFT_DURATION_S)
-                                       for t in recording.t_s])
-    pitch = forearm_pitch_rad(height, forearm_m=forearm_m) + g.normal(0.0, IMU_NOISE_RAD,
-                                                                      recording.n_samples)
+                                       int(round((duration_s + script.tail_s) * fs_hz))))
+    moves = script.moves(duration_s)
+    height = arm_height_m(recording.t_s, moves)
+    pitch = forearm_pitch_rad(height, forearm_m=script.forearm_m) + g.normal(
+        0.0, IMU_NOISE_RAD, recording.n_samples)
     recording = replace(recording, pitch_rad=pitch)  # checked as any recording's series
+    up = [t for t, h in moves if h > 0.0]
     recording.metadata.update({"protocol": "grasp_lift_hold", "object": obj.name,
                                "object_mass_kg": obj.mass_kg, "object_friction": obj.friction,
                                "target_grip_n": target_n, "mvc_cal_n": mvc_cal_n,
-                               "hand_force_at_mvc_n": hand_force_at_mvc_n,
-                               "arm_lift_s": lift_s, "forearm_m": forearm_m})
+                               "hand_force_at_mvc_n": script.hand_force_at_mvc_n,
+                               "arm_moves": [list(m) for m in moves],
+                               "arm_lift_s": up[0] if up else None,
+                               "forearm_m": script.forearm_m})
     return recording
+
+
+@dataclass(frozen=True)
+class ReplaySpec:
+    """How a recording is replayed in a trial.
+
+    Attributes
+    ----------
+    controller : str
+        Controller family.
+    controller_spec : mapping, optional
+        Keyword arguments of :func:`controllers.design.design_for_object`.
+    episode_s : float
+        The trial's time limit, s (the recording must last that long).
+    hold_s : float
+        The in-air hold of the scripted lift (a recording without a pitch), s.
+    control_dt_s : float
+        Control period, s.
+    hand_force_at_mvc_n : float
+        Hand force at the calibration's strongest squeeze, N.
+    seed : int
+        Seeds the environment's reset, as a live session with the same seed does.
+    lift_height_m : float or None
+        The lift the task asks for (the referee's secure lift), m; ``None``: held on the
+        table (and a recording without a pitch is not lifted).
+    """
+
+    controller: str = "pid"
+    controller_spec: Mapping[str, Any] | None = None
+    episode_s: float = 8.0
+    hold_s: float = 2.0
+    control_dt_s: float = 0.01
+    hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N
+    seed: int = 0
+    lift_height_m: float | None = LIFT_HEIGHT_M
+
+
+def recorded_arm_poses(recording: Recording, calibration: Recording | None = None) -> ArmPoses:
+    """The poses that map a recording's forearm pitch to the wrist's height.
+
+    The recording's own (a live session's ``--record`` keeps its arm's; a calibration
+    recording its ``arm_poses``), else the calibration recording's, else, for a virtual
+    subject's grasp (``griploop subjects --grasp``, metadata ``forearm_m``), the
+    virtual forearm's.
+
+    Raises
+    ------
+    ArmPosesError
+        None of them: the pitch cannot be mapped (one line naming the column).
+    """
+    meta = recording.metadata
+    arm = meta.get("arm")
+    if isinstance(arm, Mapping) and arm.get("poses") is not None:
+        return ArmPoses.from_metadata({"arm_poses": arm["poses"]}, recording.source)
+    for rec in (recording, calibration):
+        poses = None if rec is None else ArmPoses.from_metadata(rec.metadata, rec.source)
+        if poses is not None:
+            return poses
+    if "forearm_m" in meta:
+        return virtual_arm_poses(forearm_m=float(meta["forearm_m"]))
+    raise ArmPosesError(
+        f"{recording.source}: column pitch_rad has no arm poses to map it to the wrist's "
+        "height; expected metadata arm_poses (griploop calibrate --lsl with the IMU stream) "
+        "in it or in the calibration recording, or --arm-poses REST_DEG:RAISED_DEG")
+
+
+def recorded_arm(pitch_rad: np.ndarray, fs_hz: float, poses: ArmPoses) -> PitchArm:
+    """A :class:`~scenarios.live.arm.PitchArm` fed a recorded forearm pitch: sample ``i`` at
+    ``i / fs_hz`` of the session, as a live session's arm would have received it."""
+    arm = PitchArm(poses, OrientationChannels("pitch", (0,), 1.0, ("pitch_rad",)),
+                   imu_fs_hz=fs_hz)
+    arm.feed(np.asarray(pitch_rad, dtype=float)[:, None],
+             np.arange(len(pitch_rad)) / float(fs_hz), 0.0, 0.0)
+    return arm
+
+
+class RecordedPerson:
+    """A recording in a trial: its sEMG as the clock reaches it, its recorded arm (module notes).
+
+    Parameters
+    ----------
+    recording : Recording
+        The sEMG (the calibration's layout), with the forearm's pitch when it has one.
+    cal : RecordedCalibration
+    spec : ReplaySpec
+    poses : ArmPoses, optional
+        Map the pitch (default: :func:`recorded_arm_poses` of the recording and the
+        calibration recording).
+    start_s : float
+        Recording time of the trial's first step, s (earlier samples warm the windows and
+        the estimator up).
+
+    Raises
+    ------
+    ArmPosesError
+        A pitch without poses to map it.
+    """
+
+    done = False
+
+    def __init__(self, recording: Recording, cal: RecordedCalibration, spec: ReplaySpec, *,
+                 poses: ArmPoses | None = None, start_s: float = 0.0) -> None:
+        self.recording, self.start_s, self.dt = recording, float(start_s), spec.control_dt_s
+        self.reference = SemgReference(
+            cal.calibration, fs_hz=recording.fs_hz, channel_index=cal.channel_index,
+            hand_force_at_mvc_n=spec.hand_force_at_mvc_n, integer=cal.integer,
+            forces=None if recording.force_n is None else self.forces)
+        self.arm = self.scripted = None
+        if recording.pitch_rad is not None:
+            poses = poses or recorded_arm_poses(recording, cal.recording)
+            self.arm = recorded_arm(recording.pitch_rad, recording.fs_hz, poses)
+            self.wrist_tremor_m = self.arm.tremor_m
+        else:
+            self.scripted = ScriptedArm(LIFT_S)
+            if spec.lift_height_m is not None:
+                self.scripted.time_lift(spec.episode_s - spec.hold_s - LIFT_S,
+                                        spec.lift_height_m)
+            self.wrist_tremor_m = 0.0
+        self.pushed = 0
+
+    def act(self, k: int, scene: Scene, setpoint_m: float) -> tuple[float, WristMove | None]:
+        """The reference at step ``k`` from every sample by then, and the recorded arm's move."""
+        t = self.start_s + k * self.dt
+        self.samples_to(t)
+        if self.arm is not None:
+            return self.reference.reference_n, self.arm.command(t, setpoint_m)
+        self.scripted.perceive(scene)
+        return self.reference.reference_n, self.scripted.wrist_move()
+
+    def forces(self) -> tuple[np.ndarray, np.ndarray]:
+        """The true force (NaN where the recording has none) and the measured force, N."""
+        rec = self.recording
+        true_n = (rec.intent_force_n if rec.intent_force_n is not None
+                  else np.full(rec.n_samples, np.nan))
+        return true_n, rec.force_n
+
+    def samples_to(self, t_s: float) -> None:
+        """Push every sample at or before ``t_s`` (recording time)."""
+        rec = self.recording
+        n = min(int(math.floor((t_s + 1e-9) * rec.fs_hz)) + 1, rec.n_samples)
+        if n > self.pushed:
+            self.reference.push(rec.emg[self.pushed:n])
+            self.pushed = n
 
 
 @dataclass
 class RecordedEpisode:
-    """An offline episode on a recording: its metrics, traces and controller design."""
+    """A replayed trial: its metrics, traces, controller design and timings."""
 
     metrics: dict[str, Any]
     traces: dict[str, np.ndarray]
     design: Any
     timings: dict[str, float]
+    referee: TrialReferee | None = None
 
 
 def check_layout(recording: Recording, cal: RecordedCalibration) -> None:
@@ -265,100 +454,96 @@ def check_layout(recording: Recording, cal: RecordedCalibration) -> None:
         )
 
 
-def episode_on_recording(recording: Recording, cal: RecordedCalibration, obj: ObjectSpec, *,
-                         controller: str = "pid",
-                         controller_spec: Mapping[str, Any] | None = None,
-                         episode_s: float = 8.0, hold_s: float = 2.0,
-                         control_dt_s: float = 0.01,
-                         hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N, seed: int = 0,
-                         record_frames: bool = False) -> RecordedEpisode:
-    """The offline episode driven by ``recording``: what a live session of it should give.
+def episode_on_recording(recording: Recording, cal: RecordedCalibration, obj: ObjectSpec,
+                         spec: ReplaySpec = ReplaySpec(), *, record_frames: bool = False,
+                         poses: ArmPoses | None = None) -> RecordedEpisode:
+    """A recording replayed in a trial: what a live session of it should give.
 
     Parameters
     ----------
     recording : Recording
-        The user's sEMG during the grasp (same channels and rate as the calibration).
+        The user's sEMG during the grasp (same channels and rate as the calibration),
+        with the forearm's pitch when it was recorded.
     cal : RecordedCalibration
     obj : ObjectSpec
-    controller : str
-        Controller family.
-    controller_spec : mapping, optional
-        Keyword arguments of :func:`controllers.design.design_for_object`.
-    episode_s, hold_s : float
-        Episode length and in-air hold, s.
-    control_dt_s : float
-        Control period, s.
-    seed : int
-        Seeds the environment's reset, as a live session with the same seed does.
+    spec : ReplaySpec
     record_frames : bool
         Also return rendered frames every 40 ms under ``traces["frames"]``.
+    poses : ArmPoses, optional
+        Map the pitch (default: the recording's, the calibration's, a virtual forearm's).
 
     Raises
     ------
     RecordingError
         Another layout than the calibration's, or shorter than the episode.
+    ArmPosesError
+        A pitch without poses to map it.
     DivergedError
         Physics divergence.
     """
+    from scenarios.runners.dispatch import DivergedError
+
     check_layout(recording, cal)
-    if recording.duration_s < episode_s:
+    if recording.duration_s < spec.episode_s:
         raise RecordingError(f"{recording.source} lasts {recording.duration_s:.2f} s; expected "
-                             f"at least the episode's {episode_s:g} s")
-    lift_after_s = _lift_time_s(episode_s, hold_s)
-    timings = dict.fromkeys(("t_features_s", "t_estimator_s", "t_controller_s",
-                             "t_physics_s"), 0.0)
+                             f"at least the episode's {spec.episode_s:g} s")
     with one_blas_thread():
-        design = grasp_design(obj, controller, control_dt_s, controller_spec)
-        rec = recording.slice(0, min(recording.n_samples,
-                                     int(round((episode_s + 0.5) * recording.fs_hz))))
-        t0 = time.perf_counter()
-        features = extract_features(rec, channels=cal.channels)
-        timings["t_features_s"] = time.perf_counter() - t0
-        to_hand = cal.to_hand(hand_force_at_mvc_n)
-        ceiling = 1.2 * hand_force_at_mvc_n
-        t0 = time.perf_counter()
-        gated = cal.calibration.rest_gate().run(stream_estimates(cal.calibration, features))
-        estimates = np.clip(gated * to_hand, 0.0, ceiling)
-        timings["t_estimator_s"] = time.perf_counter() - t0
-        n_steps = int(round(episode_s / control_dt_s))
-        t_ctrl = np.arange(n_steps) * control_dt_s
-        reference = reference_from_windows(estimates, features.t_s, t_ctrl)
-        oracle = None
-        if rec.intent_force_n is not None:
-            true_n = np.clip(align_to_windows(rec.intent_force_n, rec.fs_hz) * to_hand, 0.0,
-                             ceiling)
-            oracle = reference_from_windows(true_n, features.t_s, t_ctrl)
-        traces, failure, info = _closed_loop(obj, design, reference, t_ctrl, control_dt_s,
-                                             episode_s, lift_after_s,
-                                             np.random.SeedSequence(seed), timings,
-                                             record_frames)
-    if failure is not None:
-        raise DivergedError(f"physics diverged at t = {info['time_s']:.3f} s: {failure}")
-    n_run = traces["t_s"].size
-    metrics = grasp_metrics(traces, info, lift_after_s=lift_after_s,
-                            hold_from_s=episode_s - hold_s,
-                            window_values_n=estimates[features.t_s <= episode_s],
-                            window_dt_s=features.dt_s,
-                            oracle_n=None if oracle is None else oracle[:n_run])
-    return RecordedEpisode(metrics, traces, design, timings)
+        design = grasp_design(obj, spec.controller, spec.control_dt_s, spec.controller_spec)
+        person = RecordedPerson(recording, cal, spec, poses=poses)
+        loop = TrialLoop(obj, design, person, limit_s=spec.episode_s,
+                         control_dt_s=spec.control_dt_s, lift_height_m=spec.lift_height_m,
+                         seed=session_seed(spec.seed),
+                         frames=Frames() if record_frames else None)
+        loop.run()
+        person.samples_to(spec.episode_s)  # the windows of the whole episode, for the metrics
+    if loop.failure is not None:
+        raise DivergedError(f"physics diverged at t = {loop.info['time_s']:.3f} s: "
+                            f"{loop.failure}")
+    traces = loop.traces()
+    chain = person.reference
+    window_t = np.asarray(chain.window_t_s)
+    oracle = None
+    if recording.intent_force_n is not None:
+        true_n = np.clip(recording.intent_force_n[np.asarray(chain.window_end, dtype=int)]
+                         * chain.to_hand, 0.0, chain.ceiling)
+        oracle = reference_from_windows(true_n, window_t, traces["t_s"])
+    metrics = grasp_metrics(traces, loop.info, loop.referee, obj,
+                            control_dt_s=spec.control_dt_s,
+                            wrist_tremor_m=person.wrist_tremor_m,
+                            window_values_n=np.asarray(chain.window_values_n)[
+                                window_t <= spec.episode_s],
+                            window_dt_s=chain.hop / recording.fs_hz, oracle_n=oracle)
+    timings = {**chain.timings, "t_controller_s": loop.controller_s,
+               "t_physics_s": loop.physics_s}
+    return RecordedEpisode(metrics, traces, design, timings, loop.referee)
 
 
-def grasp_metrics(traces: Mapping[str, np.ndarray], info: Mapping[str, Any], *,
-                  lift_after_s: float, hold_from_s: float, window_values_n: np.ndarray,
-                  window_dt_s: float, oracle_n: np.ndarray | None = None,
-                  hold: np.ndarray | None = None, referee: Any = None) -> dict[str, Any]:
-    """An episode's metrics of a run, offline or live.
+def session_seed(seed: int) -> int:
+    """The environment's reset seed of a session or replay with ``seed``."""
+    return int(np.random.SeedSequence(seed).generate_state(1)[0])
+
+
+def grasp_metrics(traces: Mapping[str, np.ndarray], info: Mapping[str, Any],
+                  referee: TrialReferee, obj: ObjectSpec, *, control_dt_s: float,
+                  wrist_tremor_m: float, window_values_n: np.ndarray, window_dt_s: float,
+                  oracle_n: np.ndarray | None = None) -> dict[str, Any]:
+    """The metrics of a person's trial (replayed or live), judged as every trial is.
 
     Parameters
     ----------
     traces : mapping of ndarray, shape (n_steps,)
         ``t_s``, ``reference_n``, ``grip_force_n``, ``tracked_reference_n``,
-        ``both_sides``, ``object_height_m`` at the control rate.
+        ``both_sides``, ``object_height_m``, ``wrist_height_m`` at the control rate.
     info : mapping
-        The environment's last ``info`` (drop, crush and slip counters).
-    lift_after_s, hold_from_s : float
-        Earliest lift (the scripted schedule's; the wrist's first rise in a session the
-        person paced) and start of the in-air hold, s.
+        The environment's last ``info`` (slip counters).
+    referee : TrialReferee
+        The trial's referee (:func:`scenarios.runners.trial_outcome.judge`).
+    obj : ObjectSpec
+        The object (its slip force, for the safety margin).
+    control_dt_s : float
+        Control period, s.
+    wrist_tremor_m : float
+        How much the person's wrist moves when held still, m (the hold's end).
     window_values_n : ndarray
         The hand reference at each feature window, N (for the volatility).
     window_dt_s : float
@@ -366,41 +551,37 @@ def grasp_metrics(traces: Mapping[str, np.ndarray], info: Mapping[str, Any], *,
     oracle_n : ndarray, optional
         The user's true force mapped to the hand; without it (a person) the
         estimation error is ``None``.
-    hold : ndarray of bool, shape (n_steps,), optional
-        The in-air hold's steps when the person paced the lift
-        (:func:`scenarios.runners.trial_outcome.hold_window`); overrides ``hold_from_s``.
-    referee : scenarios.runners.trial_outcome.TrialReferee, optional
-        The trial's judge when the person paced the lift: the outcome is its (a secure
-        lift, a fall after one, a break) rather than the scripted schedule's.
 
     Returns
     -------
     dict
-        ``outcome`` (held, not_lifted, dropped, crushed), ``lifted``, ``dropped``,
-        ``crushed``, ``peak_force_n``, ``hold_grip_n`` (median grip in the in-air
-        hold), ``contact_peak_ratio``, ``slip_events``, ``slip_distance_m`` and
-        :func:`scenarios.runners.episode_metrics.episode_metrics`'s figures, with the grasp
-        starting when the reference first reaches 0.5 N (a person gives no cue).
+        The verdict (``outcome``, ``lifted``, ``dropped``, ``crushed``, ``attempts``,
+        ``time_to_lift_s``, ``safety_margin_pct``, ``released``), ``peak_force_n``,
+        ``hold_grip_n`` (median grip in the in-air hold), ``contact_peak_ratio``,
+        ``slip_events``, ``slip_distance_m``, ``grasp_start_s`` and
+        :func:`scenarios.runners.episode_metrics.episode_metrics`'s figures, with the
+        grasp starting when the reference first reaches 0.5 N (a person gives no cue).
         Values that do not exist are ``None``.
     """
+    from scenarios.runners.episode_metrics import grasp_start_s
+
     t, ref, grip = traces["t_s"], traces["reference_n"], traces["grip_force_n"]
     if t.size == 0:
         return {"outcome": None, "lifted": False, "dropped": False, "crushed": False,
-                "peak_force_n": None, "hold_grip_n": None, "contact_peak_ratio": None,
-                "slip_events": 0, "slip_distance_m": 0.0}
-    rising = np.flatnonzero(ref >= CONTACT_N)
-    start_s = float(t[rising[0]]) if rising.size else float(t[0])
+                "attempts": 0, "time_to_lift_s": None, "safety_margin_pct": None,
+                "released": False, "peak_force_n": None, "hold_grip_n": None,
+                "contact_peak_ratio": None, "slip_events": 0, "slip_distance_m": 0.0}
+    verdict = judge(traces, referee, obj, control_dt_s=control_dt_s,
+                    wrist_tremor_m=wrist_tremor_m)
+    start_s = grasp_start_s(t, ref)
     oracle = np.full(t.size, np.nan) if oracle_n is None else oracle_n
-    base = episode_metrics(t, ref, grip, oracle, start_s=start_s, lift_s=lift_after_s,
-                           hold_from_s=hold_from_s, hold=hold,
-                           window_values_n=np.asarray(window_values_n),
+    base = episode_metrics(t, ref, grip, oracle, start_s=start_s, lift_s=verdict.lift_start_s,
+                           hold=verdict.hold, window_values_n=np.asarray(window_values_n),
                            window_dt_s=window_dt_s)
     ratio, _ = contact_peak_ratio(t, traces["tracked_reference_n"], grip, traces["both_sides"])
-    lifted, dropped, crushed, outcome = judge_trial(traces, info, referee)
-    held = t >= hold_from_s if hold is None else hold
+    held = verdict.hold
     out: dict[str, Any] = {
-        "outcome": outcome,
-        "lifted": lifted, "dropped": dropped, "crushed": crushed,
+        **verdict.fields(),
         "peak_force_n": float(np.max(grip)),
         "hold_grip_n": float(np.median(grip[held])) if held.any() else None,
         "contact_peak_ratio": ratio,

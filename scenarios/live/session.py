@@ -2,20 +2,21 @@
 
 :class:`LiveGrasp` is the prosthesis side of a session with no LSL in it: it takes
 samples with their time stamps and arrival times (:meth:`LiveGrasp.feed`) and the
-wall clock (:meth:`LiveGrasp.tick`), and runs the same building blocks as an offline
-episode (:func:`scenarios.live.recorded.episode_on_recording`): the estimator's
-stream fitted on the calibration recording, the cached controller design, the
-:class:`~sim.hand.grasp_env.GraspEnv` driven by :class:`~controllers.drive.HandLoop`,
-and the episode's metrics. Only the windowing is incremental
-(:class:`~scenarios.live.windowing.IncrementalFeatures`, equal to the offline
-features), so a stream that delivers every sample gives the offline episode's grasp
-when the wrist moves as the offline episode's does. The wrist is the person's
-(``GraspEnv(wrist="commanded")``): an :class:`~scenarios.live.arm.Arm` moves it before
-each control step, from the forearm's pitch on the armband's IMU stream
-(:class:`~scenarios.live.arm.PitchArm`, fed by :meth:`LiveGrasp.feed_imu`) or from a
-key (:class:`~scenarios.live.arm.KeyArm`); the outcome is judged as a user-paced
-trial's (:class:`~scenarios.runners.trial_outcome.TrialReferee`).
-:func:`scenarios.live.inlets.run_session` feeds it from LSL inlets.
+wall clock (:meth:`LiveGrasp.tick`), and is the person of the one trial loop
+(:class:`~scenarios.runners.trial_loop.TrialLoop`) that every trial runs: the same
+windows, estimator stream, rest gate and mapping
+(:class:`~scenarios.runners.semg_reference.SemgReference`), the cached controller
+design, the hand, the recorder, the referee and the ending rule as the replay of its
+recording (:func:`scenarios.live.recorded.episode_on_recording`), which therefore gives
+the same trial from a stream that delivers every sample. The wrist is the person's: an
+:class:`~scenarios.live.arm.Arm` moves it before each control step, from the forearm's
+pitch on the armband's IMU stream (:class:`~scenarios.live.arm.PitchArm`, fed by
+:meth:`LiveGrasp.feed_imu`) or from a key (:class:`~scenarios.live.arm.KeyArm`). The
+referee judges the session as every trial: a lift that leaves the object behind is an
+attempt and the session goes on; it ends when the object is crushed or falls after a
+secure lift (the hand then holds its grip, as through a fault, and the report says
+why), or at its duration. :func:`scenarios.live.inlets.run_session` feeds it from LSL
+inlets.
 
 Time base. Sample ``n`` of the stream is at session time ``n / fs_hz``, where ``n``
 counts from the first sample and includes lost samples (a jump between consecutive
@@ -64,18 +65,17 @@ from typing import Any
 import numpy as np
 
 from controllers.design_cache import grasp_design
-from controllers.drive import HandLoop
 from scenarios.live.arm import LIFT_HEIGHT_M, Arm
-from scenarios.live.recorded import RecordedCalibration, grasp_metrics
+from scenarios.live.recorded import RecordedCalibration, grasp_metrics, session_seed
 from scenarios.live.samples import SampleGuard
 from scenarios.live.timing import percentile, warnings_for
-from scenarios.live.windowing import IncrementalFeatures
 from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
-from scenarios.runners.trial_outcome import TrialReferee, hold_window
-from sim.hand.grasp_env import GraspEnv
+from scenarios.runners.semg_reference import SemgReference
+from scenarios.runners.trial_loop import Frames, TrialLoop
 from sim.hand.objects import ObjectSpec
 from sim.recording import Recording
 from sim.user.feedback import FeedbackDevice
+from sim.user.operator import Scene, WristMove
 
 GAP_HOLD_S = 0.2
 """No sample for this long: the hand holds its grip and a gap is logged, s."""
@@ -85,8 +85,6 @@ TIMEOUT_S = 5.0
 """Default: no sample for this long ends the session, s."""
 STALE_S = 0.5
 """Before the first sample is accepted, samples older than this are skipped, s."""
-LOWERED_M = 0.01
-"""The in-air hold ends when the person's wrist comes down this far from its highest, m."""
 
 
 @dataclass(frozen=True)
@@ -155,11 +153,16 @@ class LiveGrasp:
     Attributes
     ----------
     finished : bool
-        The session has ended; ``ended`` says why (``duration``, ``dropped``,
-        ``crushed``, ``timeout``, ``diverged``, ``interrupted``, ``source_changed``).
+        The session has ended; ``ended`` says why (``duration``, ``dropped`` after a
+        secure lift, ``crushed``, ``timeout``, ``diverged``, ``interrupted``,
+        ``source_changed``).
     events : list of (float, str)
         Every marker emitted, with its session time, s.
+    trial : TrialLoop
+        The trial the session drives (its hand, recorder and referee).
     """
+
+    done = False  # the person never signals the end: the session runs its duration
 
     def __init__(self, cal: RecordedCalibration, obj: ObjectSpec, *, arm: Arm, controller: str,
                  controller_spec: Mapping[str, Any] | None = None,
@@ -172,29 +175,27 @@ class LiveGrasp:
         s = settings
         self.settings, self.cal, self.obj, self.controller = s, cal, obj, controller
         self.arm = arm
+        self.wrist_tremor_m = float(arm.tremor_m)
         self.design = grasp_design(obj, controller, s.control_dt_s, controller_spec)
-        self.env = GraspEnv(obj, 0.0, control_dt_s=s.control_dt_s, episode_s=s.duration_s,
-                            wrist="commanded")
-        self.referee = TrialReferee(LIFT_HEIGHT_M)
-        self.loop = HandLoop(self.env, self.design.controller)
-        self.stream = cal.calibration.pipeline.streaming(cal.calibration.mode)
-        self.windows = IncrementalFeatures(cal.fs_hz, cal.channel_index, integer=cal.integer)
+        self.chain = SemgReference(cal.calibration, fs_hz=cal.fs_hz,
+                                   channel_index=cal.channel_index,
+                                   hand_force_at_mvc_n=s.hand_force_at_mvc_n,
+                                   integer=cal.integer)
+        self.trial = TrialLoop(obj, self.design, self, limit_s=s.duration_s,
+                               control_dt_s=s.control_dt_s, lift_height_m=LIFT_HEIGHT_M,
+                               seed=session_seed(s.seed),
+                               frames=None if s.frame_dt_s is None
+                               else Frames(s.frame_dt_s, "state"))
+        self.env = self.trial.env
         self.guard = SampleGuard(cal.integer)
         self.fs_hz = cal.fs_hz
-        self.to_hand = cal.to_hand(s.hand_force_at_mvc_n)
-        self.gate = cal.calibration.rest_gate()  # the hand acts above the rest threshold
-        self.ceiling = 1.2 * s.hand_force_at_mvc_n
-        self.n_steps = int(round(s.duration_s / s.control_dt_s))
+        self.n_steps = self.trial.n_steps
         self._publish, self._event, self._clock = publish, event, clock
         self.feedback = FeedbackDevice(feedback, force_range_n=s.hand_force_at_mvc_n)
         self.viewer = viewer
         self.viewer_every = max(1, int(round(0.04 / s.control_dt_s)))
         n = self.n_steps
-        self.traces = {"t_s": np.arange(n) * s.control_dt_s, "reference_n": np.zeros(n),
-                       "grip_force_n": np.zeros(n), "command": np.zeros(n),
-                       "object_height_m": np.zeros(n), "slip_speed_m_s": np.zeros(n),
-                       "both_sides": np.zeros(n, dtype=bool), "tracked_reference_n": np.zeros(n),
-                       "feedback": np.zeros(n), "wrist_height_m": np.zeros(n)}
+        self._stimulus = np.zeros(n)
         self._latency = np.zeros(n)
         self._n_latency = 0
         capacity = int(np.ceil((s.duration_s + s.timeout_s + 2.0) * self.fs_hz))
@@ -202,41 +203,72 @@ class LiveGrasp:
         self._n_transport = 0
         self._samples = np.zeros((capacity, cal.n_channels), dtype=self.guard.dtype)
         self._pitch = np.full(capacity, np.nan)  # the arm's latest pitch at each sample
-        self.window_values: list[float] = []
         self.gaps: list[dict[str, float]] = []
-        self.frames: list[tuple[np.ndarray, bool]] = []
-        self.frame_every = (None if s.frame_dt_s is None
-                            else max(1, int(round(s.frame_dt_s / s.control_dt_s))))
-        self.info: dict[str, Any] = {}
         self.finished, self.ended = False, ""
         self.failure: str | None = None
         self.stale_skipped = 0
         self.events: list[tuple[float, str]] = []
         self.source_changes: list[dict[str, Any]] = []
         self._notify = notify
-        self.k = 0
         self.received = 0
         self.lost = 0
         self.deadline_misses = 0
         self.wall_s = 0.0
         # what start() sets, so that an unstarted session reports (nothing happened)
         self.n, self.in_gap, self.holding = -1, False, False
-        self.reference_n = self.hold_n = 0.0
+        self.hold_n = 0.0
         self.ts0 = self.ts_last = self.last_arrival = math.nan
         self.started_wall = clock()
         arm.bind(self._emit, self._say)
 
+    # ------------------------------------------------------------------ the person
+    def act(self, k: int, scene: Scene, setpoint_m: float) -> tuple[float, WristMove | None]:
+        """The person's part of control step ``k``: the latest window's reference and the
+        move their arm starts now (:class:`~scenarios.runners.trial_loop.Person`)."""
+        return self.chain.reference_n, self.arm.command(k * self.settings.control_dt_s,
+                                                        setpoint_m)
+
+    @property
+    def k(self) -> int:
+        """Control steps run."""
+        return self.trial.k
+
+    @property
+    def info(self) -> dict[str, Any]:
+        """The environment's ``info`` after the last step."""
+        return self.trial.info
+
+    @property
+    def reference_n(self) -> float:
+        """The reference the latest window asks for, N."""
+        return self.chain.reference_n
+
+    @property
+    def referee(self) -> Any:
+        """The session's referee."""
+        return self.trial.referee
+
+    @property
+    def frames(self) -> list[tuple[np.ndarray, bool]]:
+        """The hand's states kept for the video: ``(qpos, crushed)``."""
+        return self.trial.recorder.frames
+
+    @property
+    def traces(self) -> dict[str, np.ndarray]:
+        """The session's traces so far, with the stimulator's intensity (``feedback``)."""
+        return {**self.trial.traces(), "feedback": self._stimulus[:self.trial.k]}
+
+    def keep_frames(self, every_s: float) -> None:
+        """Keep the hand's state every ``every_s`` of session time for a video."""
+        self.trial.keep_frames(Frames(every_s, "state"))
+
     # ------------------------------------------------------------------ lifecycle
     def start(self) -> None:
         """Reset the hand, the controller, the estimator and the windows."""
-        s = self.settings
-        self.info = self.loop.reset(seed=int(np.random.SeedSequence(s.seed).generate_state(1)[0]))
-        self.stream.reset()
-        self.windows.reset()
+        self.trial.reset()
+        self.chain.reset()
         self.arm.reset()
-        self.referee = TrialReferee(LIFT_HEIGHT_M)
         self.events = []
-        self.reference_n = 0.0
         self.holding = False
         self.hold_n = 0.0
         self.in_gap = False
@@ -244,6 +276,7 @@ class LiveGrasp:
         self.ts0 = self.ts_last = math.nan
         self.last_arrival = math.nan
         self.started_wall = self._clock()
+        self._stimulus[:] = 0.0
         self._lifted = False
         self._slips = 0
         self._dropped = self._crushed = False
@@ -306,15 +339,8 @@ class LiveGrasp:
                     self._transport[self._n_transport] = lsl_now - ts
                     self._n_transport += 1
             self.received += 1
-            row = self.windows.push(x[i])
-            if row is not None:
-                value = self.gate.step(self.stream.step(row, None)) * self.to_hand
-                value = 0.0 if value < 0.0 else self.ceiling if value > self.ceiling else value
-                if value == value:  # not NaN
-                    self.reference_n = value
-                    self.holding = False
-                if self.windows.n_windows and self.n / fs <= self.settings.duration_s:
-                    self.window_values.append(self.reference_n)
+            if self.chain.push(x[i:i + 1]):  # a window with an estimate: control resumes
+                self.holding = False
             # every control step whose time precedes the next sample's
             t_next = (self.n + 1) / fs
             dt = self.settings.control_dt_s
@@ -342,9 +368,7 @@ class LiveGrasp:
         """
         if self.finished:
             return
-        if not self.holding:
-            self.hold_n = min(self.reference_n, float(self.info.get("grip_force_n", 0.0)))
-            self.holding = True
+        self._hold_grip()
         t = max(self.k - 1, 0) * self.settings.control_dt_s
         self.source_changes.append({"t_s": round(t, 4), "stream": stream,
                                     "pinned": dict(pinned), "found": dict(found)})
@@ -400,10 +424,7 @@ class LiveGrasp:
         if self.in_gap:
             return
         self.in_gap = True
-        if not self.holding:  # still holding since the previous gap: keep that force
-            grip = float(self.info.get("grip_force_n", 0.0))
-            self.hold_n = min(self.reference_n, grip)
-        self.holding = True
+        self._hold_grip()  # still holding since the previous gap: that force
         self.gaps.append({"t_s": float((n_last + 1) / self.fs_hz), "duration_s": math.nan})
         self._emit("gap_start")
         self._say(f"no sEMG since {self.gaps[-1]['t_s']:.2f} s: the hand holds its grip "
@@ -418,7 +439,7 @@ class LiveGrasp:
         self._open_gap(n_last)
         self.gaps[-1]["duration_s"] = float(max(lost / self.fs_hz, silent_s - 1.0 / self.fs_hz))
         self.in_gap = False
-        self.windows.reset()
+        self.chain.restart_windows(n_last + 1 + lost)  # the next sample's index
         self._emit("gap_end")
         self._say(f"sEMG back after {self.gaps[-1]['duration_s']:.2f} s: control resumes with "
                   "the first full window")
@@ -435,26 +456,11 @@ class LiveGrasp:
 
     def _step(self, arrival: float | None, release: float | None) -> None:
         """Control step ``k``: released by a sample's ``arrival`` or by the wall clock."""
-        k, s, tr = self.k, self.settings, self.traces
-        ref = self.hold_n if self.holding else self.reference_n
-        move = self.arm.command(k * s.control_dt_s, self.env.commanded.height_m(self.env.data.time))
-        if move is not None:
-            self.env.move_wrist(*move)
-        self.env.set_reference(ref)
-        _, command, done = self.loop.step(ref)
+        k, s = self.k, self.settings
+        ended = self.trial.step(self.hold_n if self.holding else None)
         end = self._clock()
-        info = self.loop.info
-        self.info = info
+        info = self.info
         grip = info["grip_force_n"]
-        tr["reference_n"][k] = ref
-        tr["command"][k] = command
-        tr["grip_force_n"][k] = grip
-        tr["object_height_m"][k] = info["object_height_m"]
-        tr["slip_speed_m_s"][k] = info["slip_speed_m_s"]
-        tr["both_sides"][k] = info["thumb_contact"] and info["finger_contact"]
-        tr["tracked_reference_n"][k] = max(ref, self.design.core.last_reference_n)
-        tr["wrist_height_m"][k] = info["wrist_height_m"]
-        self.referee.update(k * s.control_dt_s, info)
         if arrival is not None:
             late = end - arrival
             self._latency[self._n_latency] = late
@@ -465,26 +471,28 @@ class LiveGrasp:
             self.deadline_misses += 1
         t = k * s.control_dt_s
         stimulus = self.feedback.output(t, grip, info["slip_speed_m_s"])
-        tr["feedback"][k] = stimulus
+        self._stimulus[k] = stimulus
         if self._publish is not None:
-            self._publish(t, ref, grip, stimulus)
+            self._publish(t, float(self.trial.recorder.reference[k]), grip, stimulus)
         self._events(info)
-        if self.frame_every is not None and k % self.frame_every == 0:
-            self.frames.append((self.env.data.qpos.copy(), bool(info["crushed"])))
         if self.viewer is not None and k % self.viewer_every == 0:
             self.viewer.sync()
-        self.k = k + 1
-        failure = info.get("failure")
-        if failure is not None:
-            self.failure = failure
-            self.finish("diverged")
-        elif info["dropped"] or info["crushed"]:
-            self.finish("crushed" if info["crushed"] else "dropped")
-        elif done or self.k >= self.n_steps:
-            self.finish("duration")
+        if ended:
+            why = self.trial.ended
+            if why == "diverged":
+                self.failure = info["failure"]
+            elif why in ("crushed", "dropped"):  # the referee's answer: the hand holds its grip
+                self._hold_grip()
+            self.finish(why)
         elif t - self._last_gc_t >= 5.0:  # automatic collection is off during a session
             self._last_gc_t = t
             gc.collect(0)
+
+    def _hold_grip(self) -> None:
+        """The hand holds its grip from now on: the smaller of the reference and the grip."""
+        if not self.holding:
+            self.hold_n = min(self.reference_n, float(self.info.get("grip_force_n", 0.0)))
+            self.holding = True
 
     def _events(self, info: Mapping[str, Any]) -> None:
         if info["lifted"] and not self._lifted:
@@ -521,10 +529,17 @@ class LiveGrasp:
                          metadata=meta, source=source)
 
     def report(self) -> dict[str, Any]:
-        """The session's figures: the ``live --json`` contract (docs/FORMAT.md)."""
+        """The session's figures: the ``live --json`` contract (docs/FORMAT.md).
+
+        ``metrics`` holds what a simulated trial's row holds of the grasp (the referee's
+        ``outcome``, ``attempts``, ``time_to_lift_s``, ``safety_margin_pct``, ``released``
+        and the episode's figures: :func:`scenarios.live.recorded.grasp_metrics`);
+        ``held_grip_n`` is the grip the hand holds at the end when the session ended on
+        a fault or on the referee's answer (else ``None``).
+        """
         s = self.settings
         k = self.k
-        traces = {key: v[:k] for key, v in self.traces.items()}
+        traces = self.traces
         info = self.info
         expected = max(self.n + 1, 0)
         if self.ended == "timeout" and self.n >= 0 and self.gaps:
@@ -532,17 +547,17 @@ class LiveGrasp:
         lat_ms = self._latency[:self._n_latency] * 1e3
         transport_ms = self._transport[:self._n_transport] * 1e3
         simulated = k * s.control_dt_s
-        physics = self.loop.physics_s
-        processing = self.loop.physics_s + self.loop.controller_s
+        physics = self.trial.physics_s
+        processing = self.trial.physics_s + self.trial.controller_s
         t, referee = traces["t_s"], self.referee
         rising = np.flatnonzero(traces["wrist_height_m"] > 0.0)
-        lift_s = float(t[rising[0]]) if rising.size else simulated
-        hold = hold_window(t, traces["wrist_height_m"], referee.secure_lift_s, referee.fell_s,
-                           down_m=LOWERED_M)
-        metrics = grasp_metrics(traces, info, lift_after_s=lift_s, hold_from_s=simulated,
-                                hold=hold, referee=referee,
-                                window_values_n=np.asarray(self.window_values),
-                                window_dt_s=self.windows.step / self.fs_hz)
+        chain = self.chain
+        window_t = np.asarray(chain.window_t_s)
+        metrics = grasp_metrics(traces, info, referee, self.obj, control_dt_s=s.control_dt_s,
+                                wrist_tremor_m=self.wrist_tremor_m,
+                                window_values_n=np.asarray(chain.window_values_n)[
+                                    window_t <= s.duration_s],
+                                window_dt_s=chain.hop / self.fs_hz)
         out: dict[str, Any] = {
             "samples": {"received": int(self.received), "expected": int(expected),
                         "lost": int(max(expected - self.received, 0))},
@@ -565,6 +580,7 @@ class LiveGrasp:
             "session_s": simulated,
             "wall_s": self.wall_s,
             "ended": self.ended,
+            "held_grip_n": self.hold_n if self.holding else None,
             "traces": {key: traces[key].tolist() for key in
                        ("t_s", "reference_n", "grip_force_n", "object_height_m",
                         "slip_speed_m_s", "feedback", "wrist_height_m")},

@@ -18,7 +18,7 @@ import numpy as np
 from controllers.design import DEFAULT_SPECS
 from scenarios.outcomes import OUTCOMES
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
-from scenarios.runners.episode import run_episode
+from scenarios.runners.episode import EpisodeSpec, run_episode
 from scenarios.schema import ORACLE, derive_seed
 from scenarios.stats import wilson_interval
 from sim.hand.objects import ObjectSpec
@@ -108,10 +108,10 @@ def compare_references(
                 base = {"subject_id": sid, "session": session, "seed": episode_seed,
                         "estimator": name, "mode": "oracle" if name == ORACLE else mode}
                 try:
-                    result = run_episode(subject, obj, estimator=name, mode=mode,
-                                         controller=controller, controller_spec=spec,
-                                         seed=episode_seed, episode_s=episode_s, user=user,
-                                         feedback=feedback, practice=practice)
+                    result = run_episode(subject, obj, EpisodeSpec(
+                        estimator=name, mode=mode, controller=controller, controller_spec=spec,
+                        seed=episode_seed, episode_s=episode_s, user=user, feedback=feedback,
+                        practice=practice))
                 except (DivergedError, UnsupportedScenarioError) as exc:
                     rows.append({**base, "status": "failed", "error": str(exc)})
                     continue

@@ -41,8 +41,10 @@ Conventions (documented choices):
   it down and let go; ``episode_s`` is the time limit (15 s by default) and a
   trial that runs out before a secure lift is ``not_lifted``
   (:mod:`scenarios.runners.trial_outcome`). The scripted user rests, ramps to
-  the hold level in 0.5 s and holds, and the wrist lifts at ``episode_s -
-  hold_s - 0.6 s`` once the grip is established (6 s episodes by default).
+  the hold level in 0.5 s and holds, and lifts their arm at ``episode_s -
+  hold_s - 0.6 s`` once the grip is established (6 s episodes by default),
+  holding until the end. Every trial runs the one trial loop and is judged by
+  one referee (:mod:`scenarios.runners.trial_loop`).
 """
 
 from __future__ import annotations
@@ -68,26 +70,25 @@ from scenarios.runners.episode_metrics import (
     mpc_failures,
     operating_forces,
 )
-from scenarios.runners.operator_loop import STEP_MS, WINDOW_MS
 from scenarios.runners.practice import (
     DEFAULT_PRACTICE,
     Interface,
     practice_object_for,
     practise,
 )
-from scenarios.runners.reference import grasp_task, intended_grip_n
+from scenarios.runners.reference import grasp_task
+from scenarios.runners.semg_reference import STEP_MS, WINDOW_MS
 from scenarios.runners.subject import subject_for
-from scenarios.runners.trial import (  # noqa: F401  (re-exported: the episode's pieces)
-    LIFT_DURATION_S,
+from scenarios.runners.trial import (
+    HAND_FORCE_AT_MVC_N,
     TIMING_KEYS,
     Trial,
-    closed_loop,
-    default_episode_s,
-    lift_time_s,
-    paces_itself,
+    TrialHooks,
+    TrialSetup,
     run_trial,
 )
-from scenarios.runners.trial_outcome import hold_window, judge_trial, safety_margin_pct
+from scenarios.runners.trial_loop import Frames
+from scenarios.runners.trial_outcome import judge
 from scenarios.schema import Scenario
 from sim.codec import state_space_matrices
 from sim.hand.objects import ObjectSpec, make_object
@@ -96,11 +97,9 @@ from sim.user.operator import Operator, OperatorParams
 from sim.user.operators import make_operator
 from sim.user.subjects import VirtualSubject
 
-#: Earlier names of :func:`closed_loop` and :func:`lift_time_s`, used across the runners.
-_closed_loop = closed_loop
-_lift_time_s = lift_time_s
-
-HAND_FORCE_AT_MVC_N = 30.0
+__all__ = ["EpisodeResult", "EpisodeSpec", "HAND_FORCE_AT_MVC_N", "controller_spec",
+           "episode_from_scenario", "episode_spec", "run_episode", "run_episode_scenario",
+           "scenario_object", "seed_sequences"]
 
 
 # ------------------------------------------------------------------------ episode
@@ -115,6 +114,77 @@ class EpisodeResult:
     def as_result_row(self) -> dict[str, Any]:
         """The sweep store's format: scalars plus ``"traces"``."""
         return {**self.row, "traces": self.traces}
+
+
+@dataclass(frozen=True)
+class EpisodeSpec:
+    """How one episode runs, besides its subject and object (a scenario's fields:
+    :func:`episode_spec`).
+
+    Attributes
+    ----------
+    estimator, mode : str
+        Estimator name (:func:`estimation.registry.estimator_names`, ``"oracle"`` or
+        ``"intact"``) and mode (``free_run``, ``one_step``; module notes).
+    controller : str
+        Registered controller kind.
+    controller_spec : mapping, optional
+        The keywords of :func:`controllers.design.design_for_object`.
+    seed : int
+        Seeds the calibration, the practice, the trial's sEMG, the networks and the hand.
+    generator : str
+        The sEMG generator.
+    order, identification_fraction, calibration_s : int, float, float or None
+        The calibration's model order, identifying share and session length.
+    episode_s : float or None
+        The trial's time limit, s (default: the user's own, 15 s for a user who paces
+        the trial, 6 s for the scripted one).
+    hold_s : float
+        How long the object is held in the air, s.
+    control_dt_s : float
+        Control period, s (a multiple of the 2 ms physics step).
+    hand_force_at_mvc_n : float
+        Hand force at the user's calibration MVC, N.
+    user, feedback : str
+        User kind (:mod:`sim.user.operators`: ``reacting``, the default, sees, corrects
+        and moves their own arm; ``scripted`` follows the intent profile and lifts at a
+        set time) and feedback mode.
+    operator_params : OperatorParams, optional
+        The user's parameters (default ``OperatorParams()``).
+    estimator_options : mapping, optional
+        The estimator's own options.
+    practice : int
+        Practice lifts of the object's class first (a user who learns; 0: the novice).
+    window_ms, step_ms : float
+        The feature window and its increment, ms (the paper's 400 and 125).
+    """
+
+    estimator: str = "ss_kf"
+    mode: str = "free_run"
+    controller: str = "pid"
+    controller_spec: Mapping[str, Any] | None = None
+    seed: int = 0
+    generator: str = "noise"
+    order: int = PAPER_ORDER
+    identification_fraction: float = 0.5
+    calibration_s: float | None = None
+    episode_s: float | None = None
+    hold_s: float = 2.0
+    control_dt_s: float = 0.01
+    hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N
+    user: str = "reacting"
+    feedback: str = "none"
+    operator_params: OperatorParams | None = None
+    estimator_options: Mapping[str, Any] | None = None
+    practice: int = DEFAULT_PRACTICE
+    window_ms: float = WINDOW_MS
+    step_ms: float = STEP_MS
+
+    def calibration_settings(self) -> CalibrationSettings:
+        """How the estimator is calibrated."""
+        return CalibrationSettings(self.estimator, self.mode, self.order, self.generator,
+                                   self.identification_fraction, self.calibration_s,
+                                   self.estimator_options, self.window_ms, self.step_ms)
 
 
 def scenario_object(scenario: Scenario) -> ObjectSpec:
@@ -139,57 +209,18 @@ def scenario_object(scenario: Scenario) -> ObjectSpec:
     return obj
 
 
-def run_episode(
-    subject: VirtualSubject,
-    obj: ObjectSpec,
-    *,
-    estimator: str = "ss_kf",
-    mode: str = "free_run",
-    controller: str = "pid",
-    controller_spec: Mapping[str, Any] | None = None,
-    seed: int = 0,
-    generator: str = "noise",
-    order: int = PAPER_ORDER,
-    identification_fraction: float = 0.5,
-    calibration_s: float | None = None,
-    episode_s: float | None = None,
-    hold_s: float = 2.0,
-    control_dt_s: float = 0.01,
-    hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N,
-    record_frames: bool = False,
-    user: str = "reacting",
-    feedback: str = "none",
-    operator_params: OperatorParams | None = None,
-    estimator_options: Mapping[str, Any] | None = None, practice: int = DEFAULT_PRACTICE,
-    window_ms: float = WINDOW_MS, step_ms: float = STEP_MS, compiled: bool = False,
-) -> EpisodeResult:
+def run_episode(subject: VirtualSubject, obj: ObjectSpec, spec: EpisodeSpec = EpisodeSpec(),
+                *, record_frames: bool = False, compiled: bool = False) -> EpisodeResult:
     """Calibrate, let the user practise, then run one closed-loop grasp-lift-hold trial.
 
     Parameters
     ----------
     subject, obj : VirtualSubject, ObjectSpec
         The user (with any electrode shift, noise or fatigue applied) and the object.
-    estimator, mode : str
-        Estimator name (:func:`estimation.registry.estimator_names`, ``"oracle"`` or
-        ``"intact"``) and mode (``free_run``, ``one_step``; module notes).
-    controller, controller_spec : str, mapping
-        Registered controller kind and the keywords of
-        :func:`controllers.design.design_for_object`.
-    seed : int
-        Seeds the calibration, the practice, the trial's sEMG, the networks and the hand.
-    episode_s, hold_s : float
-        The trial's time limit (a user who paces it; default 15 s) or the
-        scripted episode's length (default 6 s), and the in-air hold, s.
-    control_dt_s, record_frames : float, bool
-        Control period, s (a multiple of the 2 ms physics step); also return RGB frames.
-    user, feedback : str
-        User kind (:mod:`sim.user.operators`: ``reacting``, the default, sees, corrects
-        and moves their own arm; ``scripted`` follows the intent profile) and feedback.
-    operator_params, estimator_options : optional
-        The user's parameters (default ``OperatorParams``); the estimator's own.
-    practice, window_ms, step_ms : int, float, float
-        Practice lifts of the object's class first (a user who learns; 0: the novice);
-        the feature window and its increment, ms (the paper's 400 and 125).
+    spec : EpisodeSpec
+        Everything else the episode runs with.
+    record_frames : bool
+        Also return RGB frames every 40 ms (``traces["frames"]``).
     compiled : bool
         Run the trial's estimator and controller as C (:mod:`scenarios.deploy.compiled`).
 
@@ -204,41 +235,35 @@ def run_episode(
 sim.user.operator.OperatorError
         Unknown user kind or feedback mode, or a feedback mode for the scripted user.
     """
-    operator = make_operator(user, feedback=feedback, params=operator_params)
-    self_paced = paces_itself(operator)
-    episode_s = default_episode_s(operator) if episode_s is None else float(episode_s)
-    lift_after_s = float("inf") if self_paced else lift_time_s(episode_s, hold_s)
-    cal_seq, episode_seq, env_seq, operator_seq, practice_seq = seed_sequences(seed)
-    timings, params = dict.fromkeys(TIMING_KEYS, 0.0), operator_params or OperatorParams()
-    settings = CalibrationSettings(estimator, mode, order, generator, identification_fraction,
-                                   calibration_s, estimator_options, window_ms, step_ms)
+    operator = make_operator(spec.user, feedback=spec.feedback, params=spec.operator_params)
+    cal_seq, episode_seq, env_seq, operator_seq, practice_seq = seed_sequences(spec.seed)
+    params = spec.operator_params or OperatorParams()
+    settings = spec.calibration_settings()
     with one_blas_thread():
         cal = settings.fit(subject, cal_seq)
-        design = grasp_design(obj, controller, control_dt_s, controller_spec)
-        if self_paced and practice > 0:
-            practise(operator, subject, cal, Interface(
-                settings, controller, dict(controller_spec or {}), practice_object_for(obj),
-                user, feedback, params, control_dt_s, hand_force_at_mvc_n),
-                cal_seq=cal_seq, n_lifts=practice, seed_seq=practice_seq)
-        cal, design = maybe_compiled(compiled, cal, design, hand_force_at_mvc_n)
-        belief = getattr(operator, "belief", None)  # what the trial is planned with
-        trial = run_trial(subject, obj, cal, design, operator, goal_n=intended_grip_n(obj),
-                          seeds=(episode_seq, env_seq, operator_seq), generator=generator,
-                          episode_s=episode_s, lift_after_s=lift_after_s,
-                          control_dt_s=control_dt_s, hand_force_at_mvc_n=hand_force_at_mvc_n,
-                          timings=timings, record_frames=record_frames,
-                          task=grasp_task(obj, hold_s=hold_s) if self_paced else None,
-                          window_ms=window_ms, step_ms=step_ms)
+        design = grasp_design(obj, spec.controller, spec.control_dt_s, spec.controller_spec)
+        practised = practise(operator, subject, cal, Interface(
+            settings, spec.controller, dict(spec.controller_spec or {}),
+            practice_object_for(obj), spec.user, spec.feedback, params, spec.control_dt_s,
+            spec.hand_force_at_mvc_n), cal_seq=cal_seq, n_lifts=spec.practice,
+            seed_seq=practice_seq)
+        cal, design = maybe_compiled(compiled, cal, design, spec.hand_force_at_mvc_n)
+        belief = operator.belief  # what the trial is planned with
+        setup = TrialSetup(subject, obj, cal, design, spec.generator, spec.control_dt_s,
+                           spec.hand_force_at_mvc_n, spec.window_ms, spec.step_ms)
+        task = grasp_task(obj, hold_s=spec.hold_s, limit_s=spec.episode_s)
+        trial = run_trial(setup, operator, task, (episode_seq, env_seq, operator_seq),
+                          TrialHooks(frames=Frames() if record_frames else None))
     trial.raise_if_diverged()
-    row = {"subject_id": subject.subject_id, "seed": int(seed), **_object_fields(obj),
-           "controller": controller, "estimator": estimator, "mode": mode,
-           "scheduled": bool(design.scheduled), "user": user, "feedback": feedback,
-           "practice": int(practice) if self_paced else 0, **_belief_fields(belief, params),
-           "window_ms": float(window_ms), "step_ms": float(step_ms),
+    row = {"subject_id": subject.subject_id, "seed": int(spec.seed), **_object_fields(obj),
+           "controller": spec.controller, "estimator": spec.estimator, "mode": spec.mode,
+           "scheduled": bool(design.scheduled), "user": spec.user, "feedback": spec.feedback,
+           "practice": practised, **_belief_fields(belief, params),
+           "window_ms": float(spec.window_ms), "step_ms": float(spec.step_ms),
            **_operator_fields(operator)}
-    return _episode_result(row, cal, design, trial, obj, timings, target_n=_aim_n(
-        belief, params, obj), lift_after_s=lift_after_s, hold_from_s=episode_s - hold_s,
-        control_dt_s=control_dt_s)
+    aim_n = trial.memory.aim_n if trial.memory.aim_n is not None else task.goal_n
+    return _episode_result(row, cal, design, trial, obj, target_n=aim_n,
+                           control_dt_s=spec.control_dt_s)
 
 
 def seed_sequences(seed: int) -> list[np.random.SeedSequence]:
@@ -251,12 +276,6 @@ def _belief_fields(belief: ProsthesisBelief | None, params: OperatorParams) -> d
     if belief is None:
         return {"belief_gain": None, "belief_margin_pct": None}
     return {"belief_gain": float(belief.gain), "belief_margin_pct": 100.0 * belief.margin(params)}
-
-
-def _aim_n(belief: ProsthesisBelief | None, params: OperatorParams, obj: ObjectSpec) -> float:
-    """The grip force the user aimed at, N (their margin; the novice's for a user without one)."""
-    return intended_grip_n(obj) if belief is None else intended_grip_n(
-        obj, 1.0 + belief.margin(params))
 
 
 def _object_fields(obj: ObjectSpec) -> dict[str, Any]:
@@ -273,8 +292,7 @@ def _operator_fields(operator: Operator) -> dict[str, Any]:
 
 
 def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDesign,
-                    trial: Trial, obj: ObjectSpec, timings: dict[str, float], *,
-                    target_n: float, lift_after_s: float, hold_from_s: float,
+                    trial: Trial, obj: ObjectSpec, *, target_n: float,
                     control_dt_s: float) -> EpisodeResult:
     """Metrics, outcome, margins at the forces visited and timings of a finished episode.
 
@@ -284,50 +302,37 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
         The episode's identity (subject, object, controller, estimator), extended here.
     trial : Trial
         The trial's traces (``n_run`` steps, fewer than the stream's if it ended
-        early), the environment's last ``info`` and, for a trial the user paced,
-        its referee.
+        early), the environment's last ``info`` and its referee.
     target_n : float
         The grip force the user intended, N.
-    lift_after_s, hold_from_s : float
-        The scripted schedule's lift and in-air hold, s (a trial the user paced
-        reads both from its referee).
     """
-    traces, info, stream, referee = trial.traces, trial.info, trial.stream, trial.referee
+    traces, info, stream = trial.traces, trial.info, trial.stream
+    timings = trial.timings
     n_run = traces["grip_force_n"].size
     t = traces["t_s"]
-    hold = None
-    if referee is not None:
-        hold = hold_window(t, traces["wrist_height_m"], referee.secure_lift_s, referee.fell_s)
-        rising = np.flatnonzero(traces["wrist_height_m"] > 0.0)
-        lift_after_s = float(t[rising[0]]) if rising.size else float(t[-1]) + control_dt_s
-    lifted, dropped, crushed, outcome = judge_trial(traces, info, referee)
+    verdict = judge(traces, trial.referee, obj, control_dt_s=control_dt_s)
+    hold = verdict.hold
     metrics = episode_metrics(stream.t_s[:n_run], stream.reference_n[:n_run],
                               traces["grip_force_n"], stream.oracle_n[:n_run],
-                              start_s=stream.start_s, lift_s=lift_after_s,
-                              hold_from_s=hold_from_s, hold=hold,
+                              start_s=stream.start_s, lift_s=verdict.lift_start_s, hold=hold,
                               window_values_n=stream.window_values_n,
                               window_dt_s=stream.window_dt_s)
     ratio, both_s = contact_peak_ratio(t, traces["tracked_reference_n"],
                                        traces["grip_force_n"], traces["both_sides"])
-    held_n, visited_n = operating_forces(traces, design, hold_from_s=hold_from_s,
-                                         both_sides_s=both_s, hold=hold)
+    held_n, visited_n = operating_forces(traces, design, hold=hold, both_sides_s=both_s)
     analysed = design.analyse_many([*visited_n, *([] if held_n is None else [held_n])])
     held = analysed[-1] if held_n is not None else None
     worst = worst_case(analysed[:len(visited_n)]) if visited_n else {}
     simulated = t[-1] + control_dt_s
     loop_time = sum(timings[k] for k in TIMING_KEYS)
-    if hold is None:  # the scripted schedule: the last hold_s, where the object was in the air
-        hold = (t >= hold_from_s) if lifted and not dropped else np.zeros(t.size, dtype=bool)
+    verdict_fields = verdict.fields()
+    del verdict_fields["released"]
     row = EpisodeRow.build(**{
         **row,
         **metrics,
         "intended_grip_n": target_n,
         "slip_events": int(info["slip_events"]), "slip_distance_m": float(info["slip_distance_m"]),
-        "lifted": lifted, "dropped": dropped, "crushed": crushed, "outcome": outcome,
-        "attempts": trial.attempts,
-        "time_to_lift_s": None if referee is None else referee.time_to_lift_s,
-        "safety_margin_pct": safety_margin_pct(traces["grip_force_n"], hold, obj)
-        if outcome == "held" else None,
+        **verdict_fields,
         "contact_peak_ratio": ratio, "both_sides_time_s": both_s,
         "held_force_n": held_n,
         "visited_forces_n": ",".join(f"{f:g}" for f in visited_n),
@@ -342,14 +347,12 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
         "realtime_factor": float(simulated / loop_time) if loop_time > 0 else None,
     }).as_dict()
     traces["intent_n"] = stream.oracle_n[:n_run]
-    if trial.phases is not None:
+    if trial.phases:
         traces["phase"] = _phase_trace(t, trial.phases)
     if held is not None and held.ok:
         A, B, C, D = state_space_matrices(held.margins, "loop")
         traces.update(loop_A=A, loop_B=B, loop_C=C, loop_D=D)
     return EpisodeResult(row=row, traces=traces, design=design)
-
-
 
 
 def _phase_trace(t_s: np.ndarray, phases: list[tuple[float, str]]) -> np.ndarray:
@@ -380,22 +383,26 @@ def controller_spec(scenario: Scenario) -> dict[str, Any]:
     return spec
 
 
-def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False,
-                          compiled: bool = False) -> EpisodeResult:
-    """:func:`run_episode` with every argument taken from a validated scenario."""
+def episode_spec(scenario: Scenario) -> EpisodeSpec:
+    """The :class:`EpisodeSpec` of a validated scenario."""
     p, e = scenario.protocol, scenario.estimator
-    return run_episode(
-        subject_for(scenario), scenario_object(scenario), estimator=e.name, mode=e.mode,
-        controller=scenario.controller.kind, controller_spec=controller_spec(scenario),
-        seed=int(scenario.seed or 0), generator=scenario.subject.generator,
-        order=PAPER_ORDER if e.order is None else e.order,
+    return EpisodeSpec(
+        estimator=e.name, mode=e.mode, controller=scenario.controller.kind,
+        controller_spec=controller_spec(scenario), seed=int(scenario.seed or 0),
+        generator=scenario.subject.generator, order=PAPER_ORDER if e.order is None else e.order,
         identification_fraction=p.identification_fraction, calibration_s=p.calibration_s,
         episode_s=p.episode_s, hold_s=p.hold_s,
-        control_dt_s=1.0 / scenario.controller.control_hz, record_frames=record_frames,
-        user=scenario.user.kind, feedback=scenario.user.feedback,
-        operator_params=scenario.user.operator_params(), estimator_options=e.options,
-        practice=scenario.user.practice, window_ms=e.window_ms, step_ms=e.step_ms,
-        compiled=compiled)
+        control_dt_s=1.0 / scenario.controller.control_hz, user=scenario.user.kind,
+        feedback=scenario.user.feedback, operator_params=scenario.user.operator_params(),
+        estimator_options=e.options, practice=scenario.user.practice, window_ms=e.window_ms,
+        step_ms=e.step_ms)
+
+
+def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False,
+                          compiled: bool = False) -> EpisodeResult:
+    """:func:`run_episode` with everything taken from a validated scenario."""
+    return run_episode(subject_for(scenario), scenario_object(scenario), episode_spec(scenario),
+                       record_frames=record_frames, compiled=compiled)
 
 
 def run_episode_scenario(scenario: Scenario) -> dict[str, Any]:

@@ -13,14 +13,11 @@ import numpy as np
 from controllers.base import controller_stats
 from controllers.design import ControllerDesign, OperatingAnalysis
 from estimation.metrics import total_variation_rate
-from sim.hand.grasp_env import WristSchedule
 
 SETTLE_BAND = 0.05  # settling band: 5 % of the hold reference (at least SETTLE_FLOOR_N)
 SETTLE_FLOOR_N = 0.2
 CONTACT_N = 0.5  # grip force that counts as contact in the metrics
 CONTACT_PEAK_WINDOW_S = 0.5  # contact_peak_ratio: peak within this long after both sides touch
-#: Lifted: the object rose at least this fraction of the lift height.
-LIFTED_FRACTION = 0.5
 
 
 def contact_peak_ratio(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray,
@@ -50,25 +47,31 @@ def contact_peak_ratio(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndar
     return (float(grip_n[i] / ref) if ref > 0 else None), t0
 
 
+def grasp_start_s(t_s: np.ndarray, reference_n: np.ndarray) -> float:
+    """When a grasp without a cue started: the reference first reaches 0.5 N, s (a person
+    gives no cue; the start of the trial if it never does)."""
+    rising = np.flatnonzero(reference_n >= CONTACT_N)
+    return float(t_s[rising[0]]) if rising.size else float(t_s[0])
+
+
 def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray,
-                    oracle_n: np.ndarray, *, start_s: float, lift_s: float, hold_from_s: float,
-                    window_values_n: np.ndarray, window_dt_s: float,
-                    hold: np.ndarray | None = None) -> dict[str, Any]:
+                    oracle_n: np.ndarray, *, start_s: float | None, lift_s: float,
+                    hold: np.ndarray, window_values_n: np.ndarray,
+                    window_dt_s: float) -> dict[str, Any]:
     """Tracking, estimation and transient figures of one episode.
 
     Parameters
     ----------
     t_s, reference_n, grip_n, oracle_n : ndarray, shape (n_steps,)
         Control-rate time, reference, measured grip force and the oracle reference.
-    start_s : float
-        Start of the grasp (the user's ramp onset), s.
+    start_s : float or None
+        Start of the grasp (the user's ramp onset), s; ``None`` when no cue is known
+        (a person): when the reference first reaches 0.5 N.
     lift_s : float
-        Earliest lift, s: the grasp phase is ``start_s..lift_s``.
-    hold_from_s : float
-        Start of the in-air hold, s; the hold reference is the mean reference after it.
-    hold : ndarray of bool, shape (n_steps,), optional
-        The in-air hold's steps, when it does not run to the end (a trial the
-        user paced); overrides ``hold_from_s``.
+        When the wrist first rose, s: the grasp phase is ``start_s..lift_s``.
+    hold : ndarray of bool, shape (n_steps,)
+        The in-air hold's steps (:func:`scenarios.runners.trial_outcome.hold_window`);
+        the hold reference is the mean reference there.
     window_values_n : ndarray, shape (n_windows,)
         The reference at the estimator's update rate (for volatility).
     window_dt_s : float
@@ -88,10 +91,11 @@ def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray
         if it never does), plus ``peak_force_n`` (whole episode) and
         ``reference_volatility_n_per_s``.
     """
+    if start_s is None:
+        start_s = grasp_start_s(t_s, reference_n)
     touching = np.flatnonzero(grip_n >= CONTACT_N)
     contact_s = float(t_s[touching[0]]) if touching.size else None
     track = (t_s >= contact_s + 0.5) if contact_s is not None else np.zeros(t_s.size, bool)
-    hold = t_s >= hold_from_s if hold is None else hold
     hold_ref = float(np.mean(reference_n[hold])) if hold.any() else float("nan")
     grasp = (t_s >= start_s) & (t_s < lift_s)
     grasp_ref = float(reference_n[grasp][-1]) if grasp.any() else float("nan")
@@ -120,19 +124,13 @@ def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray
     }
 
 
-def was_lifted(object_height_m: np.ndarray) -> bool:
-    """Whether the object rose :data:`LIFTED_FRACTION` of the wrist's lift height, at any time."""
-    rise = np.asarray(object_height_m) - object_height_m[0]
-    return bool(rise.size and np.max(rise) >= LIFTED_FRACTION * WristSchedule().lift_height_m)
-
-
 def operating_forces(traces: Mapping[str, np.ndarray], design: ControllerDesign, *,
-                     hold_from_s: float, both_sides_s: float | None,
-                     hold: np.ndarray | None = None) -> tuple[float | None, list[float]]:
+                     hold: np.ndarray, both_sides_s: float | None
+                     ) -> tuple[float | None, list[float]]:
     """The force an episode held and the forces it visited, N.
 
-    The held force is the mean grip in the in-air hold (from ``hold_from_s``,
-    or the steps of ``hold``; the mean, not the median: a grip that follows a
+    The held force is the mean grip in the in-air hold (the steps of ``hold``;
+    the mean, not the median: a grip that follows a
     fluctuating estimate spreads over a few newtons, and its median jumps between
     clusters with a change in the last digit of the command);
     the visited forces are the design grid points between the 5th and 95th
@@ -143,7 +141,6 @@ def operating_forces(traces: Mapping[str, np.ndarray], design: ControllerDesign,
         return None, []
     lo_range, hi_range = design.family.range_n
     t, grip = traces["t_s"], traces["grip_force_n"]
-    hold = t >= hold_from_s if hold is None else hold
     after = t >= both_sides_s
     if not hold.any() or not after.any():
         return None, []

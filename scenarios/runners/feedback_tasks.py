@@ -37,7 +37,6 @@ the trials share; the timed transfers are :mod:`scenarios.runners.transfers`.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -54,19 +53,17 @@ from scenarios.runners.episode import (
     scenario_object,
 )
 from scenarios.runners.practice import Interface, practice_object_for, practise
-from scenarios.runners.reference import Task, grasp_task, hold_level_for, intended_grip_n
+from scenarios.runners.reference import Task, force_task, grasp_task
 from scenarios.runners.subject import subject_for
 from scenarios.runners.trial import (
+    NO_HOOKS,
     TIMING_KEYS,
     Trial,
-    default_episode_s,
-    lift_time_s,
-    paces_itself,
+    TrialHooks,
+    TrialSetup,
     run_trial,
 )
-from scenarios.runners.trial_outcome import judge_trial
 from scenarios.schema import Scenario
-from sim.hand.grasp_env import WristSchedule
 from sim.user.operators import make_operator
 
 EGG_BREAK_FORCES_N = tuple(float(f) for f in np.round(np.geomspace(0.4, 11.5, 11), 2))
@@ -104,54 +101,41 @@ class TaskSetup:
         self.scenario = scenario
         self.params = u.operator_params()
         self.operator = make_operator(u.kind, feedback=u.feedback, params=self.params)
-        self.self_paced = paces_itself(self.operator)
         self.subject = subject_for(scenario)
         self.obj = scenario_object(scenario)
         self.spec = controller_spec(scenario)
         self.dt = 1.0 / scenario.controller.control_hz
-        self.window = {"window_ms": scenario.estimator.window_ms,
-                       "step_ms": scenario.estimator.step_ms}
         p = scenario.protocol
-        self.episode_s = default_episode_s(self.operator) if p.episode_s is None \
-            else float(p.episode_s)
+        self.episode_s = float(self.operator.default_trial_s if p.episode_s is None
+                               else p.episode_s)
         root = np.random.SeedSequence(int(scenario.seed or 0))
         cal_seq, trial_seq, practice_seq = root.spawn(3)
         self.trial_seqs = [s.spawn(3) for s in trial_seq.spawn(p.trials)]
         settings = calibration_settings(scenario)
         self.cal = settings.fit(self.subject, cal_seq)
-        self.design = grasp_design(self.obj, scenario.controller.kind, self.dt, self.spec)
-        self.practice = int(u.practice) if self.self_paced else 0
-        practise(self.operator, self.subject, self.cal, Interface(
+        design = grasp_design(self.obj, scenario.controller.kind, self.dt, self.spec)
+        self.practice = practise(self.operator, self.subject, self.cal, Interface(
             settings, scenario.controller.kind, self.spec, practice_object_for(self.obj), u.kind,
             u.feedback, self.params, self.dt, HAND_FORCE_AT_MVC_N),
-            cal_seq=cal_seq, n_lifts=self.practice, seed_seq=practice_seq)
+            cal_seq=cal_seq, n_lifts=int(u.practice), seed_seq=practice_seq)
+        e = scenario.estimator
+        self.setup = TrialSetup(self.subject, self.obj, self.cal, design,
+                                scenario.subject.generator, self.dt, HAND_FORCE_AT_MVC_N,
+                                e.window_ms, e.step_ms)
         self.timings = dict.fromkeys(TIMING_KEYS, 0.0)
 
-    def lift_after_s(self, hold_s: float) -> float:
-        """The scripted wrist's lift time (a user who paces the trial lifts by themselves)."""
-        return math.inf if self.self_paced else lift_time_s(self.episode_s, hold_s)
+    def grasp_task(self, *, hold_s: float, place: bool = True) -> Task:
+        """Grasping, lifting and holding the object ``hold_s`` within the trial's limit."""
+        return grasp_task(self.obj, hold_s=hold_s, place=place, limit_s=self.episode_s)
 
-    def trial(self, i: int, *, goal_n: float, hold_s: float, task: Task | None = None,
-              **kw: Any) -> Trial:
-        """Trial ``i`` (:func:`scenarios.runners.trial.run_trial`); physics divergence raises.
-
-        ``task`` defaults to grasping, lifting and holding the object ``hold_s``.
-        """
-        if task is None:
-            task = grasp_task(self.obj, hold_s=hold_s)
-        kw.setdefault("lift_after_s", self.lift_after_s(hold_s))
-        t = run_trial(self.subject, self.obj, self.cal, self.design, self.operator,
-                      goal_n=goal_n, seeds=tuple(self.trial_seqs[i]),
-                      generator=self.scenario.subject.generator, episode_s=self.episode_s,
-                      control_dt_s=self.dt, hand_force_at_mvc_n=HAND_FORCE_AT_MVC_N,
-                      timings=self.timings, task=task if self.self_paced else None,
-                      **self.window, **kw)
+    def trial(self, i: int, task: Task, hooks: TrialHooks = NO_HOOKS) -> Trial:
+        """Trial ``i`` of ``task`` (:func:`scenarios.runners.trial.run_trial`); physics
+        divergence raises; its timings add to ``timings``."""
+        t = run_trial(self.setup, self.operator, task, tuple(self.trial_seqs[i]), hooks)
         t.raise_if_diverged()
+        for key, value in t.timings.items():
+            self.timings[key] += value
         return t
-
-    def outcome(self, t: Trial) -> str:
-        """The trial's outcome: its referee's, or on the scripted schedule the flags'."""
-        return judge_trial(t.traces, t.info, t.referee)[3]
 
     def identity(self) -> dict[str, Any]:
         """The row fields naming the user, the object and the loop."""
@@ -184,12 +168,13 @@ def run_eggs_scenario(scenario: Scenario) -> dict[str, Any]:
         setup = TaskSetup(scenario)
         if setup.obj.break_force_n is None:
             raise UnsupportedScenarioError("eggs: the object needs a break_force_n (found none)")
-        goal_n = intended_grip_n(setup.obj)
+        task = setup.grasp_task(hold_s=p.hold_s)
+        goal_n = task.goal_n
         counts = {"success": 0, "broken": 0, "dropped": 0}
         corrections, peaks = 0, []
         for i in range(p.trials):
-            t = setup.trial(i, goal_n=goal_n, hold_s=p.hold_s)
-            outcome = setup.outcome(t)
+            t = setup.trial(i, task)
+            outcome = t.referee.outcome
             key = {"held": "success", "crushed": "broken"}.get(outcome, "dropped")
             counts[key] += 1
             corrections += setup.operator.corrections
@@ -263,15 +248,13 @@ def run_slip_recovery_scenario(scenario: Scenario) -> dict[str, Any]:
     p = scenario.protocol
     with one_blas_thread():
         setup = TaskSetup(scenario)
-        goal_n = intended_grip_n(setup.obj)
-        task = grasp_task(setup.obj, hold_s=setup.episode_s, place=False)  # hold to the end
+        task = setup.grasp_task(hold_s=p.hold_s, place=False)  # held to the end
         n = recovered = not_lifted = no_slip = corrections = 0
         slip_loads: list[float] = []
         reactions: list[float] = []
         for i in range(p.trials):
             load = _RisingLoad(task.lift_height_m, p.load_rate_n_s)
-            t = setup.trial(i, goal_n=goal_n, hold_s=p.hold_s, task=task, load=load,
-                            until=load.done)
+            t = setup.trial(i, task, TrialHooks(load=load, until=load.done))
             corrections += setup.operator.corrections
             if not load.started:
                 not_lifted += 1
@@ -309,13 +292,10 @@ def run_force_matching_scenario(scenario: Scenario) -> dict[str, Any]:
     with one_blas_thread():
         setup = TaskSetup(scenario)
         goal_n = p.target_fraction * HAND_FORCE_AT_MVC_N
-        hold_level = hold_level_for(goal_n, setup.cal, setup.subject, HAND_FORCE_AT_MVC_N)
-        never = WristSchedule(lift_after_s=math.inf)
-        on_table = Task(need_n=None, lift_height_m=None, hold_s=setup.episode_s, place=False)
+        on_table = force_task(goal_n, limit_s=setup.episode_s)
         means, errors, cvs, user_cvs, corrections = [], [], [], [], 0
         for i in range(p.trials):
-            t = setup.trial(i, goal_n=goal_n, hold_s=p.hold_s, task=on_table,
-                            lift_after_s=math.inf, schedule=never, hold_level=hold_level)
+            t = setup.trial(i, on_table)
             hold = t.traces["t_s"] >= setup.episode_s - p.hold_s
             grip = t.traces["grip_force_n"][hold]
             user = t.stream.oracle_n[:t.traces["t_s"].size][hold]

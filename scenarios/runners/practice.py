@@ -31,8 +31,8 @@ import numpy as np
 
 from controllers.design_cache import grasp_design
 from scenarios.runners.calibration import Calibration, CalibrationSettings
-from scenarios.runners.reference import grasp_task, intended_grip_n
-from scenarios.runners.trial import TIMING_KEYS, default_episode_s, lift_time_s, run_trial
+from scenarios.runners.reference import grasp_task
+from scenarios.runners.trial import TrialSetup, run_trial
 from sim import cache as sim_cache
 from sim.hand.objects import ObjectSpec, make_object, object_names
 from sim.user.belief import ProsthesisBelief
@@ -119,7 +119,7 @@ def practised_belief(subject: VirtualSubject, cal: Calibration, interface: Inter
     """
     operator = make_operator(interface.user, feedback=interface.feedback,
                              params=interface.params)
-    novice = getattr(operator, "belief", None)
+    novice = operator.belief
     if n_lifts <= 0 or novice is None:
         return novice if novice is not None else ProsthesisBelief.novice(interface.params)
     key = _key(subject, interface, n_lifts, seed_seq, trial_s, interface.calibration.key(cal_seq))
@@ -145,17 +145,19 @@ def practised_belief(subject: VirtualSubject, cal: Calibration, interface: Inter
 
 def practise(operator: Any, subject: VirtualSubject, cal: Calibration, interface: Interface, *,
              cal_seq: np.random.SeedSequence, n_lifts: int,
-             seed_seq: np.random.SeedSequence) -> None:
+             seed_seq: np.random.SeedSequence) -> int:
     """Give ``operator`` (a user who learns) the belief ``n_lifts`` of practice leave.
 
     :func:`practised_belief` with the trial limit of the user's kind; a user without a
-    belief (one who does not learn) is left as is.
+    belief (one who does not learn) is left as is. Returns the practice lifts the user
+    learnt from (0 for one who does not learn).
     """
-    if getattr(operator, "belief", None) is None or n_lifts <= 0:
-        return
+    if operator.belief is None or n_lifts <= 0:
+        return 0
     operator.belief = practised_belief(subject, cal, interface, cal_seq=cal_seq,
                                        n_lifts=n_lifts, seed_seq=seed_seq,
-                                       trial_s=default_episode_s(operator))
+                                       trial_s=float(operator.default_trial_s))
+    return int(n_lifts)
 
 
 def _practise(subject: VirtualSubject, cal: Calibration, interface: Interface, operator: Any,
@@ -165,17 +167,12 @@ def _practise(subject: VirtualSubject, cal: Calibration, interface: Interface, o
     obj = interface.practice_object
     design = grasp_design(obj, interface.controller, interface.control_dt_s,
                           dict(interface.controller_spec))
-    task = grasp_task(obj, hold_s=PRACTICE_HOLD_S)
-    goal_n = intended_grip_n(obj)
-    timings = dict.fromkeys(TIMING_KEYS, 0.0)
-    lift_after_s = lift_time_s(trial_s, PRACTICE_HOLD_S)
+    c = interface.calibration
+    setup = TrialSetup(subject, obj, cal, design, c.generator, interface.control_dt_s,
+                       interface.hand_force_at_mvc_n, c.window_ms, c.step_ms)
+    task = grasp_task(obj, hold_s=PRACTICE_HOLD_S, limit_s=trial_s)
     for seqs in seed_seq.spawn(n_lifts):
-        c = interface.calibration
-        trial = run_trial(subject, obj, cal, design, operator, goal_n=goal_n,
-                          seeds=tuple(seqs.spawn(3)), generator=c.generator, episode_s=trial_s,
-                          lift_after_s=lift_after_s, control_dt_s=interface.control_dt_s,
-                          hand_force_at_mvc_n=interface.hand_force_at_mvc_n, timings=timings,
-                          task=task, window_ms=c.window_ms, step_ms=c.step_ms)
+        trial = run_trial(setup, operator, task, tuple(seqs.spawn(3)))
         trial.raise_if_diverged("practice lift: ")
     return operator.belief
 

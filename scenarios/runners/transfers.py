@@ -28,14 +28,13 @@ and feedback ``touch``.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from estimation.threads import one_blas_thread
 from scenarios.runners.feedback_tasks import TaskSetup
-from scenarios.runners.reference import Task, intended_grip_n
-from scenarios.runners.trial import TRIAL_LIMIT_S
 from scenarios.schema import Scenario
 
 PARTITION_CLEARANCE_M = 0.16
@@ -62,10 +61,8 @@ def run_transfers_scenario(scenario: Scenario) -> dict[str, Any]:
     with one_blas_thread():
         setup = TaskSetup(scenario)
         reach_s = setup.params.lift_s
-        task = Task(need_n=_need_n(setup), break_n=setup.obj.break_force_n,
-                    lift_height_m=PARTITION_CLEARANCE_M, hold_s=0.0, place=True,
-                    move_s=0.5 * reach_s)
-        goal_n = intended_grip_n(setup.obj)
+        carry = replace(setup.grasp_task(hold_s=0.0), lift_height_m=PARTITION_CLEARANCE_M,
+                        move_s=0.5 * reach_s)
         seqs = np.random.SeedSequence(int(scenario.seed or 0)).spawn(4)[3].spawn(MAX_TRANSFERS)
         elapsed = 0.0
         counts = dict.fromkeys(("transfers", "blocks", "drops", "breaks", "not_lifted",
@@ -77,17 +74,17 @@ def run_transfers_scenario(scenario: Scenario) -> dict[str, Any]:
             if remaining <= 0:
                 break
             setup.trial_seqs = [seq.spawn(3)]
-            setup.episode_s = min(TRIAL_LIMIT_S, remaining + ONSET_MARGIN_S)
-            t = setup.trial(0, goal_n=goal_n, hold_s=0.0, task=task)
+            limit_s = min(float(setup.operator.default_trial_s), remaining + ONSET_MARGIN_S)
+            t = setup.trial(0, replace(carry, limit_s=limit_s))
             took = reach_s + float(t.traces["t_s"][-1]) - t.stream.start_s
             if took > p.duration_s - elapsed:  # the time ran out during this transfer
                 break
             elapsed += took
             counts["transfers"] += 1
-            attempts += int(t.attempts or 0)
+            attempts += t.attempts
             corrections += setup.operator.corrections
-            outcome = setup.outcome(t)
-            if outcome == "held" and getattr(setup.operator, "released", True):
+            outcome = t.referee.outcome
+            if outcome == "held" and t.referee.released:
                 counts["blocks"] += 1
                 times.append(took)
             elif outcome == "held":  # put down, but the hand would not let go
@@ -99,9 +96,3 @@ def run_transfers_scenario(scenario: Scenario) -> dict[str, Any]:
             "transfer_s": float(np.mean(times)) if times else None,
             "attempts": attempts / counts["transfers"] if counts["transfers"] else None,
             "user_corrections": corrections, **setup.timings}
-
-
-def _need_n(setup: TaskSetup) -> float:
-    from controllers.bounds import slip_threshold_n
-
-    return slip_threshold_n(setup.obj.mass_kg, setup.obj.friction)

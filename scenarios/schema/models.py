@@ -13,6 +13,7 @@ import json
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic_core import PydanticUndefined
 
 from scenarios.schema.names import (  # noqa: F401  (re-exported: the schema's public names)
     _NAMES,
@@ -51,6 +52,33 @@ def __getattr__(attr: str) -> Any:
 
 class ScenarioError(GriploopError, ValueError):
     """A scenario or sweep file is malformed, has unknown keys or bad values."""
+
+
+def added_field(default: Any = PydanticUndefined, **kwargs: Any) -> Any:
+    """A field added after scenario seeds were first derived from the canonical JSON.
+
+    Left at its default it stays out of :meth:`Scenario.canonical_dict`, so adding it
+    moves no existing scenario's content hash, seed or figure; set to anything else it
+    is part of the scenario as any field is. Every field added to the schema is made
+    with this (``tests/scenarios/test_seeds.py`` holds the canonical form of a default
+    scenario).
+    """
+    extra = {**kwargs.pop("json_schema_extra", {}), "canonical": "omit_default"}
+    return Field(default, json_schema_extra=extra, **kwargs)
+
+
+def omit_added_defaults(model: BaseModel, data: dict[str, Any]) -> dict[str, Any]:
+    """``data`` (``model`` dumped as JSON) without the :func:`added_field` fields at their
+    defaults, in ``model`` and every section below it."""
+    for name, field in type(model).model_fields.items():
+        value = getattr(model, name)
+        extra = field.json_schema_extra
+        if (isinstance(extra, dict) and extra.get("canonical") == "omit_default"
+                and value == field.get_default(call_default_factory=True)):
+            data.pop(name, None)
+        elif isinstance(value, BaseModel) and isinstance(data.get(name), dict):
+            omit_added_defaults(value, data[name])
+    return data
 
 
 class _Model(BaseModel):
@@ -241,7 +269,7 @@ class EstimatorConfig(_Model):
     name: str = "ss_kf"
     mode: Literal["one_step", "free_run"] = "free_run"
     order: int | None = Field(None, ge=1, le=12)
-    options: dict[str, Any] = Field(default_factory=dict)
+    options: dict[str, Any] = added_field(default_factory=dict)
     window_ms: float = Field(400.0, ge=WINDOW_RANGE_MS[0], le=WINDOW_RANGE_MS[1])
     step_ms: float = Field(125.0, ge=STEP_RANGE_MS[0], le=STEP_RANGE_MS[1])
 
@@ -334,7 +362,7 @@ class ControllerConfig(_Model):
     control_hz: float = Field(100.0, ge=100.0, le=500.0)
     slip_reflex: SlipReflexConfig = Field(default_factory=SlipReflexConfig)
     scheduled: bool = True
-    options: dict[str, Any] = Field(default_factory=dict)
+    options: dict[str, Any] = added_field(default_factory=dict)
 
     @field_validator("kind")
     @classmethod
@@ -388,7 +416,8 @@ def _operator_params_model() -> type[BaseModel]:
         lo, hi = spec["range"]
         bound = {"gt": lo} if spec["open_low"] else {"ge": lo}
         kind = int if spec["integer"] else float
-        fields[name] = (kind, Field(spec["default"], le=hi, **bound))
+        make = added_field if spec["added"] else Field
+        fields[name] = (kind, make(spec["default"], le=hi, **bound))
     return create_model("OperatorParamsConfig", __base__=_Model,
                         __doc__="The reacting user's parameters (sim.user.operator.OperatorParams)",
                         **fields)
@@ -493,16 +522,14 @@ class Scenario(_Model):
         return self
 
     def canonical_dict(self) -> dict[str, Any]:
-        """Every field as JSON types, without empty ``controller`` and ``estimator`` options.
+        """Every field as JSON types, without the fields added later left at their defaults.
 
-        A scenario that sets no kind options hashes and seeds as it did before
-        kinds could declare options.
+        The fields made with :func:`~scenarios.schema.models.added_field` (the kinds'
+        ``options`` among them) are
+        left out while at their defaults, so a scenario that sets none of them hashes and
+        seeds as it did before they existed.
         """
-        data = self.model_dump(mode="json")
-        for section in ("controller", "estimator"):
-            if not data[section]["options"]:
-                del data[section]["options"]
-        return data
+        return omit_added_defaults(self, self.model_dump(mode="json"))
 
     def canonical_json(self) -> str:
         """The scenario as canonical JSON (:meth:`canonical_dict`), sorted keys, no spaces."""

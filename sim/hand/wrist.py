@@ -32,6 +32,8 @@ from dataclasses import dataclass
 
 from sim.hand.errors import HandSpecError
 
+LIFT_HEIGHT_M = 0.08
+"""How high a grasp-lift-hold trial lifts the object, m (the wrist's offset)."""
 MAX_WRIST_HEIGHT_M = 0.2
 """Highest wrist offset a command may ask for, m (the scene's free space above the table)."""
 #: Paths a commanded move may take.
@@ -71,7 +73,7 @@ class WristSchedule:
 
     lift_after_s: float = 0.8
     lift_min_grip_n: float = 1.0
-    lift_height_m: float = 0.08
+    lift_height_m: float = LIFT_HEIGHT_M
     lift_duration_s: float = 0.6
     shake_amplitude_m: float = 0.0
     shake_frequency_hz: float = 3.0

@@ -7,24 +7,27 @@ threshold and noise, and the user's policy reads only the channels, never the
 simulator. This module holds what every user model shares:
 
 * :class:`Scene`: the hand and the object after a control step, as plain numbers
-  (the runner, :mod:`scenarios.runners.operator_loop`, builds it; ``sim.user``
+  (the trial loop, :mod:`scenarios.runners.trial_loop`, builds it; ``sim.user``
   never imports the hand);
 * :class:`Plan`: what a trial asks of the user (the object's needs, the task);
-* :class:`WristMove`: a move of the user's own arm, which the runner hands to the
-  hand (:meth:`sim.hand.grasp_env.GraspEnv.move_wrist`);
+* :class:`WristMove`: a move of the user's own arm, which the trial hands to the
+  hand (:meth:`sim.hand.grasp_env.GraspEnv.move_wrist`): every user moves their own
+  arm, the scripted one at a set time;
 * :class:`TrialMemory`: what the user remembers of a trial, from which they plan
   the next (:mod:`sim.user.belief`);
 * the :class:`Operator` protocol.
 
-The models: :class:`sim.user.scripted.ScriptedOperator` follows the script;
-:class:`sim.user.reacting.ReactingOperator` sees, feels, corrects, lifts when
-the grip looks secure and tries again. Their parameters, with sources, are
+The models: :class:`sim.user.scripted.ScriptedOperator` follows the script and lifts
+at a set time once the grip is established;
+:class:`sim.user.reacting.ReactingOperator` sees, feels, corrects, lifts when the grip
+looks secure and tries again. Their parameters, with sources, are
 :class:`sim.user.operator_params.OperatorParams`. Models and feedback modes are
 registered by name (:mod:`sim.user.operators`).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -33,14 +36,30 @@ import numpy as np
 from sim.errors import GriploopError
 from sim.user.operator_params import OperatorParams, OperatorParamsError
 
-__all__ = ["DelayLine", "FRAGILE_MARGIN", "MIN_GRIP_N", "Operator", "OperatorError",
-           "OperatorParams", "OperatorParamsError", "Plan", "Scene", "TrialMemory", "WristMove",
-           "ramp", "started", "take"]
+__all__ = ["DelayLine", "FRAGILE_MARGIN", "MIN_GRIP_N", "PACED_TRIAL_S", "Operator",
+           "OperatorError", "OperatorParams", "OperatorParamsError", "Plan", "Scene",
+           "TrialMemory", "WristMove", "grip_aim_n", "ramp", "started", "take"]
 
 MIN_GRIP_N = 2.0
 """The least grip force a user aims at, N."""
 FRAGILE_MARGIN = 0.7
 """A user aims at most at this fraction of a fragile object's break force."""
+PACED_TRIAL_S = 15.0
+"""The time limit of a trial its user paces, when the task sets none, s (issue 27:
+"within a 15 s trial")."""
+
+
+def grip_aim_n(need_n: float, safety_factor: float, break_n: float | None = None) -> float:
+    """The hand grip force a user aims at, N: the one rule every trial and user follows.
+
+    ``safety_factor`` times the grip the object needs not to slip (``need_n``), at
+    least :data:`MIN_GRIP_N`, at most :data:`FRAGILE_MARGIN` of a fragile object's
+    break force ``break_n``.
+    """
+    aim = max(safety_factor * need_n, MIN_GRIP_N)
+    if break_n is not None:
+        aim = min(aim, FRAGILE_MARGIN * break_n)
+    return float(aim)
 
 
 def __getattr__(attr: str) -> Any:
@@ -140,6 +159,8 @@ class Plan:
         Duration of the lift and of the set-down, s, when the task sets it (a
         transport over a partition is one quick movement); ``None``: the user's
         own ``lift_s``.
+    limit_s : float
+        The trial's time limit, s (the scripted user times their lift from it).
     """
 
     intent: np.ndarray
@@ -154,20 +175,17 @@ class Plan:
     hold_s: float = 2.0
     place: bool = True
     move_s: float | None = None
+    limit_s: float = math.inf
 
     def aim_n(self, margin: float) -> float:
         """The hand grip force a user with safety ``margin`` aims at, N.
 
-        ``(1 + margin) * need_n`` (at least :data:`MIN_GRIP_N`), at most
-        :data:`FRAGILE_MARGIN` of the break force; ``goal_n`` when the task
-        gives a force target (``need_n`` None).
+        :func:`grip_aim_n` of ``need_n`` with safety factor ``1 + margin``;
+        ``goal_n`` when the task gives a force target (``need_n`` None).
         """
         if self.need_n is None:
             return float(self.goal_n)
-        aim = max((1.0 + margin) * self.need_n, MIN_GRIP_N)
-        if self.break_n is not None:
-            aim = min(aim, FRAGILE_MARGIN * self.break_n)
-        return float(aim)
+        return grip_aim_n(self.need_n, 1.0 + margin, self.break_n)
 
     def level_of(self, force_n: float) -> float:
         """The contraction the calibration's mapping asks for ``force_n`` of hand force."""
@@ -178,10 +196,15 @@ class Plan:
 
 @dataclass(frozen=True)
 class WristMove:
-    """A move of the user's arm: to ``height_m`` (m above the approach pose) in ``duration_s``."""
+    """A move of the user's arm: to ``height_m`` (m above the approach pose) in ``duration_s``.
+
+    ``path`` is ``min_jerk`` (a point-to-point movement) or ``follow`` (one segment of
+    a measured arm's path, ``duration_s`` its time constant).
+    """
 
     height_m: float
     duration_s: float
+    path: str = "min_jerk"
 
 
 @dataclass
@@ -192,6 +215,9 @@ class TrialMemory:
     ----------
     planned_level, final_level : float
         The hold level planned and the one reached after corrections.
+    aim_n : float or None
+        The hand grip force the user aimed at when they planned the trial, N
+        (``None``: the script's goal).
     slip_seen, drop_seen, break_seen : bool
         What the user perceived during the trial.
     corrections : int
@@ -207,36 +233,53 @@ class TrialMemory:
     break_seen: bool = False
     corrections: int = 0
     attempts: int = 0
+    aim_n: float | None = None
 
 
 class Operator(Protocol):
-    """A user model driving the intent (registered in :mod:`sim.user.operators`).
+    """A user model: their intent and their arm (registered in :mod:`sim.user.operators`).
 
     ``start`` begins a trial; ``perceive`` is called once per control step, in
     order, with the scene after the previous step (the user decides there);
     ``intent`` returns the next ``n_samples`` of intent (fraction of MVC) at the
     plan's rate, for sample times at or before the last perceived step's time
-    (the runner asks when a feature window needs them, so a decision never
-    changes samples before it); ``finish`` ends the trial (what the user
-    learnt feeds the next ``start``). ``corrections`` counts the corrections
-    of the current trial and ``correction_times`` lists when they were decided
-    (episode time, s).
+    (the trial asks when a feature window needs them, so a decision never
+    changes samples before it); ``wrist_move`` returns the arm move decided at
+    the last ``perceive`` (each once; ``None``: the arm stays), the only route by
+    which the wrist moves; ``finish`` ends the trial (what the user learnt feeds
+    the next ``start``). ``corrections`` counts the corrections of the current
+    trial and ``correction_times`` lists when they were decided (episode time, s).
 
-    A model that moves its own arm also has ``wrist_move() -> WristMove | None``
-    (the move decided at the last ``perceive``, once), ``done`` (the trial is
-    over for the user) and ``attempts``; the runner then gives the hand a
-    commanded wrist. Without them, the wrist follows the scripted schedule.
+    The rest describes the user to the trial: ``done`` (the trial is over for
+    the user, who put the object down and let go), ``belief`` (what a user who
+    learns believes of the prosthesis, :class:`~sim.user.belief.ProsthesisBelief`;
+    ``None`` for one who does not), ``phase_log`` (``(t_s, phase)`` when each
+    phase of the trial began; empty for a user without phases), ``reacts``
+    (whether the intent depends on what the user perceives; one who does not
+    react can have their sEMG recorded before the trial, with any generator) and
+    ``default_trial_s`` (the trial's time limit when the task sets none, s).
+
+    :func:`sim.user.operators.make_operator` completes a registered model that
+    lacks these: its arm is then the scripted user's (:class:`sim.user.scripted.ScriptedArm`:
+    a lift at a set time once the grip is established).
     """
 
     name: str
     corrections: int
     correction_times: list[float]
+    done: bool
+    belief: Any
+    phase_log: list[tuple[float, str]]
+    reacts: bool
+    default_trial_s: float
 
     def start(self, plan: Plan, *, control_dt_s: float, rng: np.random.Generator) -> None: ...
 
     def perceive(self, scene: Scene) -> None: ...
 
     def intent(self, n_samples: int) -> np.ndarray: ...
+
+    def wrist_move(self) -> WristMove | None: ...
 
     def finish(self) -> TrialMemory: ...
 

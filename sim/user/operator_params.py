@@ -18,9 +18,12 @@ class OperatorParamsError(GriploopError, ValueError):
 
 
 def _param(default: float, lo: float, hi: float, unit: str, *, integer: bool = False,
-           open_low: bool = False) -> Any:
+           open_low: bool = False, added: bool = False) -> Any:
+    """A parameter with its range and unit; ``added``: added after scenario seeds were first
+    derived (left at its default, it stays out of a scenario's canonical JSON)."""
     return field(default=default, metadata={"range": (lo, hi), "unit": unit,
-                                            "integer": integer, "open_low": open_low})
+                                            "integer": integer, "open_low": open_low,
+                                            "added": added})
 
 
 @dataclass(frozen=True)
@@ -223,7 +226,8 @@ class OperatorParams:
 
     @classmethod
     def ranges(cls) -> dict[str, dict[str, Any]]:
-        """Each field's ``default``, ``range``, ``unit``, ``integer`` and ``open_low``."""
+        """Each field's ``default``, ``range``, ``unit``, ``integer``, ``open_low`` and
+        ``added``."""
         return {f.name: {"default": f.default, **f.metadata} for f in fields(cls)}
 
     def to_dict(self) -> dict[str, float]:

@@ -20,7 +20,10 @@ touch                     an intact hand's touch (the intact-hand reference)
 
 A new operator model is a class ``Model(params, feedback)`` satisfying
 :class:`sim.user.operator.Operator`, a new feedback mode a class
-``Mode(params)`` like :class:`sim.user.feedback.NoFeedback`; each is one call::
+``Mode(params)`` like :class:`sim.user.feedback.NoFeedback`. A model needs only
+``name``, ``corrections``, ``correction_times``, ``start``, ``perceive``, ``intent`` and
+``finish``: :func:`make_operator` completes the rest (:class:`CompletedOperator`: the
+scripted user's arm, never done, no belief, no phases). Each registration is one call::
 
     register_operator("cautious", "mypackage.cautious:CautiousOperator")
     register_feedback("audio", "mypackage.audio:AudioFeedback")
@@ -137,13 +140,91 @@ def make_operator(kind: str, *, feedback: str = "none",
                   params: OperatorParams | None = None) -> Operator:
     """An operator model of a registered kind with its feedback and parameters.
 
+    A model without the optional members of :class:`sim.user.operator.Operator` comes
+    back completed (:class:`CompletedOperator`).
+
     Raises
     ------
     UnknownOperatorError, UnknownFeedbackError, sim.user.operator.OperatorError
-        See :func:`check_user`.
+        See :func:`check_user`; also a model without one of :data:`REQUIRED_MEMBERS`.
     """
     check_user(kind, feedback)
-    return _OPERATORS.get(kind)(params, feedback)
+    return complete_operator(_OPERATORS.get(kind)(params, feedback), kind, params)
+
+
+#: What a registered operator model must have (:class:`sim.user.operator.Operator`).
+REQUIRED_MEMBERS = ("start", "perceive", "intent", "finish")
+#: What :class:`CompletedOperator` supplies when a model lacks it.
+OPTIONAL_MEMBERS = ("wrist_move", "done", "belief", "phase_log", "reacts", "default_trial_s")
+
+
+def complete_operator(operator: Any, kind: str, params: OperatorParams | None = None) -> Any:
+    """``operator`` itself when it has every member of the protocol, else completed.
+
+    Raises
+    ------
+    sim.user.operator.OperatorError
+        A member of :data:`REQUIRED_MEMBERS` is missing.
+    """
+    from sim.user.operator import OperatorError
+
+    missing = [m for m in REQUIRED_MEMBERS if not callable(getattr(operator, m, None))]
+    if missing:
+        raise OperatorError(
+            f"user kind {kind}: its model {type(operator).__name__} has no "
+            f"{', '.join(missing)} (a user model defines {', '.join(REQUIRED_MEMBERS)})")
+    if callable(getattr(operator, "wrist_move", None)) and all(
+            hasattr(operator, m) for m in OPTIONAL_MEMBERS):
+        return operator
+    return CompletedOperator(operator, params)
+
+
+class CompletedOperator:
+    """A registered model with the protocol's optional members supplied.
+
+    Whatever the model has is its own; without ``wrist_move`` its arm is the scripted
+    user's (:class:`sim.user.scripted.ScriptedArm`, watching the scenes it is given), and
+    its trial lasts the scripted user's by default. It is never ``done`` before the
+    trial's limit, has no ``belief`` and no phases, and ``reacts`` (its sEMG is produced
+    as it decides).
+    """
+
+    def __init__(self, inner: Any, params: OperatorParams | None = None) -> None:
+        from sim.user.operator import PACED_TRIAL_S, OperatorParams
+        from sim.user.scripted import SCRIPTED_TRIAL_S, ScriptedArm
+
+        self.inner = inner
+        self.arm = None if callable(getattr(inner, "wrist_move", None)) else ScriptedArm(
+            (params or OperatorParams()).lift_s)
+        defaults = {"done": False, "belief": None, "phase_log": [], "reacts": True,
+                    "default_trial_s": SCRIPTED_TRIAL_S if self.arm is not None
+                    else PACED_TRIAL_S}
+        self._defaults = {k: v for k, v in defaults.items() if not hasattr(inner, k)}
+
+    def __getattr__(self, name: str) -> Any:
+        inner = self.__dict__["inner"]
+        if hasattr(inner, name):
+            return getattr(inner, name)
+        defaults = self.__dict__["_defaults"]
+        if name in defaults:
+            return defaults[name]
+        raise AttributeError(name)
+
+    def start(self, plan: Any, *, control_dt_s: float, rng: Any) -> None:
+        """The model's start; the scripted arm times its lift."""
+        if self.arm is not None:
+            self.arm.start(plan)
+        self.inner.start(plan, control_dt_s=control_dt_s, rng=rng)
+
+    def perceive(self, scene: Any) -> None:
+        """The model perceives; the scripted arm watches for the established grip."""
+        if self.arm is not None:
+            self.arm.perceive(scene)
+        self.inner.perceive(scene)
+
+    def wrist_move(self) -> Any:
+        """The model's arm move, or the scripted arm's."""
+        return self.arm.wrist_move() if self.arm is not None else self.inner.wrist_move()
 
 
 register_operator("reacting", "sim.user.reacting:ReactingOperator")

@@ -67,6 +67,7 @@ import numpy as np
 
 from sim.user.belief import ProsthesisBelief
 from sim.user.operator import (
+    PACED_TRIAL_S,
     DelayLine,
     OperatorParams,
     Plan,
@@ -113,6 +114,8 @@ class ReactingOperator:
     """
 
     name = "reacting"
+    reacts = True
+    default_trial_s = PACED_TRIAL_S
 
     def __init__(self, params: OperatorParams | None = None, feedback: Any = None,
                  belief: ProsthesisBelief | None = None) -> None:
@@ -183,7 +186,8 @@ class ReactingOperator:
         self._enter(0.0, "grasp" if plan.lift_height_m is not None else "hold")
         self.corrections = 0
         self.correction_times = []
-        self._trial = TrialMemory(self._planned, self._planned)
+        self._trial = TrialMemory(self._planned, self._planned,
+                                  aim_n=plan.aim_n(self.belief.margin(p)))
 
     def level(self, t_s: float) -> float:
         """The intended hold level at ``t_s`` (fraction of MVC), ramps included."""

@@ -198,7 +198,7 @@ def test_bank_survives_a_copy(plant):
 def test_episode_with_daqp_matches_osqp():
     """A scheduled MPC grasp and lift on the MuJoCo hand: same outcome, grip traces close."""
     from controllers.design import design_for_object
-    from scenarios.runners.episode import _closed_loop
+    from scenarios.runners.trial_loop import given_reference_trial
     from sim.hand.objects import make_object
 
     obj = make_object("can", mass_kg=0.3, friction=0.5)
@@ -208,10 +208,9 @@ def test_episode_with_daqp_matches_osqp():
     results = {}
     for solver in ("daqp", "osqp"):
         design = design_for_object(obj, "mpc", control_dt_s=DT_S, solver=solver)
-        timings = dict.fromkeys(("t_controller_s", "t_physics_s"), 0.0)
-        traces, failure, info = _closed_loop(obj, design, ref, t, DT_S, 5.0, 2.5,
-                                             np.random.SeedSequence(0), timings, False)
-        assert failure is None
+        loop = given_reference_trial(obj, design, ref, control_dt_s=DT_S, lift_at_s=2.5)
+        traces, info = loop.traces(), loop.info
+        assert loop.failure is None
         assert all(d.solver == solver for d in design.core.designs)
         assert sum(d.stats_.n_failures for d in design.core.designs) == 0
         results[solver] = (traces, info)

@@ -15,7 +15,7 @@ import pytest
 
 from scenarios.cli import main
 from scenarios.deploy.library import CompiledController
-from scenarios.runners.episode import run_episode
+from scenarios.runners.episode import EpisodeSpec, run_episode
 from sim.hand.objects import make_object
 from sim.user.subjects import VirtualSubject
 
@@ -23,8 +23,9 @@ SUBJECT = VirtualSubject.sample(0, 3)
 
 
 def _episode(estimator, controller, object_name, compiled):
-    return run_episode(SUBJECT, make_object(object_name), estimator=estimator,
-                       controller=controller, seed=0, compiled=compiled)
+    return run_episode(SUBJECT, make_object(object_name), EpisodeSpec(estimator=estimator,
+                                                                      controller=controller,
+                                                                      seed=0), compiled=compiled)
 
 
 @pytest.mark.parametrize("estimator", ["ss_kf", "mlp"])

@@ -102,12 +102,12 @@ def test_controller_commands_agree_on_the_hands_observations(c_compiler, session
     design = grasp_design(obj, kind, 0.01, spec)
     fitted, ex, library = _export(tmp_path, fit, "ss_kf", "free_run", design=design)
     r = _replay(library, fitted, ex, replay_rec)
-    # a reference a user of this object asks for: the estimate scaled to about 1.3 x its slip
-    # force, so the hand closes, holds and follows the estimate's changes
+    # the recording replayed in a trial, mapped so that its strongest estimate asks about
+    # 1.3 x the object's slip force: the hand closes, holds and follows the estimate
     scale = (3.0 if object_name == "egg" else 8.0) / max(float(np.max(r.estimate_py_n)), 1e-9)
-    reference = check.held_reference(r.estimate_py_n, r.t_s, to_hand=scale,
-                                     reference_max_n=36.0, control_dt_s=0.01, duration_s=5.0)
-    observations, commands = check.hand_observations(design, obj, reference)
+    observations, commands = check.hand_observations(
+        design, obj, replay_rec, fitted,
+        hand_force_at_mvc_n=scale * fitted.calibration.mvc_cal_n, duration_s=5.0)
     c_commands = check.replay_controller(library, design, observations)
     assert len(observations) > 300
     assert any(o.both_sides for o in observations)  # the gate handed over to force control

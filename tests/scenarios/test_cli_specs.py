@@ -49,8 +49,8 @@ def test_compare_references_defaults_to_the_library_specs(monkeypatch):
 
     seen = []
 
-    def fake_run_episode(*args, controller_spec=None, **kwargs):
-        seen.append(controller_spec)
+    def fake_run_episode(subject, obj, spec, **kwargs):
+        seen.append(spec.controller_spec)
         raise compare.UnsupportedScenarioError("stop here")
 
     monkeypatch.setattr(compare, "run_episode", fake_run_episode)

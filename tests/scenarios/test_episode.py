@@ -10,21 +10,17 @@ import pytest
 from scenarios.cli import main
 from scenarios.runners.compare import compare_references, format_comparison
 from scenarios.runners.dispatch import UnsupportedScenarioError, run_scenario
-from scenarios.runners.episode import run_episode
+from scenarios.runners.episode import EpisodeSpec, run_episode
 from scenarios.runners.episode_metrics import episode_metrics
-from scenarios.runners.reference import (
-    FRAGILE_MARGIN,
-    MIN_GRIP_N,
-    intended_grip_n,
-    reference_from_windows,
-)
+from scenarios.runners.reference import intended_grip_n, reference_from_windows
 from scenarios.schema import parse_scenario
 from sim.hand.objects import make_object
+from sim.user.operator import FRAGILE_MARGIN, MIN_GRIP_N
 from sim.user.subjects import VirtualSubject
 
 CAN = make_object("can", mass_kg=0.4, friction=0.5)
-TIMING_KEYS = {"t_semg_s", "t_features_s", "t_estimator_s", "t_controller_s", "t_physics_s",
-               "realtime_factor", "fit_s"}
+TIMING_KEYS = {"t_semg_s", "t_features_s", "t_estimator_s", "t_operator_s", "t_controller_s",
+               "t_physics_s", "realtime_factor", "fit_s"}
 
 
 def test_metrics_match_closed_forms() -> None:
@@ -35,7 +31,7 @@ def test_metrics_match_closed_forms() -> None:
     grip = np.where(t >= 1.2, 5.0 * (1 - np.exp(-(t - 1.2) / tau)), 0.0)
     oracle = reference + 0.5
     windows = np.array([0.0, 2.0, 5.0, 5.0, 4.0])
-    m = episode_metrics(t, reference, grip, oracle, start_s=start, lift_s=3.4, hold_from_s=4.0,
+    m = episode_metrics(t, reference, grip, oracle, start_s=start, lift_s=3.4, hold=t >= 4.0,
                         window_values_n=windows, window_dt_s=0.125)
     # first grip >= 0.5 N: 5 (1 - exp(-x / tau)) = 0.5  ->  x = tau ln(10 / 9)
     contact = 1.2 + tau * np.log(10 / 9)
@@ -51,11 +47,11 @@ def test_metrics_match_closed_forms() -> None:
     assert m["tracking_rmse_n"] == pytest.approx(np.sqrt(np.mean((5.0 - grip[track]) ** 2)))
     bumped = grip + np.where((t > 2.0) & (t < 2.1), 1.0, 0.0)
     m2 = episode_metrics(t, reference, bumped, oracle, start_s=start, lift_s=3.4,
-                         hold_from_s=4.0, window_values_n=windows, window_dt_s=0.125)
+                         hold=t >= 4.0, window_values_n=windows, window_dt_s=0.125)
     assert m2["overshoot_pct"] == pytest.approx(100 * (max(bumped[t < 3.4]) - 5.0) / 5.0)
     assert m2["settling_time_s"] == pytest.approx(2.1 - start, abs=dt + 1e-9)
     never = episode_metrics(t, reference, grip * 0.5, oracle, start_s=start, lift_s=3.4,
-                            hold_from_s=4.0, window_values_n=windows, window_dt_s=0.125)
+                            hold=t >= 4.0, window_values_n=windows, window_dt_s=0.125)
     assert never["settling_time_s"] is None
 
 
@@ -80,8 +76,8 @@ def oracle_episode():
     subject = VirtualSubject.sample(0, 1)
     # the scripted user: the hold reference is exactly the intended grip (a reacting user
     # would add what its corrections asked for)
-    return [run_episode(subject, CAN, estimator="oracle", controller="pid", seed=3,
-                        user="scripted") for _ in range(2)]
+    return [run_episode(subject, CAN, EpisodeSpec(estimator="oracle", controller="pid", seed=3,
+                                                  user="scripted")) for _ in range(2)]
 
 
 def test_oracle_pid_lifts_and_holds_the_can(oracle_episode) -> None:
@@ -109,10 +105,10 @@ def test_same_seed_same_episode(oracle_episode) -> None:
 def test_bad_timing_and_missing_modes_are_named() -> None:
     subject = VirtualSubject.sample(0, 1)
     with pytest.raises(UnsupportedScenarioError, match="no time to grasp"):
-        run_episode(subject, CAN, estimator="oracle", episode_s=3.0, hold_s=2.0,
-                    user="scripted")
+        run_episode(subject, CAN, EpisodeSpec(estimator="oracle", episode_s=3.0, hold_s=2.0,
+                                              user="scripted"))
     with pytest.raises(UnsupportedScenarioError, match="persistence has modes"):
-        run_episode(subject, CAN, estimator="persistence", mode="free_run")
+        run_episode(subject, CAN, EpisodeSpec(estimator="persistence", mode="free_run"))
 
 
 def test_episode_scenario_row_has_the_contract() -> None:
@@ -177,19 +173,20 @@ def test_episodes_of_one_subject_and_seed_share_one_calibration(monkeypatch):
     monkeypatch.setattr(calibration, "calibrate",
                         lambda *a, **k: fits.append(a[1]) or real(*a, **k))
     subject = VirtualSubject.sample(0, 1)
-    rows = [run_episode(subject, make_object("can"), estimator="ridge", controller=kind,
-                        seed=5, episode_s=4.0, hold_s=1.0).row for kind in ("pid", "lead_lag")]
+    rows = [run_episode(subject, make_object("can"), EpisodeSpec(
+        estimator="ridge", controller=kind, seed=5, episode_s=4.0, hold_s=1.0)).row
+        for kind in ("pid", "lead_lag")]
     assert fits == ["ridge"]  # fitted once, for the first episode
     assert rows[0]["cal_r2"] == rows[1]["cal_r2"] is not None
-    other = run_episode(subject, make_object("can"), estimator="ridge", controller="pid",
-                        seed=6, episode_s=4.0, hold_s=1.0).row
+    other = run_episode(subject, make_object("can"), EpisodeSpec(
+        estimator="ridge", controller="pid", seed=6, episode_s=4.0, hold_s=1.0)).row
     assert fits == ["ridge", "ridge"] and other["cal_r2"] != rows[0]["cal_r2"]  # a new seed
 
 
 def test_a_trial_that_runs_out_of_time_is_an_outcome_not_an_error() -> None:
     """A self-paced trial too short to lift in ends ``not_lifted`` with its row complete."""
-    result = run_episode(VirtualSubject.sample(0, 1), CAN, estimator="oracle", episode_s=1.5,
-                         practice=0)
+    result = run_episode(VirtualSubject.sample(0, 1), CAN, EpisodeSpec(estimator="oracle",
+                         episode_s=1.5, practice=0))
     row = result.row
     assert row["outcome"] == "not_lifted" and row["lifted"] is False
     assert row["time_to_lift_s"] is None and row["safety_margin_pct"] is None

@@ -44,7 +44,12 @@ from scenarios.report import build_report
 from scenarios.report.html import Section
 from scenarios.report.sections import register_section, section_names, unregister_section
 from scenarios.runners.dispatch import register_kind, scenario_kinds, unregister_kind
-from scenarios.runners.episode import controller_spec, episode_from_scenario, run_episode
+from scenarios.runners.episode import (
+    EpisodeSpec,
+    controller_spec,
+    episode_from_scenario,
+    run_episode,
+)
 from scenarios.schema import ScenarioError, expand_sweep, load_sweep, parse_scenario
 from scenarios.store import ResultStore
 from sim.hand.objects import (
@@ -387,8 +392,8 @@ def test_a_controller_with_only_reset_act_and_loop_holds_the_can(toys):
     assert all(a.controller is None for a in analyses)  # no transfer function: loop() only
     assert min(a.margins.phase_margin_deg for a in analyses) >= 55.0  # the toy's design rule
     for spec in ({"crossover_rad_s": 20.0}, {"crossover_rad_s": 20.0, "scheduled": False}):
-        result = run_episode(VirtualSubject.sample(0, 0), CAN, estimator="oracle",
-                             controller="toy_p", controller_spec=spec, seed=0)
+        result = run_episode(VirtualSubject.sample(0, 0), CAN, EpisodeSpec(estimator="oracle",
+                             controller="toy_p", controller_spec=spec, seed=0))
         row = result.row
         assert row["outcome"] == "held", (spec, row)
         assert row["held_force_n"] > slip_threshold_n(CAN.mass_kg, CAN.friction)
@@ -416,8 +421,8 @@ def test_a_design_without_act_is_refused_in_one_line(toys):
 
 
 def test_the_toy_estimator_drives_an_episode(toys):
-    result = run_episode(VirtualSubject.sample(0, 0), CAN, estimator="toy_mean",
-                         controller="pid", seed=0, episode_s=4.0, hold_s=1.0)
+    result = run_episode(VirtualSubject.sample(0, 0), CAN, EpisodeSpec(estimator="toy_mean",
+                         controller="pid", seed=0, episode_s=4.0, hold_s=1.0))
     reference = result.traces["reference_n"]
     assert result.row["estimator"] == "toy_mean"
     estimated = reference[reference > 0]  # zero until the first feature window is full

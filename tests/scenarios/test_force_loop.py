@@ -10,8 +10,9 @@ import pytest
 from controllers.bounds import slip_threshold_n
 from controllers.design_cache import grasp_design
 from scenarios.outcomes import outcome_of
-from scenarios.runners.episode import _closed_loop, run_episode
-from scenarios.runners.episode_metrics import contact_peak_ratio, was_lifted
+from scenarios.runners.episode import EpisodeSpec, run_episode
+from scenarios.runners.episode_metrics import contact_peak_ratio
+from scenarios.runners.trial_loop import given_reference_trial
 from sim.hand.objects import make_object
 from sim.user.subjects import VirtualSubject
 
@@ -24,14 +25,13 @@ LIBRARY = ([("ball", {}), ("cup", {}), ("block", {}), ("egg", {})]
 pytestmark = pytest.mark.slow
 
 
-def _run(obj, kind, reference, episode_s, spec=None):
-    t = np.arange(reference.size) * DT
+def _run(obj, kind, reference, episode_s, spec=None, *, loop=False):
+    """The controller's own trial on ``reference``, lifting at 3.4 s once the grip holds."""
     design = grasp_design(obj, kind, DT, spec or {})
-    timings = dict.fromkeys(("t_controller_s", "t_physics_s"), 0.0)
-    traces, failure, info = _closed_loop(obj, design, reference, t, DT, episode_s, 3.4,
-                                         np.random.SeedSequence(0), timings, False)
-    assert failure is None
-    return traces, info
+    trial = given_reference_trial(obj, design, reference[:int(round(episode_s / DT))],
+                                  control_dt_s=DT, lift_at_s=3.4)
+    assert trial.failure is None
+    return (trial.traces(), trial.info) + ((trial,) if loop else ())
 
 
 def test_contact_peak_ratio_and_outcome_closed_forms():
@@ -53,8 +53,8 @@ def test_library_with_the_oracle_is_held_without_a_slam(kind):
     subject = VirtualSubject.sample(0, 1)
     bad = []
     for name, overrides in LIBRARY:
-        row = run_episode(subject, make_object(name, **overrides), estimator="oracle",
-                          controller=kind, seed=0).row
+        row = run_episode(subject, make_object(name, **overrides),
+                          EpisodeSpec(estimator="oracle", controller=kind, seed=0)).row
         if row["outcome"] != "held" or not row["contact_peak_ratio"] <= 1.3:
             bad.append((name, overrides, row["outcome"], row["contact_peak_ratio"]))
     assert not bad
@@ -91,9 +91,8 @@ def test_mpc_sensed_bound_holds_what_pi_drops():
 def test_a_hand_that_never_closes_is_not_lifted_and_not_ok():
     # an estimate that never rises above the release level: the hand stays open
     obj = make_object("can")
-    traces, info = _run(obj, "pid", np.full(400, 0.05), 4.0)
+    traces, info, trial = _run(obj, "pid", np.full(400, 0.05), 4.0, loop=True)
     assert traces["grip_force_n"].max() == 0.0
-    lifted = was_lifted(traces["object_height_m"])
-    assert not lifted and not info["dropped"]
-    assert outcome_of(lifted=lifted, dropped=info["dropped"], crushed=info["crushed"]) == (
-        "not_lifted")
+    assert trial.referee.secure_lift_s is None and not info["dropped"]
+    assert trial.referee.attempts == 0  # the scripted arm lifts only a grip that formed
+    assert trial.referee.outcome == "not_lifted" and trial.ended == "duration"

@@ -350,3 +350,24 @@ def test_a_key_lifts_the_wrist_and_puts_it_down(files, calibration) -> None:
     assert markers.index("key_lift") < markers.index("lift") < markers.index("key_lower")
     assert report["arm"]["presses"] == 2 and report["arm"]["lift_start_s"] == pytest.approx(up)
     assert report["metrics"]["outcome"] == "held"  # carried up and put down again
+
+
+def test_a_session_the_referee_ends_holds_the_grip_and_says_why(files, calibration) -> None:
+    """The can's grasp squeezes an egg (it breaks at 2.5 N): the referee ends the session at
+    the break, the hand holds its grip from then on, and the report says why."""
+    egg = make_object("egg")
+    rec = load_recording(files["grasp"])
+    grasp = LiveGrasp(calibration, egg, arm=_pitch_arm(), controller=CONTROLLER,
+                      settings=SessionSettings(duration_s=8.0), clock=lambda: 0.0)
+    grasp.start()
+    q = quaternion_of_pitch(rec.pitch_rad).astype(np.float32)
+    for i in range(rec.n_samples):
+        grasp.feed_imu(q[i:i + 1], np.array([i / rec.fs_hz]), 0.0)
+        grasp.feed(rec.emg[i:i + 1], np.array([i / rec.fs_hz]), 0.0)
+        if grasp.finished:
+            break
+    report = grasp.report()
+    assert report["ended"] == "crushed" and report["metrics"]["outcome"] == "crushed"
+    assert report["control_steps"] < 800 and grasp.holding
+    assert report["held_grip_n"] == grasp.hold_n <= max(report["traces"]["reference_n"])
+    assert [e["marker"] for e in report["events"]][-2:] == ["crush", "session_end"]

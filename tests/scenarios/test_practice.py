@@ -9,7 +9,7 @@ import pytest
 
 from scenarios.runners import practice as P
 from scenarios.runners.calibration import CalibrationSettings
-from scenarios.runners.episode import run_episode
+from scenarios.runners.episode import EpisodeSpec, run_episode
 from scenarios.runners.trial_outcome import TrialReferee
 from sim.hand.objects import make_object
 from sim.user.belief import ProsthesisBelief
@@ -59,18 +59,19 @@ def test_practice_is_deterministic_cached_and_rebuilt_when_corrupt(tmp_path, mon
 
 
 def test_a_user_who_does_not_learn_and_practice_zero_are_the_novice() -> None:
-    novice = run_episode(SUBJECT, make_object("can"), estimator="oracle", seed=1, practice=0)
+    novice = run_episode(SUBJECT, make_object("can"), EpisodeSpec(estimator="oracle", seed=1,
+                                                                  practice=0))
     assert novice.row["practice"] == 0 and novice.row["belief_gain"] == 1.0
     assert novice.row["belief_margin_pct"] == pytest.approx(100 * OperatorParams().novice_margin)
-    scripted = run_episode(SUBJECT, make_object("can"), estimator="oracle", seed=1,
-                           user="scripted")
+    scripted = run_episode(SUBJECT, make_object("can"), EpisodeSpec(estimator="oracle", seed=1,
+                                                                    user="scripted"))
     assert scripted.row["practice"] == 0 and scripted.row["belief_gain"] is None
 
 
 def _info(height: float, *, contact: bool = True, out: bool = False,
-          crushed: bool = False) -> dict:
+          crushed: bool = False, wrist: float = 0.0) -> dict:
     return {"object_height_m": height, "thumb_contact": contact, "finger_contact": contact,
-            "object_out_of_hand": out, "crushed": crushed}
+            "object_out_of_hand": out, "crushed": crushed, "wrist_height_m": wrist}
 
 
 def test_the_referee_judges_by_the_physics() -> None:
@@ -87,4 +88,19 @@ def test_the_referee_judges_by_the_physics() -> None:
     assert behind.outcome == "not_lifted" and not behind.over
     crushed = TrialReferee(0.08)
     crushed.update(0.0, _info(0.06, crushed=True))
-    assert crushed.over and crushed.outcome == "crushed"
+    assert crushed.over and crushed.outcome == "crushed" and crushed.ended_by == "crushed"
+
+
+def test_the_referee_counts_each_rise_of_the_wrist_from_the_table_as_an_attempt() -> None:
+    ref = TrialReferee(0.08)
+    # up 1 cm and a tremor of 0.2 mm on the way (one attempt), down to the table, up again
+    wrist = [0.0, 2e-4, 6e-4, 0.01, 0.0098, 0.01, 0.005, 2e-4, 0.0, 1e-3, 0.08, 0.08]
+    for k, w in enumerate(wrist):
+        ref.update(0.01 * k, _info(0.06, wrist=w))
+    assert ref.attempts == 2 and not ref.released
+    ref.update(0.2, _info(0.06, contact=False, wrist=0.0))
+    assert ref.released  # the hand no longer grips the object at the last step
+    table = TrialReferee(None)  # a force held on the table: no lift can be secure
+    for k in range(5):
+        table.update(0.01 * k, _info(0.06 + 0.01 * k))
+    assert table.secure_lift_s is None and table.outcome == "not_lifted" and not table.over

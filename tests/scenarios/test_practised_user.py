@@ -16,7 +16,7 @@ import pytest
 
 from scenarios.cli import main
 from scenarios.runners.compare import compare_references, session_seed
-from scenarios.runners.episode import run_episode
+from scenarios.runners.episode import EpisodeSpec, run_episode
 from scenarios.schema import ScenarioError, load_sweep
 from sim.hand.objects import make_object
 from sim.user.subjects import VirtualSubject
@@ -113,8 +113,9 @@ def test_practised_users_hold_rigid_everyday_objects() -> None:
                 else:
                     obj = make_object("can", mass_kg=round(float(rng.uniform(0.2, 1.0)), 2),
                                       friction=round(float(rng.uniform(0.3, 1.0)), 2))
-                row = run_episode(VirtualSubject.sample(0, int(sid)), obj, estimator=estimator,
-                                  controller=controller, seed=int(rng.integers(2**31))).row
+                row = run_episode(VirtualSubject.sample(0, int(sid)), obj,
+                                  EpisodeSpec(estimator=estimator, controller=controller,
+                                  seed=int(rng.integers(2**31)))).row
                 outcomes.append(row["outcome"])
                 assert row["simulated_s"] <= 15.0 + 1e-9
     held = outcomes.count("held") / len(outcomes)

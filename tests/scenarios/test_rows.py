@@ -19,7 +19,7 @@ from scenarios.rows import (
     typed_row,
 )
 from scenarios.runners.calibration import run_calibration_scenario
-from scenarios.runners.episode import run_episode
+from scenarios.runners.episode import EpisodeSpec, run_episode
 from scenarios.runners.reproduction import run_reproduction_scenario
 from scenarios.schema import expand_sweep, parse_scenario, parse_sweep
 from scenarios.store import ResultStore
@@ -49,8 +49,9 @@ def test_a_row_stored_before_a_field_existed_reads_back_with_none():
 
 
 def test_an_episode_row_has_exactly_the_declared_fields():
-    result = run_episode(VirtualSubject.sample(0, 0), make_object("can"), estimator="oracle",
-                         controller="pid", seed=3, episode_s=4.0, hold_s=1.0)
+    result = run_episode(VirtualSubject.sample(0, 0), make_object("can"),
+                         EpisodeSpec(estimator="oracle", controller="pid", seed=3, episode_s=4.0,
+                         hold_s=1.0))
     assert tuple(result.row) == EpisodeRow.field_names()
     assert result.row["outcome"] in OUTCOMES
     assert all(result.row[f] is not None for f in WORST_FIELDS)  # forces were visited

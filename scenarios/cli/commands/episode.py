@@ -79,6 +79,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="with --recording: the calibration recording the estimator is fitted on")
     p.add_argument("--channels", default="6,7,8",
                    help="with --recording: 'all' or comma-separated channels (default: 6,7,8)")
+    p.add_argument("--arm-poses", default=None, metavar="REST_DEG:RAISED_DEG",
+                   help="with --recording: map its forearm pitch (pitch_rad) to the wrist's "
+                   "height with these poses (default: the recording's own, the calibration "
+                   "recording's, or a virtual subject's forearm); a recording without a pitch "
+                   "lifts at episode_s - hold_s - 0.6 s once the grip is established")
     p.set_defaults(func=run)
 
 
@@ -111,6 +116,9 @@ def run(args: argparse.Namespace) -> int:
     if (args.recording is None) != (args.calibration is None):
         raise UsageError("--recording and --calibration go together; found only "
                          + ("--recording" if args.calibration is None else "--calibration"))
+    if args.arm_poses is not None and args.recording is None:
+        raise UsageError("--arm-poses: maps a recording's forearm pitch, expected with "
+                         "--recording")
     if args.recording is not None:
         if args.compiled:
             raise UsageError("--compiled runs a virtual subject's episode; found --recording")
@@ -151,7 +159,8 @@ def run(args: argparse.Namespace) -> int:
     return _write_video(args, result)
 
 
-RECORDED_KEYS = ("outcome", "lifted", "dropped", "crushed", "peak_force_n", "hold_grip_n",
+RECORDED_KEYS = ("outcome", "attempts", "time_to_lift_s", "safety_margin_pct", "released",
+                 "lifted", "dropped", "crushed", "peak_force_n", "hold_grip_n",
                  "hold_reference_n", "tracking_rmse_n", "overshoot_pct", "settling_time_s",
                  "contact_peak_ratio", "slip_events", "slip_distance_m",
                  "reference_volatility_n_per_s")
@@ -161,25 +170,37 @@ def _run_recorded(args: argparse.Namespace) -> int:
     """``episode --recording FILE --calibration CAL``: the offline episode on a given recording."""
     from estimation.reproduce import parse_channels
     from scenarios.cli.choices import check_choice
-    from scenarios.live.recorded import episode_on_recording, fit_calibration
+    from scenarios.live.arm import ArmPoses
+    from scenarios.live.errors import ArmPosesError
+    from scenarios.live.recorded import ReplaySpec, episode_on_recording, fit_calibration
     from sim.hand.objects import make_object
     from sim.recording import load_recording
 
     check_choice("--controller", args.controller, controller_names())
     check_choice("--object", args.object, object_names())
+    poses = None
+    if args.arm_poses is not None:
+        try:
+            poses = ArmPoses.from_text(args.arm_poses)
+        except ArmPosesError as exc:
+            raise UsageError(f"--arm-poses: {exc}") from None
+    recording = load_recording(args.recording)
     cal = fit_calibration(load_recording(args.calibration), args.estimator, mode=args.mode,
                           channels=parse_channels(args.channels), seed=args.seed)
     overrides = {k: v for k, v in (("mass_kg", args.mass_kg), ("friction", args.friction))
                  if v is not None}
     obj = make_object(args.object, **overrides)
-    result = episode_on_recording(load_recording(args.recording), cal, obj,
-                                  controller=args.controller,
-                                  episode_s=6.0 if args.episode_s is None else args.episode_s,
-                                  seed=args.seed, record_frames=args.video is not None)
+    spec = ReplaySpec(controller=args.controller,
+                      episode_s=6.0 if args.episode_s is None else args.episode_s,
+                      hold_s=args.hold_s, seed=args.seed)
+    result = episode_on_recording(recording, cal, obj, spec, poses=poses,
+                                  record_frames=args.video is not None)
     m = result.metrics
+    arm = ("the recorded forearm's pitch" if recording.pitch_rad is not None
+           else "the scripted lift (no pitch recorded)")
     print(f"episode on {args.recording}: {args.estimator} ({args.mode}, calibration R2 "
           f"{cal.calibration.r2:.3f}) -> {args.controller} on {obj.name} ({obj.mass_kg:g} kg, "
-          f"mu {obj.friction:g})")
+          f"mu {obj.friction:g}); the wrist follows {arm}")
     for key in RECORDED_KEYS:
         value = m.get(key)
         text = f"{value:.4g}" if isinstance(value, float) else str(value)
@@ -187,11 +208,12 @@ def _run_recorded(args: argparse.Namespace) -> int:
     if args.json is not None:
         out = {"recording": str(args.recording), "calibration": cal.summary(),
                "controller": args.controller,
+               "arm": "pitch" if recording.pitch_rad is not None else "scripted",
                "object": {"name": obj.name, "mass_kg": obj.mass_kg, "friction": obj.friction},
                "metrics": m,
                "traces": {k: np.asarray(v).tolist() for k, v in result.traces.items()
                           if k in ("t_s", "reference_n", "grip_force_n", "command",
-                                   "object_height_m")}}
+                                   "object_height_m", "wrist_height_m")}}
         _write_json(args.json, out)
     return _write_video(args, result)
 

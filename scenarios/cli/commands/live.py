@@ -29,20 +29,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "live",
         help="drive the simulated hand in real time from a live sEMG stream (LSL)",
-        description="Resolve one sEMG stream (refused when several match, or when it comes "
-        "from another host without --allow-remote), check its channel count and rate against "
-        "the calibration recording, fit the estimator on that recording, then run windowing, "
-        "features, estimate, controller and the MuJoCo hand in real time, paced by the "
-        "incoming samples, for one grasp-lift-hold. The wrist follows the person: the "
-        "forearm's pitch on the armband's IMU stream (--imu-lsl), mapped to the wrist's height "
-        "by the arm poses of the calibration recording, or else the Enter key (lift / put "
-        "down). The session keeps its streams' sources: another source taking over a name "
-        "ends it with the hand holding its grip. Publishes griploop.reference, griploop.grip "
-        "and griploop.events as LSL outlets. Shows the hand in the MuJoCo viewer when a "
-        "display exists, else writes a GIF of the session. Prints the timing report (samples "
-        "received and lost, latency from sample arrival to motor command, deadlines missed, "
-        "physics real-time factor) and the episode's metrics; docs/FORMAT.md describes the "
-        "JSON, docs/LIVE.md a lab's session.",
+        description="Resolve one sEMG stream (refused when several match, or when it comes from "
+        "another host without --allow-remote), check its channel count and rate against the "
+        "calibration recording, fit the estimator on that recording, then run windowing, "
+        "features, estimate, controller and the MuJoCo hand in real time, paced by the incoming "
+        "samples, for one grasp-lift-hold, judged as every trial is (a lift that leaves the "
+        "object behind is an attempt: the session goes on). The wrist follows the person: the "
+        "forearm's pitch on the armband's IMU stream (--imu-lsl), mapped to the wrist's height by "
+        "the arm poses of the calibration recording, or else the Enter key (lift / put down). The "
+        "session keeps its streams' sources: another source taking over a name ends it with the "
+        "hand holding its grip. Publishes griploop.reference, griploop.grip and griploop.events "
+        "as LSL outlets. Shows the hand in the MuJoCo viewer when a display exists, else writes a "
+        "GIF of the session. Prints the timing report (samples received and lost, latency from "
+        "sample arrival to motor command, deadlines missed, physics real-time factor) and the "
+        "episode's metrics; docs/FORMAT.md describes the JSON, docs/LIVE.md a lab's session.",
     )
     add_stream_options(p, imu_help="the armband's orientation stream (a channel labelled pitch, "
                        "or a quaternion qw, qx, qy, qz): the wrist follows the forearm's pitch; "
@@ -130,12 +130,7 @@ def _arm_poses(args: argparse.Namespace, cal_recording: Any) -> Any:
 
     if args.arm_poses is not None:
         try:
-            rest, raised = (float(v) for v in args.arm_poses.split(":"))
-        except ValueError:
-            raise UsageError(f"--arm-poses: expected REST_DEG:RAISED_DEG such as 0:17, found "
-                             f"{args.arm_poses!r}") from None
-        try:
-            return ArmPoses(math.radians(rest), math.radians(raised), source="given")
+            return ArmPoses.from_text(args.arm_poses)
         except ArmPosesError as exc:
             raise UsageError(f"--arm-poses: {exc}") from None
     poses = ArmPoses.from_metadata(cal_recording.metadata, cal_recording.source)
@@ -244,7 +239,7 @@ def run(args: argparse.Namespace) -> int:
     grasp.viewer = viewer
     if viewer_wanted and viewer is None and video is None and not args.no_video:
         video = Path("griploop-live.gif")
-        grasp.frame_every = max(1, int(round(FRAME_DT_S / settings.control_dt_s)))
+        grasp.keep_frames(FRAME_DT_S)
     print(f"live: {args.estimator} (free_run, calibration R2 {cal.calibration.r2:.3f}) -> "
           f"{args.controller} on {obj.name} ({obj.mass_kg:g} kg, mu {obj.friction:g}); "
           f"stream {lsl.describe(info)} from {lsl.source_of(info)}; "
@@ -290,7 +285,9 @@ def _finish(args: argparse.Namespace, grasp: Any, info: Any, imu_info: Any, cal:
     if args.record is not None and grasp.received:
         rec = grasp.recording(str(args.record), {"stream": report["stream"],
                                                  "imu_stream": report["imu_stream"],
-                                                 "calibration": report["calibration"]})
+                                                 "calibration": report["calibration"],
+                                                 "metrics": report["metrics"],
+                                                 "ended": report["ended"]})
         args.record.parent.mkdir(parents=True, exist_ok=True)
         rec.save(args.record)
         print(f"wrote {args.record}")

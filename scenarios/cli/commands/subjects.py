@@ -80,12 +80,13 @@ def run(args: argparse.Namespace) -> int:
             f"-> {stem}.npz, {stem}.csv"
         )
         if obj is not None:
-            from scenarios.live.recorded import grasp_session
+            from scenarios.live.recorded import GraspScript, grasp_session
 
             grasp = grasp_session(subject, obj, mvc_cal_n=float(rec.force_n.max()),
-                                  duration_s=args.grasp_s - 1.0, tail_s=1.0,
+                                  duration_s=args.grasp_s - 1.0,
                                   rng=np.random.default_rng((args.seed, subject.subject_id)),
-                                  generator=args.generator, fs_hz=args.fs_hz)
+                                  script=GraspScript(generator=args.generator,
+                                                     fs_hz=args.fs_hz, tail_s=1.0))
             path = grasp.save_npz(out / f"subject{subject.subject_id:02d}_grasp.npz")
             print(f"subject{subject.subject_id:02d}  grasp of {obj.name}: target "
                   f"{grasp.metadata['target_grip_n']:.2f} N on the hand, "
