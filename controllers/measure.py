@@ -143,8 +143,8 @@ def _near(angle_deg: float, target_deg: float) -> float:
 
 def measure_loop(design: ControllerDesign, force_n: float, *,
                  frequencies_rad_s: np.ndarray | None = None, amplitude: float | None = None,
-                 periods: int = 6, settle_periods: int = 2, hold_settle_s: float = 1.0
-                 ) -> LoopMeasurement:
+                 periods: int = 6, settle_periods: int = 2, hold_settle_s: float = 1.0,
+                 drive: str = "backdrivable") -> LoopMeasurement:
     """Hold the object in the air at ``force_n`` and measure ``L(jw)`` by sine injection.
 
     Parameters
@@ -163,6 +163,9 @@ def measure_loop(design: ControllerDesign, force_n: float, *,
         Periods fitted, and periods discarded before them, per frequency.
     hold_settle_s : float
         Hold after the lift before the first injection, s.
+    drive : str
+        The hand's transmission (:mod:`sim.hand.drive`): the loop is measured on the
+        hand that runs it (the prediction is the same design's analysis).
 
     Returns
     -------
@@ -188,7 +191,7 @@ def measure_loop(design: ControllerDesign, force_n: float, *,
     for w, n_settle, n_meas in blocks:
         inject[k:k + n_settle + n_meas] = a * np.sin(w * t[k:k + n_settle + n_meas])
         k += n_settle + n_meas
-    run = _run_injection(design, force_n, schedule, t, inject)
+    run = _run_injection(design, force_n, schedule, t, inject, drive)
     if isinstance(run, str):
         return LoopMeasurement(force_n, reason=run)
     u_ctrl, u_applied, grip = run
@@ -241,7 +244,7 @@ def _injection_frequencies(predicted: OperatingAnalysis, dt_s: float,
 
 
 def _run_injection(design: ControllerDesign, force_n: float, schedule: WristSchedule,
-                   t_s: np.ndarray, inject: np.ndarray
+                   t_s: np.ndarray, inject: np.ndarray, drive: str = "backdrivable"
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | str:
     """Grasp, lift and hold at ``force_n`` with ``inject`` added at the plant input.
 
@@ -261,7 +264,7 @@ def _run_injection(design: ControllerDesign, force_n: float, schedule: WristSche
     dt = design.family.control_dt_s
     n_total = t_s.size
     env = GraspEnv(design.object, force_n, control_dt_s=dt, episode_s=(n_total + 10) * dt,
-                   schedule=schedule)
+                   schedule=schedule, drive=drive)
     loop = HandLoop(env, design.controller)
     u_applied = np.zeros(n_total)
     u_ctrl = np.zeros(n_total)

@@ -27,6 +27,15 @@ if TYPE_CHECKING:
     import control
 
 
+AUTO_GRIP = {"latency_s": 0.05, "gain": 0.3}
+"""The hand's own slip response (``auto_grip``: bebionic "auto-grip", i-limb "auto-grasp",
+SensorHand SUVA): this reflex with these settings, wrapped around whatever controller
+runs. No published reaction time or grip step was found for the commercial responses
+(CALIBRATION.md); the values are :class:`SlipReflex`'s defaults, chosen: a 50 ms sensor
+and firmware latency, below the 74 ms of the human grip response to a slip (Johansson &
+Westling 1987), and a step of 30 % of the reference per slip onset."""
+
+
 class ReflexSpecError(GriploopError, ValueError):
     """A :class:`SlipReflex` parameter is out of range; the message says expected vs found."""
 

@@ -65,10 +65,10 @@ class EpisodeRow(_Row):
 
     Identity: subject, seed, object, controller, estimator and its mode, the
     user and feedback, their practice (lifts, and the belief it left: contraction
-    gain and safety margin) and the feature window. The trial: ``attempts``
-    (lifts started), ``time_to_lift_s`` (first contact to a secure lift) and
-    ``safety_margin_pct`` (held grip over the slip force, minus 1, in the hold),
-    ``None`` on the scripted schedule or without a lift or hold. Metrics
+    gain and safety margin), the feature window and the hand (``paradigm``, ``drive``,
+    ``auto_grip``: the drive actually used). The trial: ``attempts`` (lifts started),
+    ``time_to_lift_s`` (first contact to a secure lift) and ``safety_margin_pct`` (held
+    grip over the slip force, minus 1, in the hold), ``None`` without a lift or hold. Metrics
     (:func:`scenarios.runners.episode_metrics.episode_metrics`): tracking and
     estimation error, transient, slip, outcome (:data:`scenarios.outcomes.OUTCOMES`).
     Loop: margins at the held force and the worst over the forces visited
@@ -95,6 +95,9 @@ class EpisodeRow(_Row):
     belief_margin_pct: float | None
     window_ms: float | None
     step_ms: float | None
+    paradigm: str | None
+    drive: str | None
+    auto_grip: bool | None
     user_corrections: int | None
     first_correction_s: float | None
     contact_time_s: float | None

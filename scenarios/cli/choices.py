@@ -16,14 +16,17 @@ from scenarios.schema.names import (
     STEP_RANGE_MS,
     WINDOW_RANGE_MS,
     controller_names,
+    drive_names,
     estimator_choices,
     feedback_modes,
     generator_names,
     object_names,
+    paradigm_names,
     user_kinds,
 )
 
-__all__ = ["add_practice_window_options", "add_user_options", "check_choice",
+__all__ = ["add_drive_option", "add_hand_options", "add_practice_window_options",
+           "add_user_options", "check_choice", "check_drive", "check_hand_options",
            "check_practice_window", "check_user_options", "controller_names",
            "estimator_choices", "feedback_modes", "generator_names", "object_names", "one_of",
            "user_kinds"]
@@ -78,6 +81,44 @@ def check_user_options(user: str, feedback: Sequence[str]) -> None:
         raise UnknownChoiceError(
             f"--feedback: the {user} user takes feedback none only (found "
             f"{','.join(feedback)}); feedback needs --user {' or '.join(kinds)}")
+
+
+def add_drive_option(parser: object) -> None:
+    """Add ``--drive``."""
+    parser.add_argument("--drive", default="backdrivable", metavar="NAME",
+                        help=f"the hand's transmission, {one_of(drive_names())} (default "
+                        "backdrivable; self_locking: a worm stage, the digits hold without "
+                        "motor torque)")
+
+
+def check_drive(drive: str) -> None:
+    """Refuse an unknown ``--drive`` in one line listing the registered drives."""
+    check_choice("--drive", drive, drive_names())
+
+
+def add_hand_options(parser: object, *, paradigm_list: bool = False) -> None:
+    """Add ``--paradigm`` (a comma-separated list with ``paradigm_list``), ``--drive`` and
+    ``--auto-grip``."""
+    what = "comma-separated paradigms, each" if paradigm_list else "paradigm"
+    parser.add_argument("--paradigm", default="force", metavar="LIST" if paradigm_list
+                        else "NAME", help=f"{what} {one_of(paradigm_names())}: how the hand's "
+                        "reference follows the estimate (default force, the paper's; "
+                        "force_hold keeps the grip when the estimate falls and releases at rest)")
+    add_drive_option(parser)
+    parser.add_argument("--auto-grip", action="store_true",
+                        help="the hand's own slip response: the grip rises on a sensed slip")
+
+
+def check_hand_options(paradigms: Sequence[str], drive: str) -> None:
+    """Refuse an unknown ``--paradigm`` or ``--drive`` in one line listing the known ones.
+
+    Raises
+    ------
+    UnknownChoiceError
+    """
+    for paradigm in paradigms:
+        check_choice("--paradigm", paradigm, paradigm_names())
+    check_drive(drive)
 
 
 def add_practice_window_options(parser: object) -> None:

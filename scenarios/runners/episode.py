@@ -87,7 +87,7 @@ from scenarios.runners.trial import (
     TrialSetup,
     run_trial,
 )
-from scenarios.runners.trial_loop import Frames
+from scenarios.runners.trial_loop import DEFAULT_HAND, Frames, HandSettings
 from scenarios.runners.trial_outcome import judge
 from scenarios.schema import Scenario
 from sim.codec import state_space_matrices
@@ -157,6 +157,8 @@ class EpisodeSpec:
         Practice lifts of the object's class first (a user who learns; 0: the novice).
     window_ms, step_ms : float
         The feature window and its increment, ms (the paper's 400 and 125).
+    hand : HandSettings
+        The hand's drive, paradigm and own slip response (default: today's hand).
     """
 
     estimator: str = "ss_kf"
@@ -179,6 +181,7 @@ class EpisodeSpec:
     practice: int = DEFAULT_PRACTICE
     window_ms: float = WINDOW_MS
     step_ms: float = STEP_MS
+    hand: HandSettings = DEFAULT_HAND
 
     def calibration_settings(self) -> CalibrationSettings:
         """How the estimator is calibrated."""
@@ -235,22 +238,24 @@ def run_episode(subject: VirtualSubject, obj: ObjectSpec, spec: EpisodeSpec = Ep
 sim.user.operator.OperatorError
         Unknown user kind or feedback mode, or a feedback mode for the scripted user.
     """
+    hand = spec.hand.check()
     operator = make_operator(spec.user, feedback=spec.feedback, params=spec.operator_params)
     cal_seq, episode_seq, env_seq, operator_seq, practice_seq = seed_sequences(spec.seed)
     params = spec.operator_params or OperatorParams()
     settings = spec.calibration_settings()
     with one_blas_thread():
         cal = settings.fit(subject, cal_seq)
-        design = grasp_design(obj, spec.controller, spec.control_dt_s, spec.controller_spec)
+        design = grasp_design(obj, spec.controller, spec.control_dt_s,
+                              hand.controller_spec(spec.controller_spec))
         practised = practise(operator, subject, cal, Interface(
             settings, spec.controller, dict(spec.controller_spec or {}),
             practice_object_for(obj), spec.user, spec.feedback, params, spec.control_dt_s,
-            spec.hand_force_at_mvc_n), cal_seq=cal_seq, n_lifts=spec.practice,
+            spec.hand_force_at_mvc_n, hand), cal_seq=cal_seq, n_lifts=spec.practice,
             seed_seq=practice_seq)
         cal, design = maybe_compiled(compiled, cal, design, spec.hand_force_at_mvc_n)
         belief = operator.belief  # what the trial is planned with
         setup = TrialSetup(subject, obj, cal, design, spec.generator, spec.control_dt_s,
-                           spec.hand_force_at_mvc_n, spec.window_ms, spec.step_ms)
+                           spec.hand_force_at_mvc_n, spec.window_ms, spec.step_ms, hand)
         task = grasp_task(obj, hold_s=spec.hold_s, limit_s=spec.episode_s)
         trial = run_trial(setup, operator, task, (episode_seq, env_seq, operator_seq),
                           TrialHooks(frames=Frames() if record_frames else None))
@@ -260,7 +265,7 @@ sim.user.operator.OperatorError
            "scheduled": bool(design.scheduled), "user": spec.user, "feedback": spec.feedback,
            "practice": practised, **_belief_fields(belief, params),
            "window_ms": float(spec.window_ms), "step_ms": float(spec.step_ms),
-           **_operator_fields(operator)}
+           **hand.fields(), **_operator_fields(operator)}
     aim_n = trial.memory.aim_n if trial.memory.aim_n is not None else task.goal_n
     return _episode_result(row, cal, design, trial, obj, target_n=aim_n,
                            control_dt_s=spec.control_dt_s)
@@ -395,7 +400,12 @@ def episode_spec(scenario: Scenario) -> EpisodeSpec:
         control_dt_s=1.0 / scenario.controller.control_hz, user=scenario.user.kind,
         feedback=scenario.user.feedback, operator_params=scenario.user.operator_params(),
         estimator_options=e.options, practice=scenario.user.practice, window_ms=e.window_ms,
-        step_ms=e.step_ms)
+        step_ms=e.step_ms, hand=hand_settings(scenario))
+
+
+def hand_settings(scenario: Scenario) -> HandSettings:
+    """The scenario's hand: ``hand.drive``, ``paradigm`` and ``auto_grip``."""
+    return HandSettings(scenario.hand.drive, scenario.paradigm, scenario.auto_grip)
 
 
 def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False,

@@ -50,6 +50,7 @@ from scenarios.runners.dispatch import UnsupportedScenarioError
 from scenarios.runners.episode import (
     HAND_FORCE_AT_MVC_N,
     controller_spec,
+    hand_settings,
     scenario_object,
 )
 from scenarios.runners.practice import Interface, practice_object_for, practise
@@ -113,15 +114,17 @@ class TaskSetup:
         self.trial_seqs = [s.spawn(3) for s in trial_seq.spawn(p.trials)]
         settings = calibration_settings(scenario)
         self.cal = settings.fit(self.subject, cal_seq)
-        design = grasp_design(self.obj, scenario.controller.kind, self.dt, self.spec)
+        self.hand = hand_settings(scenario).check()
+        design = grasp_design(self.obj, scenario.controller.kind, self.dt,
+                              self.hand.controller_spec(self.spec))
         self.practice = practise(self.operator, self.subject, self.cal, Interface(
             settings, scenario.controller.kind, self.spec, practice_object_for(self.obj), u.kind,
-            u.feedback, self.params, self.dt, HAND_FORCE_AT_MVC_N),
+            u.feedback, self.params, self.dt, HAND_FORCE_AT_MVC_N, self.hand),
             cal_seq=cal_seq, n_lifts=int(u.practice), seed_seq=practice_seq)
         e = scenario.estimator
         self.setup = TrialSetup(self.subject, self.obj, self.cal, design,
                                 scenario.subject.generator, self.dt, HAND_FORCE_AT_MVC_N,
-                                e.window_ms, e.step_ms)
+                                e.window_ms, e.step_ms, self.hand)
         self.timings = dict.fromkeys(TIMING_KEYS, 0.0)
 
     def grasp_task(self, *, hold_s: float, place: bool = True) -> Task:
@@ -148,7 +151,7 @@ class TaskSetup:
                 "mode": s.estimator.mode, "user": s.user.kind, "feedback": s.user.feedback,
                 "practice": self.practice, "window_ms": s.estimator.window_ms,
                 "step_ms": s.estimator.step_ms, "trials": s.protocol.trials,
-                "cal_r2": self.cal.r2}
+                "cal_r2": self.cal.r2, **self.hand.fields()}
 
 
 # ---------------------------------------------------------------------- eggs

@@ -33,6 +33,7 @@ from controllers.design_cache import grasp_design
 from scenarios.runners.calibration import Calibration, CalibrationSettings
 from scenarios.runners.reference import grasp_task
 from scenarios.runners.trial import TrialSetup, run_trial
+from scenarios.runners.trial_loop import DEFAULT_HAND, HandSettings
 from sim import cache as sim_cache
 from sim.hand.objects import ObjectSpec, make_object, object_names
 from sim.user.belief import ProsthesisBelief
@@ -70,6 +71,9 @@ class Interface:
         The user's parameters.
     control_dt_s, hand_force_at_mvc_n : float
         Control period, s, and the hand force at the user's MVC, N.
+    hand : HandSettings
+        The hand's drive, paradigm and slip response: what the user learns to use (how
+        hard to contract under ``force_hold``, how far to trust a hand that holds).
     """
 
     calibration: CalibrationSettings
@@ -81,6 +85,7 @@ class Interface:
     params: OperatorParams
     control_dt_s: float
     hand_force_at_mvc_n: float
+    hand: HandSettings = DEFAULT_HAND
 
 
 def practice_object_for(obj: ObjectSpec) -> ObjectSpec:
@@ -166,10 +171,10 @@ def _practise(subject: VirtualSubject, cal: Calibration, interface: Interface, o
     """Run the practice lifts; the operator's belief after them."""
     obj = interface.practice_object
     design = grasp_design(obj, interface.controller, interface.control_dt_s,
-                          dict(interface.controller_spec))
+                          interface.hand.controller_spec(interface.controller_spec))
     c = interface.calibration
     setup = TrialSetup(subject, obj, cal, design, c.generator, interface.control_dt_s,
-                       interface.hand_force_at_mvc_n, c.window_ms, c.step_ms)
+                       interface.hand_force_at_mvc_n, c.window_ms, c.step_ms, interface.hand)
     task = grasp_task(obj, hold_s=PRACTICE_HOLD_S, limit_s=trial_s)
     for seqs in seed_seq.spawn(n_lifts):
         trial = run_trial(setup, operator, task, tuple(seqs.spawn(3)))
@@ -207,7 +212,8 @@ def _key(subject: VirtualSubject, interface: Interface, n_lifts: int,
             "controller", "user", "feedback", "control_dt_s", "hand_force_at_mvc_n")},
             "practice_object": repr(interface.practice_object),
             "controller_spec": _jsonable(dict(interface.controller_spec)),
-            "params": interface.params.to_dict()},
+            "params": interface.params.to_dict(),
+            **({} if interface.hand == DEFAULT_HAND else {"hand": interface.hand.fields()})},
         "n_lifts": int(n_lifts), "trial_s": float(trial_s),
         "seed": [int(x) for x in seed_seq.generate_state(4)],
         "source": _source_digest(), "format": FORMAT,

@@ -24,7 +24,13 @@ from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.person import VirtualPerson
 from scenarios.runners.reference import ReferenceStream, Task, plan_for, reference_from_windows
 from scenarios.runners.semg_reference import STEP_MS, WINDOW_MS
-from scenarios.runners.trial_loop import Frames, TrialLoop, scene_from_info
+from scenarios.runners.trial_loop import (
+    DEFAULT_HAND,
+    Frames,
+    HandSettings,
+    TrialLoop,
+    scene_from_info,
+)
 from scenarios.runners.trial_outcome import TrialReferee
 from sim.hand.objects import ObjectSpec
 from sim.user.causal import NotCausalError
@@ -60,6 +66,9 @@ class TrialSetup:
         Control period, s, and the hand force at the user's calibration MVC, N.
     window_ms, step_ms : float
         The feature window and its increment, ms (the calibration's).
+    hand : HandSettings
+        The hand's drive, paradigm and slip response (the design carries the slip
+        response already: :meth:`HandSettings.controller_spec`).
     """
 
     subject: VirtualSubject
@@ -71,6 +80,7 @@ class TrialSetup:
     hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N
     window_ms: float = WINDOW_MS
     step_ms: float = STEP_MS
+    hand: HandSettings = DEFAULT_HAND
 
 
 @dataclass(frozen=True)
@@ -189,7 +199,7 @@ def run_trial(setup: TrialSetup, operator: Operator, task: Task,
     loop = TrialLoop(setup.obj, setup.design, person, limit_s=limit_s,
                      control_dt_s=setup.control_dt_s, lift_height_m=task.lift_height_m,
                      seed=int(env_seq.generate_state(1)[0]), load=hooks.load,
-                     until=hooks.until, frames=hooks.frames)
+                     until=hooks.until, frames=hooks.frames, hand=setup.hand)
     loop.run()
     # the user goes on to the limit seeing the last scene, so the windows and the true
     # force cover the whole trial (its estimation metrics), as a scripted session does

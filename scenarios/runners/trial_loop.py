@@ -40,7 +40,10 @@ from typing import Any, Protocol
 import numpy as np
 
 from controllers.drive import HandLoop
+from controllers.paradigms import make_paradigm
+from controllers.reflex import AUTO_GRIP
 from scenarios.runners.trial_outcome import TrialReferee
+from sim.hand.drive import make_drive
 from sim.hand.grasp_env import GraspEnv
 from sim.hand.objects import ObjectSpec
 from sim.hand.wrist import LIFT_HEIGHT_M
@@ -119,6 +122,53 @@ def given_reference_trial(obj: ObjectSpec, design: Any, reference_n: np.ndarray,
                      lift_height_m=LIFT_HEIGHT_M, seed=seed)
     loop.run()
     return loop
+
+
+@dataclass(frozen=True)
+class HandSettings:
+    """The prosthetic hand's own settings beside its controller.
+
+    Attributes
+    ----------
+    drive : str
+        The transmission (:mod:`sim.hand.drive`): ``backdrivable`` or ``self_locking``.
+    paradigm : str
+        How the reference follows the estimate (:mod:`controllers.paradigms`): ``force``
+        or ``force_hold``.
+    auto_grip : bool
+        The hand's own slip response: the slip reflex around whatever controller runs
+        (:data:`controllers.reflex.AUTO_GRIP`).
+    """
+
+    drive: str = "backdrivable"
+    paradigm: str = "force"
+    auto_grip: bool = False
+
+    def check(self) -> HandSettings:
+        """``self``, or a one-line error naming the registered drives or paradigms.
+
+        Raises
+        ------
+        sim.hand.drive.UnknownDriveError, controllers.paradigms.UnknownParadigmError
+        """
+        make_drive(self.drive)
+        make_paradigm(self.paradigm)
+        return self
+
+    def controller_spec(self, spec: Mapping[str, Any] | None) -> dict[str, Any] | None:
+        """The controller specification with the hand's slip response when ``auto_grip``
+        (a specification that sets its own ``slip_reflex`` keeps it: one reflex)."""
+        if not self.auto_grip or (spec and spec.get("slip_reflex")):
+            return None if spec is None else dict(spec)
+        return {**dict(spec or {}), "slip_reflex": dict(AUTO_GRIP)}
+
+    def fields(self) -> dict[str, Any]:
+        """The settings as a row's columns."""
+        return {"paradigm": self.paradigm, "drive": self.drive, "auto_grip": self.auto_grip}
+
+
+DEFAULT_HAND = HandSettings()
+"""Today's hand: backdrivable, the force paradigm, no slip response of its own."""
 
 
 @dataclass(frozen=True)
@@ -216,6 +266,9 @@ class TrialLoop:
         Keep frames for a video.
     keep_observations : bool
         The recorder keeps the controller's observations and commands.
+    hand : HandSettings
+        The hand's drive and paradigm (its slip response is in ``design``:
+        :meth:`HandSettings.controller_spec`).
 
     Attributes
     ----------
@@ -233,15 +286,19 @@ class TrialLoop:
                  control_dt_s: float, lift_height_m: float | None, seed: int,
                  load: Callable[[float, Mapping[str, Any]], float] | None = None,
                  until: Callable[[float, Mapping[str, Any]], bool] | None = None,
-                 frames: Frames | None = None, keep_observations: bool = False) -> None:
+                 frames: Frames | None = None, keep_observations: bool = False,
+                 hand: HandSettings = DEFAULT_HAND) -> None:
         self.design, self.person, self.seed = design, person, int(seed)
+        self.hand = hand
+        self.paradigm = make_paradigm(hand.paradigm)
         self.dt = float(control_dt_s)
         self.n_steps = int(round(limit_s / control_dt_s))
         self.t_s = np.arange(self.n_steps) * self.dt
         rgb = frames is not None and frames.kind == "rgb"
         self.env = GraspEnv(obj, 0.0, control_dt_s=control_dt_s, episode_s=limit_s,
-                            wrist="commanded", render_mode="rgb_array" if rgb else None)
-        self.hand = HandLoop(self.env, design.controller)
+                            wrist="commanded", render_mode="rgb_array" if rgb else None,
+                            drive=hand.drive)
+        self.hand_loop = HandLoop(self.env, design.controller)
         self.lift_height_m = lift_height_m
         self.referee = TrialReferee(lift_height_m)
         self.recorder = TrialRecorder(self.n_steps, with_load=load is not None,
@@ -263,7 +320,8 @@ class TrialLoop:
 
     def reset(self) -> dict[str, Any]:
         """Reset the controller and the hand (seeded); a fresh referee and recorder."""
-        self.info = self.hand.reset(seed=self.seed)
+        self.info = self.hand_loop.reset(seed=self.seed)
+        self.paradigm.reset()
         self.referee = TrialReferee(self.lift_height_m)
         self.recorder = TrialRecorder(self.n_steps, with_load=self.load is not None,
                                       keep_observations=self.recorder.observations is not None)
@@ -285,6 +343,7 @@ class TrialLoop:
         t = float(self.t_s[k])
         ref, move = self.person.act(k, scene_from_info(t, info),
                                     env.commanded.height_m(env.data.time))
+        ref = self.paradigm.step(ref)
         if reference_n is not None:
             ref = reference_n
         if move is not None:
@@ -296,12 +355,12 @@ class TrialLoop:
                 self._load_n = new_load
             rec.loads[k] = self._load_n
         env.set_reference(ref)
-        _, command, _ = self.hand.step(ref)
-        self.info = info = self.hand.info
+        _, command, _ = self.hand_loop.step(ref)
+        self.info = info = self.hand_loop.info
         rec.record(k, ref, info, command, max(ref, self.design.core.last_reference_n))
         if rec.observations is not None:
-            rec.observations.append(self.hand.observation)
-            rec.computed.append(float(self.hand.computed))
+            rec.observations.append(self.hand_loop.observation)
+            rec.computed.append(float(self.hand_loop.computed))
         if self._frame_every is not None and k % self._frame_every == 0:
             rec.frames.append(env.render() if self.frames.kind == "rgb"
                               else (env.data.qpos.copy(), bool(info["crushed"])))
@@ -344,9 +403,9 @@ class TrialLoop:
     @property
     def controller_s(self) -> float:
         """Wall time in the controller since the reset, s."""
-        return self.hand.controller_s
+        return self.hand_loop.controller_s
 
     @property
     def physics_s(self) -> float:
         """Wall time in the physics since the reset, s."""
-        return self.hand.physics_s
+        return self.hand_loop.physics_s

@@ -27,12 +27,14 @@ from scenarios.schema.names import (  # noqa: F401  (re-exported: the schema's p
     check_declared_options,
     controller_names,
     controller_own_options,
+    drive_names,
     estimator_choices,
     estimator_own_options,
     feedback_modes,
     generator_names,
     kind_protocols,
     object_names,
+    paradigm_names,
     scenario_kinds,
     user_kinds,
 )
@@ -481,6 +483,25 @@ class UserConfig(_Model):
         return OperatorParams(**self.params.model_dump())
 
 
+class HandConfig(_Model):
+    """The prosthetic hand's mechanism.
+
+    Attributes
+    ----------
+    drive : str
+        The transmission registered in :mod:`sim.hand.drive`: ``backdrivable`` (default)
+        or ``self_locking`` (a worm stage: the digits move only under motor torque and
+        hold without it).
+    """
+
+    drive: str = "backdrivable"
+
+    @field_validator("drive")
+    @classmethod
+    def _registered_drive(cls, value: str) -> str:
+        return _registered(value, drive_names())
+
+
 class Scenario(_Model):
     """One experiment: subject, protocol, object, estimator, controller, user, seed.
 
@@ -495,6 +516,13 @@ class Scenario(_Model):
     seed : int or None
         Seed of every random draw of the scenario; ``None`` in a sweep file
         means "derive it from the sweep seed and the content".
+    hand : HandConfig
+        The hand's mechanism (``hand.drive``).
+    paradigm : str
+        How the hand's reference follows the estimate, registered in
+        :mod:`controllers.paradigms` (``force``, default; ``force_hold``).
+    auto_grip : bool
+        The hand's own slip response (:data:`controllers.reflex.AUTO_GRIP`).
     """
 
     kind: str = "episode"
@@ -505,11 +533,19 @@ class Scenario(_Model):
     controller: ControllerConfig = Field(default_factory=ControllerConfig)
     user: UserConfig = Field(default_factory=UserConfig)
     seed: int | None = Field(None, ge=0, le=_MAX_SEED)
+    hand: HandConfig = added_field(default_factory=HandConfig)
+    paradigm: str = added_field("force")
+    auto_grip: bool = added_field(False)
 
     @field_validator("kind")
     @classmethod
     def _registered_kind(cls, value: str) -> str:
         return _registered(value, scenario_kinds())
+
+    @field_validator("paradigm")
+    @classmethod
+    def _registered_paradigm(cls, value: str) -> str:
+        return _registered(value, paradigm_names())
 
     @model_validator(mode="after")
     def _protocol_fits_kind(self) -> Scenario:

@@ -89,10 +89,25 @@ def feedback_modes() -> tuple[str, ...]:
     return feedback_names()
 
 
+def drive_names() -> tuple[str, ...]:
+    """Hand transmissions registered in :mod:`sim.hand.drive`."""
+    from sim.hand.drive import drive_names as names
+
+    return names()
+
+
+def paradigm_names() -> tuple[str, ...]:
+    """Paradigms registered in :mod:`controllers.paradigms`."""
+    from controllers.paradigms import paradigm_names as names
+
+    return names()
+
+
 _NAMES = {"ESTIMATORS": estimator_choices, "OBJECTS": object_names,
           "GENERATORS": generator_names, "CONTROLLERS": controller_names,
           "SCENARIO_KINDS": scenario_kinds, "USER_KINDS": user_kinds,
-          "FEEDBACK_MODES": feedback_modes}
+          "FEEDBACK_MODES": feedback_modes, "DRIVES": drive_names,
+          "PARADIGMS": paradigm_names}
 
 
 def _registered(value: str, names: tuple[str, ...]) -> str:

@@ -32,6 +32,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sim.hand.contact import ContactReading, OutcomeTracker, read_contacts
+from sim.hand.drive import DriveSpec, make_drive, motor_for
 from sim.hand.errors import GraspFailedError, HandSpecError
 from sim.hand.model import HandIds, MotorSpec, PadSpec, build_model
 from sim.hand.objects import ObjectSpec, as_object_spec
@@ -86,7 +87,12 @@ class GraspEnv(gym.Env):
         who lifts by themselves and tries again after the object stayed behind
         needs the episode to go on; the crush always ends it.
     motor : MotorSpec
-        Drive parameters.
+        Motor and gearbox parameters (of the backdrivable hand; a self-locking drive sizes
+        the motor for the same rated grip and speed, :func:`sim.hand.drive.motor_for`).
+    drive : str or DriveSpec
+        The transmission (:mod:`sim.hand.drive`): ``backdrivable`` (default) or
+        ``self_locking``, whose digits move only under motor torque and stay where they
+        are without it.
     pads : PadSpec
         Compliant fingertip pads (default ``PadSpec()``).
     reward_weights : RewardWeights
@@ -113,7 +119,8 @@ class GraspEnv(gym.Env):
                  slip_threshold_m_s: float = 0.005, drop_distance_m: float = 0.03,
                  position_jitter_m: float = 0.0, render_mode: str | None = None,
                  render_size: tuple[int, int] = (480, 640), pads: PadSpec | None = None,
-                 wrist: str = "scheduled", terminate_on_drop: bool = True) -> None:
+                 wrist: str = "scheduled", terminate_on_drop: bool = True,
+                 drive: str | DriveSpec = "backdrivable") -> None:
         if not 0.001 <= physics_dt_s <= 0.002 + 1e-12:
             raise HandSpecError(f"physics_dt_s: expected 0.001..0.002 s, found {physics_dt_s!r}")
         n_sub = round(control_dt_s / physics_dt_s)
@@ -140,7 +147,8 @@ class GraspEnv(gym.Env):
         self.schedule = schedule or WristSchedule()
         self.commanded: CommandedWrist | None = CommandedWrist() if wrist == "commanded" else None
         self.terminate_on_drop = bool(terminate_on_drop)
-        self.motor = motor or MotorSpec()
+        self.drive = make_drive(drive)
+        self.motor = motor_for(self.drive, motor or MotorSpec())
         self.pads = pads or PadSpec()
         self.weights = reward_weights or RewardWeights()
         self.position_jitter_m = float(position_jitter_m)
@@ -186,6 +194,15 @@ class GraspEnv(gym.Env):
                                    * self.motor.torque_constant_nm_a)
         self._windows: tuple[tuple[float, float], ...] = ()
         self._windows_key: tuple[WristSchedule, float] | None = None
+        # the digits' joints: a self-locking drive holds each with a stop that follows it
+        self._digits = [self.model.joint(n).id for n in ("index", "middle", "thumb")]
+        self._digit_qpos = [int(self.model.jnt_qposadr[j]) for j in self._digits]
+        self._digit_range = [tuple(self.model.jnt_range[j].tolist()) for j in self._digits]
+        self._locking = self.drive.self_locking
+        if self._locking:
+            for j in self._digits:
+                self.model.jnt_solref[j] = self.drive.holding_solref
+                self.model.jnt_solimp[j, :3] = self.drive.holding_solimp
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
@@ -269,6 +286,9 @@ class GraspEnv(gym.Env):
         self._lift_start_s: float | None = None
         if self.commanded is not None:
             self.commanded.reset()
+        for j, (lo, hi) in zip(self._digits, self._digit_range, strict=True):
+            m.jnt_range[j, 0], m.jnt_range[j, 1] = lo, hi
+        self._held: list[list[float]] | None = None
         self._clipped = 0
         self._warn_view = d.warning.number  # a view on mjData, updated in place
         self._warnings = self._warn_view.tolist()
@@ -299,6 +319,8 @@ class GraspEnv(gym.Env):
             u = 0.0 if u != u else (1.0 if u > 1.0 else -1.0)
         ctrl = self._ctrl
         ctrl[self._i_motor] = u
+        if self._locking:
+            self._hold_digits(u)
         t = d.time
         commanded = self.commanded
         if commanded is not None:
@@ -337,6 +359,30 @@ class GraspEnv(gym.Env):
         truncated = self._step_count >= self.max_steps or failure is not None
         obs, info = self._observe_info(ref, terms, failure)
         return obs, float(reward), bool(terminated), bool(truncated), info
+
+    def _hold_digits(self, u: float) -> None:
+        """A self-locking drive: each digit may move only where the motor drives it.
+
+        Closing: the digit's opening stop follows it up (the object cannot push it
+        open); opening: its closing stop follows it down; no command: both stops where
+        it stands (:mod:`sim.hand.drive`). Updated once per control step.
+        """
+        m, q = self.model, self.data.qpos
+        held = self._held
+        if held is None:
+            held = self._held = [[lo, hi] for lo, hi in self._digit_range]
+        for i, j in enumerate(self._digits):
+            now = q.item(self._digit_qpos[i])
+            lo0, hi0 = self._digit_range[i]
+            stop = held[i]
+            if u > 0.0:
+                stop[0], stop[1] = max(stop[0], now), hi0
+            elif u < 0.0:
+                stop[0], stop[1] = lo0, min(stop[1], now)
+            else:
+                stop[0], stop[1] = max(stop[0], min(now, stop[1])), min(stop[1], max(now,
+                                                                                 stop[0]))
+            m.jnt_range[j, 0], m.jnt_range[j, 1] = stop[0], stop[1]
 
     def _step_scheduled(self, t: float) -> None:
         """Physics of one control period with the wrist on its schedule."""

@@ -21,6 +21,7 @@ import numpy as np
 
 from controllers.figures import measured_bode_figure
 from controllers.measure import measure_loop
+from scenarios.cli.choices import add_drive_option, check_drive
 from scenarios.cli.commands.margins import add_design_options, design_from_args, parse_forces
 
 
@@ -38,6 +39,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="hold forces, N")
     p.add_argument("--frequencies", type=parse_forces, default=None, metavar="W1,W2,...",
                    help="injection frequencies, rad/s (default: around the predicted crossover)")
+    add_drive_option(p)
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write JSON here")
     p.add_argument("--plots", type=Path, default=None, metavar="DIR",
                    help="write predicted Bode plots with the measured points overlaid")
@@ -50,16 +52,18 @@ def _f(x: float | None, fmt: str) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``griploop measure-loop``; returns the exit status."""
+    check_drive(args.drive)
     design = design_from_args(args)
     for f in args.at_force:
         design.check_force(f)
     freqs = None if args.frequencies is None else np.asarray(args.frequencies)
-    print(f"measured on the MuJoCo hand: {args.controller} holding {design.object.name}")
+    print(f"measured on the MuJoCo hand ({args.drive} drive): {args.controller} holding "
+          f"{design.object.name}")
     print(f"{'force N':>8} {'held N':>7} {'wc meas':>8} {'wc pred':>8} {'PM meas':>8} "
           f"{'PM pred':>8} {'|L(wc_pred)| dB':>16}")
     results = []
     for f in args.at_force:
-        m = measure_loop(design, f, frequencies_rad_s=freqs)
+        m = measure_loop(design, f, frequencies_rad_s=freqs, drive=args.drive)
         results.append(m)
         if m.reason:
             print(f"{f:8.3g}  failed: {m.reason}")
@@ -71,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps({
-            "controller": args.controller,
+            "controller": args.controller, "drive": args.drive,
             "object": {"name": design.object.name, "mass_kg": design.object.mass_kg,
                        "friction": design.object.friction},
             "design": {"spec": design.spec},
