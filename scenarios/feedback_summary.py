@@ -65,8 +65,10 @@ def aggregate_force_matching(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any
     """The ``force-matching`` JSON contract (docs/FORMAT.md) from ``force_matching`` rows.
 
     ``{"by_feedback": {MODE: {"targets": [{"target_fraction", "abs_error_n", "cv",
-    "abs_error_ci95", "cv_ci95", "user_cv", "n"}]}}}``: means over subjects with
-    Student-t intervals; ``cv`` is the hand's grip force, ``user_cv`` the user's own.
+    "abs_error_ci95", "cv_ci95", "user_cv", "time_to_target_s", "time_to_target_ci95",
+    "n"}]}}}``: means over subjects with Student-t intervals; ``cv`` is the hand's grip
+    force, ``user_cv`` the user's own; ``time_to_target_s`` over the subjects whose grip
+    reached the target.
     """
     out: dict[str, Any] = {}
     for mode in _modes(rows):
@@ -77,10 +79,12 @@ def aggregate_force_matching(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any
             err = mean_interval([r["abs_error_n"] for r in rs])
             cv = mean_interval([r["cv"] for r in rs])
             user_cv = mean_interval([r.get("user_cv") for r in rs])
+            reach = mean_interval([r.get("time_to_target_s") for r in rs])
             targets.append({"target_fraction": frac, "abs_error_n": _num(err[0]),
                             "cv": _num(cv[0]), "abs_error_ci95": _ci(err[1:]),
                             "cv_ci95": _ci(cv[1:]), "user_cv": _num(user_cv[0]),
-                            "n": len(rs)})
+                            "time_to_target_s": _num(reach[0]),
+                            "time_to_target_ci95": _ci(reach[1:]), "n": len(rs)})
         out[mode] = {"targets": targets}
     return {"by_feedback": out}
 

@@ -24,9 +24,11 @@ from typing import Any
 import yaml
 
 from scenarios.cli.choices import (
+    add_hand_options,
     add_practice_window_options,
     add_user_options,
     check_choice,
+    check_hand_options,
     check_practice_window,
     check_user_options,
     controller_names,
@@ -57,6 +59,7 @@ def add_common_options(p: argparse.ArgumentParser, *, default_feedback: str,
     p.add_argument("--db", type=Path, default=None, metavar="PATH",
                    help="results store (resumable; default: a temporary one, discarded)")
     add_practice_window_options(p)
+    add_hand_options(p, paradigm_list=True)
     p.add_argument("--intact", action="store_true",
                    help="also run the intact-hand reference (the user's own force drives the "
                    "hand, no sEMG path, felt by touch): the JSON's intact")
@@ -88,7 +91,10 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
 
     With ``--intact`` the same design also runs with the intact-hand reference
     (estimator ``intact``, feedback ``touch``: the user's own force drives the hand,
-    no sEMG path), into the same store; its summary is the JSON's ``intact``.
+    no sEMG path, paradigm ``force``), into the same store; its summary is the JSON's
+    ``intact``. With several ``--paradigm`` entries they run on the same subjects and
+    seeds; the JSON's top level is the first paradigm's and ``by_paradigm`` holds each
+    one's, in the same form.
 
     Parameters
     ----------
@@ -104,7 +110,9 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
     from scenarios.feedback_summary import aggregate
 
     feedback = comma_list("--feedback", args.feedback)
+    paradigms = comma_list("--paradigm", args.paradigm)
     check_user_options(args.user, feedback)
+    check_hand_options(paradigms, args.drive)
     check_choice("--controller", args.controller, controller_names())
     check_choice("--estimator", args.estimator, estimator_choices())
     check_practice_window(args.practice, args.window_ms, args.step_ms)
@@ -118,21 +126,27 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
                 "estimator.mode": args.mode, "estimator.window_ms": args.window_ms,
                 "estimator.step_ms": args.step_ms, "user.kind": args.user,
                 "user.practice": args.practice,
-                "subject.population_seed": args.population_seed, **(base or {})}
-    arms = [(settings, feedback)]
+                "subject.population_seed": args.population_seed, **(base or {}),
+                **hand_settings(args.drive, args.auto_grip)}
+    arms = [(settings, feedback, {**(grid or {}), **paradigm_grid(paradigms)})]
     if getattr(args, "intact", False):
         arms.append(({**settings, "estimator.name": INTACT, "user.kind": "reacting"},
-                     ["touch"]))
+                     ["touch"], grid))
     with tempfile.TemporaryDirectory() as tmp:
         db = args.db if args.db is not None else Path(tmp) / "results.sqlite"
-        outcomes = [_run_arm(args, kind, arm, modes, grid, feedback_grid, db)
-                    for arm, modes in arms]
+        outcomes = [_run_arm(args, kind, arm, modes, arm_grid, feedback_grid, db)
+                    for arm, modes, arm_grid in arms]
     (spec, ok, failed, elapsed) = outcomes[0]
-    result = {**aggregate(kind, ok),
+    by_paradigm = {p: aggregate(kind, [r for r in ok if r.get("paradigm", "force") == p])
+                   for p in paradigms}
+    result = {**by_paradigm[paradigms[0]],
               "settings": {"kind": kind, **settings, "feedback": feedback,
-                           "subjects": args.subjects, "seed": spec.seed,
-                           **{k: v for k, v in (grid or {}).items()}},
+                           "paradigm": paradigms, "drive": args.drive,
+                           "auto_grip": args.auto_grip, "subjects": args.subjects,
+                           "seed": spec.seed, **{k: v for k, v in (grid or {}).items()}},
               "scenarios": {"ok": len(ok), "failed": len(failed)}}
+    if len(paradigms) > 1:
+        result["by_paradigm"] = by_paradigm
     if len(outcomes) > 1:
         intact_ok = outcomes[1][1]
         result["intact"] = aggregate(kind, intact_ok)
@@ -142,7 +156,10 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
           f"({args.controller}, {args.estimator} {args.mode}, {args.user} user, practice "
           f"{args.practice}, window {args.window_ms:g}/{args.step_ms:g} ms, "
           f"{args.subjects} subjects)")
-    print(table(result))
+    for paradigm in paradigms:
+        if len(paradigms) > 1:
+            print(f"paradigm {paradigm}:")
+        print(table({**result, **by_paradigm[paradigm]}))
     for r in failed[:3]:
         print(f"failed: {(r.get('error') or '').splitlines()[0] if r.get('error') else r['hash']}",
               file=sys.stderr)
@@ -153,6 +170,17 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
     if args.db is not None:
         print(f"results in {args.db} (sweep {spec.name}; griploop report {args.db} --out DIR)")
     return 0
+
+
+def hand_settings(drive: str, auto_grip: bool) -> dict[str, Any]:
+    """The hand's settings as scenario paths, left out at their defaults (no seed moves)."""
+    return {**({} if drive == "backdrivable" else {"hand.drive": drive}),
+            **({"auto_grip": True} if auto_grip else {})}
+
+
+def paradigm_grid(paradigms: list[str]) -> dict[str, list[str]]:
+    """The paradigms as a grid of the sweep (none for the default alone)."""
+    return {} if paradigms == ["force"] else {"paradigm": paradigms}
 
 
 def _run_arm(args: argparse.Namespace, kind: str, settings: Mapping[str, Any],

@@ -8,37 +8,45 @@ force at the previous window's end). :func:`hand_observations` replays the recor
 a trial (the one trial loop, :mod:`scenarios.runners.trial_loop`: the recording's sEMG
 drives the hand, its forearm's pitch moves the wrist) and records what the designed
 Python controller saw and commanded; :func:`replay_controller` feeds those observations
-to the C controller and compares the commands. Tolerances (docs/DEPLOY.md): features
-within one unit in the last place of float32 (the C divides and takes square roots in
-float32, Python in float64), estimate and command within 1e-3 (N, command units).
+to the C controller and compares the commands. :func:`replay_reference` feeds the C
+estimates to the runtime's reference (rest threshold, force mapping, paradigm) and to
+:func:`python_reference`, the same chain of griploop's own parts
+(:class:`~estimation.rest_gate.RestGate`, :mod:`controllers.paradigms`). Tolerances
+(docs/DEPLOY.md): features within one unit in the last place of float32 (the C divides
+and takes square roots in float32, Python in float64), estimate, reference and command
+within 1e-3 (N, command units).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from controllers.base import Observation
+from controllers.paradigms import make_paradigm
 from estimation.features import extract_features
+from estimation.rest_gate import RestGate
 from scenarios.deploy.library import (
     CompiledController,
     CompiledFeatures,
     CompiledLibrary,
+    CompiledReference,
     CompiledStream,
 )
 from scenarios.live.arm import LIFT_HEIGHT_M
 from scenarios.live.recorded import RecordedPerson, ReplaySpec, check_layout
 from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
-from scenarios.runners.trial_loop import TrialLoop
+from scenarios.runners.trial_loop import DEFAULT_HAND, HandSettings, TrialLoop
 from sim.c_source import ExportError
 from sim.hand.objects import ObjectSpec
 from sim.recording import Recording
 
 #: What the equivalence tests and ``export-c --check`` accept.
 ESTIMATE_TOLERANCE_N = 1e-3
+REFERENCE_TOLERANCE_N = 1e-3
 COMMAND_TOLERANCE = 1e-3
 FEATURE_TOLERANCE_ULPS = 1.0
 
@@ -126,9 +134,48 @@ def replay_estimator(library: CompiledLibrary, recording: Recording, pipeline: A
                           fs.t_s)
 
 
+def python_reference(estimates_n: np.ndarray, facts: Mapping[str, Any]) -> np.ndarray:
+    """The hand reference griploop's Python parts make of a sequence of estimates, N.
+
+    The rest gate (``rest_on_n``, ``rest_off_n``), the force mapping (``to_hand``,
+    clipped to ``0 .. reference_max_n``; a NaN estimate holds the reference) and the
+    ``paradigm``, as a trial applies them (:mod:`scenarios.runners.semg_reference`,
+    :class:`~scenarios.runners.trial_loop.TrialLoop`); ``facts`` as
+    :attr:`scenarios.deploy.writer.CExport.facts`.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    gate = RestGate(facts["rest_on_n"], facts["rest_off_n"])
+    paradigm = make_paradigm(facts.get("paradigm", "force"))
+    to_hand = 1.0 if facts.get("to_hand") is None else float(facts["to_hand"])
+    ceiling = np.inf if facts.get("reference_max_n") is None else float(facts["reference_max_n"])
+    held, out = 0.0, []
+    for estimate in np.asarray(estimates_n, dtype=float):
+        value = gate.step(float(estimate)) * to_hand
+        if value == value:
+            held = min(max(value, 0.0), ceiling)
+        out.append(paradigm.step(held))
+    return np.array(out)
+
+
+def replay_reference(library: CompiledLibrary, estimates_n: np.ndarray,
+                     facts: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    """The C runtime's and the Python hand reference for the same estimates, N.
+
+    Returns
+    -------
+    c_n, python_n : ndarray, shape (n,)
+    """
+    c = CompiledReference(library)
+    return c.run(estimates_n), python_reference(estimates_n, facts)
+
+
 def hand_observations(design: Any, obj: ObjectSpec, recording: Recording, fitted: Any, *,
                       hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N, duration_s: float,
-                      seed: int = 0) -> tuple[list[Observation], np.ndarray]:
+                      seed: int = 0, hand: HandSettings = DEFAULT_HAND,
+                      ) -> tuple[list[Observation], np.ndarray]:
     """What the design's Python controller saw and commanded in a trial on ``recording``.
 
     The trial starts 1 s before the first window whose reference exceeds 0.5 N (a
@@ -153,6 +200,8 @@ def hand_observations(design: Any, obj: ObjectSpec, recording: Recording, fitted
         The longest run, s.
     seed : int
         The environment's seed.
+    hand : HandSettings
+        The hand's drive and paradigm (its slip response is in ``design``).
 
     Returns
     -------
@@ -169,7 +218,8 @@ def hand_observations(design: Any, obj: ObjectSpec, recording: Recording, fitted
     spec = replace(spec, episode_s=limit_s)
     person = RecordedPerson(recording, fitted, spec, start_s=start_s)
     loop = TrialLoop(obj, design, person, limit_s=limit_s, control_dt_s=dt,
-                     lift_height_m=spec.lift_height_m, seed=seed, keep_observations=True)
+                     lift_height_m=spec.lift_height_m, seed=seed, keep_observations=True,
+                     hand=hand)
     loop.run()
     rec = loop.recorder
     return list(rec.observations), np.asarray(rec.computed)

@@ -3,8 +3,9 @@
 Each wrapper owns its C state (a buffer of the size the library reports) and
 offers the Python protocol of what it replaces: :class:`CompiledFeatures` pushes
 int8 frames, :class:`CompiledStream` is an estimator stream (``reset``, ``step(u,
-y_prev)``), :class:`CompiledController` is a runtime controller (``reset``,
-``act(observation)``). Values cross as the library's real type (float32 unless
+y_prev)``), :class:`CompiledReference` shapes the hand reference from the estimate
+(``reset``, ``step(estimate_n)``), :class:`CompiledController` is a runtime controller
+(``reset``, ``act(observation)``). Values cross as the library's real type (float32 unless
 built with ``GRIPLOOP_DOUBLE``).
 """
 
@@ -45,7 +46,7 @@ class CompiledLibrary:
 
     def _declare(self) -> None:
         f, lib = ctypes.c_float, self.lib
-        for part in ("features", "estimator", "controller"):
+        for part in ("features", "estimator", "reference", "controller"):
             if part == "controller" and not self.has_controller:
                 continue
             getattr(lib, f"griploop_{part}_state_size").restype = ctypes.c_uint32
@@ -54,6 +55,8 @@ class CompiledLibrary:
         lib.griploop_features_push.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
         lib.griploop_estimator_step.restype = f
         lib.griploop_estimator_step.argtypes = [ctypes.c_void_p, ctypes.c_void_p, f]
+        lib.griploop_reference_step.restype = f
+        lib.griploop_reference_step.argtypes = [ctypes.c_void_p, f]
         if self.has_controller:
             lib.griploop_controller_act.restype = f
             lib.griploop_controller_act.argtypes = [ctypes.c_void_p,
@@ -62,7 +65,8 @@ class CompiledLibrary:
             lib.griploop_controller_phase.restype = ctypes.c_int32
 
     def state(self, part: str) -> ctypes.Array:
-        """A zeroed state buffer of ``part`` (``features``, ``estimator``, ``controller``)."""
+        """A zeroed state buffer of ``part`` (``features``, ``estimator``, ``reference``,
+        ``controller``)."""
         size = int(getattr(self.lib, f"griploop_{part}_state_size")())
         return (ctypes.c_uint64 * ((size + 7) // 8))()  # 8-byte aligned
 
@@ -116,6 +120,27 @@ class CompiledStream:
         return float(self._lib.griploop_estimator_step(
             self._state, u32.ctypes.data_as(ctypes.c_void_p),
             0.0 if y_prev is None else float(y_prev)))
+
+
+class CompiledReference:
+    """The runtime's hand reference: rest threshold, force mapping and paradigm, in C."""
+
+    def __init__(self, library: CompiledLibrary) -> None:
+        self._lib = library.lib
+        self._state = library.state("reference")
+        self.reset()
+
+    def reset(self) -> None:
+        """Open, as at rest."""
+        self._lib.griploop_reference_reset(self._state)
+
+    def step(self, estimate_n: float) -> float:
+        """One window's estimate (user N); the hand reference, N."""
+        return float(self._lib.griploop_reference_step(self._state, float(estimate_n)))
+
+    def run(self, estimates_n: np.ndarray) -> np.ndarray:
+        """:meth:`step` over a sequence, from the current state, shape (n,)."""
+        return np.array([self.step(v) for v in np.asarray(estimates_n, dtype=float)])
 
 
 class CompiledController:

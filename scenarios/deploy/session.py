@@ -23,6 +23,7 @@ from scenarios.deploy.build import build_export
 from scenarios.deploy.library import CompiledLibrary
 from scenarios.deploy.writer import CExport, export_c
 from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
+from scenarios.runners.trial_loop import DEFAULT_HAND, HandSettings
 from sim.recording import Recording
 
 #: Length of the hand run whose observations check the controller, s.
@@ -33,7 +34,8 @@ def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
                    channels: Sequence[int | str] | None, mode: str = "free_run",
                    controller: str | None = None, object_name: str | None = None,
                    check_recording: Recording | None = None, target: str | None = None,
-                   seed: int = 0, control_dt_s: float = 0.01) -> tuple[CExport, dict[str, Any]]:
+                   seed: int = 0, control_dt_s: float = 0.01,
+                   hand: HandSettings = DEFAULT_HAND) -> tuple[CExport, dict[str, Any]]:
     """Export (and check) an estimator fitted on ``calibration`` and a controller for an object.
 
     Parameters
@@ -56,18 +58,25 @@ def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
         Seeds the estimator's fit and the hand.
     control_dt_s : float
         Control period of the design, s.
+    hand : HandSettings
+        The paradigm the runtime shapes the reference by, the slip response the
+        controller carries (``auto_grip``), and the drive of the checked hand.
 
     Returns
     -------
     export : CExport
     report : dict
-        ``{"files": [...], "check": {...}, "target": {...}}`` (keys present as asked).
+        ``{"files": [...], "models": {...}, "hand": {...}, "check": {...},
+        "target": {...}}`` (``check`` and ``target`` as asked).
     """
     from controllers.export_c import check_controller_exportable
     from estimation.export_c import check_exportable
+    from scenarios.deploy.writer import check_paradigm_exportable
     from scenarios.live.recorded import fit_calibration
 
     check_exportable(estimator)  # refused before the fit and the design
+    hand.check()
+    check_paradigm_exportable(hand.paradigm)
     if controller is not None:
         check_controller_exportable(controller)
     fitted = fit_calibration(calibration, estimator, mode=mode, channels=channels, seed=seed)
@@ -78,14 +87,15 @@ def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
         from sim.hand.objects import make_object
 
         obj = make_object(object_name)
-        design = grasp_design(obj, controller, control_dt_s, None)
+        design = grasp_design(obj, controller, control_dt_s, hand.controller_spec(None))
     window = feature_window(calibration.fs_hz, calibration.n_channels, fitted.channel_index)
     to_hand = HAND_FORCE_AT_MVC_N / cal.mvc_cal_n
     export = export_c(cal.pipeline, estimator, mode, window, out_dir, design=design,
                       to_hand=to_hand, reference_max_n=1.2 * HAND_FORCE_AT_MVC_N,
-                      rest_on_n=cal.rest_on_n, rest_off_n=cal.rest_off_n)
+                      rest_on_n=cal.rest_on_n, rest_off_n=cal.rest_off_n,
+                      paradigm=hand.paradigm)
     report: dict[str, Any] = {"files": [str(p) for p in export.files],
-                              "models": export.summary()}
+                              "models": export.summary(), "hand": hand.fields()}
     if check_recording is None:
         return export, report
     library = CompiledLibrary(build_export(export)[0])
@@ -93,22 +103,27 @@ def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
                                     channels=fitted.channels, window_ms=window.window_ms,
                                     step_ms=window.step_ms,
                                     uses_force=bool(export.estimator.summary["uses_force"]))
+    c_reference, py_reference = check.replay_reference(library, replay.estimate_c_n,
+                                                       export.facts)
     command_error = c_commands = None
     observations: list = []
     if design is not None:
         observations, commands = check.hand_observations(
-            design, obj, check_recording, fitted, duration_s=CONTROLLER_CHECK_S, seed=seed)
+            design, obj, check_recording, fitted, duration_s=CONTROLLER_CHECK_S, seed=seed,
+            hand=hand)
         c_commands = check.replay_controller(library, design, observations)
         command_error = float(np.max(np.abs(c_commands - commands), initial=0.0))
     report["check"] = {"samples": replay.samples, "windows": replay.windows,
                        "control_steps": len(observations),
                        "max_abs_error": {"features": replay.feature_error,
                                          "estimate_n": replay.estimate_error_n,
+                                         "reference_n": float(np.max(np.abs(
+                                             c_reference - py_reference), initial=0.0)),
                                          "command": command_error},
                        "features_max_ulps": replay.feature_ulps}
     if target is not None:
         from scenarios.deploy.target import run_target
 
         report["target"] = run_target(export, check_recording, replay, observations,
-                                      c_commands=c_commands)
+                                      c_commands=c_commands, c_reference=c_reference)
     return export, report

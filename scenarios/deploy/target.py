@@ -111,6 +111,7 @@ def _sizes(tools: dict[str, str], objects: Sequence[Path]) -> dict[str, dict[str
 
 def run_target(export: Any, recording: Recording, replay: EstimatorReplay,
                observations: Sequence[Observation], *, c_commands: np.ndarray | None = None,
+               c_reference: np.ndarray | None = None,
                build_dir: Path | None = None) -> dict[str, Any]:
     """Cross-compile the export, run the replay on QEMU, compare with the host build.
 
@@ -125,6 +126,9 @@ def run_target(export: Any, recording: Recording, replay: EstimatorReplay,
         The controller's input sequence (may be empty: no controller replay).
     c_commands : ndarray, optional
         The host build's commands for ``observations``.
+    c_reference : ndarray, optional
+        The host build's hand reference of each window
+        (:func:`scenarios.deploy.check.replay_reference`); compared when given.
     build_dir : Path, optional
         Default ``export.out_dir / "target"``.
 
@@ -170,19 +174,23 @@ def run_target(export: Any, recording: Recording, replay: EstimatorReplay,
                            "-icount", f"shift={ICOUNT_SHIFT}", "-kernel", str(elf)],
                           capture_output=True, text=True, timeout=600, check=False)
     values, counts = _parse(proc.stderr)  # QEMU writes semihosting output to stderr
-    return _summarize(export, replay, obs, c_commands, values, counts,
+    return _summarize(export, replay, obs, c_commands, c_reference, values, counts,
                       _sizes(tools, objects))
 
 
 def _summarize(export: Any, replay: EstimatorReplay, obs: Sequence[Observation],
-               c_commands: np.ndarray | None, values: np.ndarray, counts: list[int],
+               c_commands: np.ndarray | None, c_reference: np.ndarray | None,
+               values: np.ndarray, counts: list[int],
                sizes: dict[str, dict[str, int]]) -> dict[str, Any]:
     nf = export.window.n_features
     n_win = replay.windows
-    per_window = values[:n_win * (nf + 1)].reshape(n_win, nf + 1)
-    commands = values[n_win * (nf + 1):]
+    per_window = values[:n_win * (nf + 2)].reshape(n_win, nf + 2)
+    commands = values[n_win * (nf + 2):]
     host = [replay.features_c.astype(np.float32), replay.estimate_c_n.astype(np.float32)]
     target = [per_window[:, :nf], per_window[:, nf]]
+    if c_reference is not None:
+        host.append(np.asarray(c_reference, dtype=np.float32))
+        target.append(per_window[:, nf + 1])
     if obs and c_commands is not None:
         host.append(np.asarray(c_commands, dtype=np.float32))
         target.append(commands)

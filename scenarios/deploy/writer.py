@@ -17,6 +17,32 @@ from typing import Any
 from estimation.export_c import FeatureWindow, export_estimator, export_features
 from sim.c_source import TYPES_HEADER, CModel, ExportError, render, types_header
 
+#: Paradigms (:mod:`controllers.paradigms`) the runtime shapes the reference by.
+EXPORTABLE_PARADIGMS = ("force", "force_hold")
+
+
+class ParadigmNotExportableError(ExportError):
+    """A registered paradigm with no C shaping; the message lists the exportable ones."""
+
+
+def check_paradigm_exportable(paradigm: str) -> None:
+    """Refuse a paradigm the runtime cannot shape, in one line.
+
+    Raises
+    ------
+    controllers.paradigms.UnknownParadigmError
+        Not registered at all.
+    ParadigmNotExportableError
+        Registered, with no C export.
+    """
+    from controllers.paradigms import make_paradigm
+
+    make_paradigm(paradigm)
+    if paradigm not in EXPORTABLE_PARADIGMS:
+        raise ParadigmNotExportableError(
+            f"paradigm {paradigm!r} has no C export; exportable paradigms: "
+            f"{', '.join(EXPORTABLE_PARADIGMS)}")
+
 
 @dataclass
 class CExport:
@@ -64,7 +90,7 @@ class CExport:
 def export_c(pipeline: Any, estimator: str, mode: str, window: FeatureWindow,
              out_dir: Path, *, design: Any = None, to_hand: float | None = None,
              reference_max_n: float | None = None, rest_on_n: float = 0.0,
-             rest_off_n: float = 0.0) -> CExport:
+             rest_off_n: float = 0.0, paradigm: str = "force") -> CExport:
     """Write the C files of a fitted estimator (and a designed controller) to ``out_dir``.
 
     Parameters
@@ -86,7 +112,10 @@ def export_c(pipeline: Any, estimator: str, mode: str, window: FeatureWindow,
     rest_on_n, rest_off_n : float
         The hand's rest threshold on the estimate, N (:mod:`estimation.rest_gate`, the
         calibration's ``rest_on_n`` and ``rest_off_n``; 0: none), applied by
-        ``griploop_runtime.c`` before the mapping.
+        ``griploop_reference.c`` before the mapping.
+    paradigm : str
+        How the reference follows the estimate (:data:`EXPORTABLE_PARADIGMS`), shaped by
+        ``griploop_reference.c`` as :mod:`controllers.paradigms` shapes it.
 
     Returns
     -------
@@ -98,7 +127,10 @@ def export_c(pipeline: Any, estimator: str, mode: str, window: FeatureWindow,
         A kind without a C export (before any file is written).
     sim.c_source.ExportError
         Non-finite coefficients or an unstable state matrix (before any file is written).
+    ParadigmNotExportableError, controllers.paradigms.UnknownParadigmError
+        A paradigm without C shaping (before any file is written).
     """
+    check_paradigm_exportable(paradigm)
     win, step = window.samples
     period = step / window.fs_hz
     fitted_dt = getattr(pipeline.estimator_, "dt_s", None)
@@ -123,8 +155,9 @@ def export_c(pipeline: Any, estimator: str, mode: str, window: FeatureWindow,
                           f"{rest_on_n!r}, off {rest_off_n!r}")
     facts = {"fs_hz": window.fs_hz, "window_samples": win, "step_samples": step,
              "period_s": period, "to_hand": to_hand, "reference_max_n": reference_max_n,
-             "rest_on_n": float(rest_on_n), "rest_off_n": float(rest_off_n)}
-    for name in ("griploop.h", "griploop_runtime.c"):
+             "rest_on_n": float(rest_on_n), "rest_off_n": float(rest_off_n),
+             "paradigm": paradigm}
+    for name in ("griploop.h", "griploop_reference.c", "griploop_runtime.c"):
         texts[name] = render("scenarios.deploy", name + ".j2", features=features, estimator=est,
                              controller=controller, mode=mode, **facts)
     out_dir = Path(out_dir)

@@ -55,7 +55,7 @@ from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
 from scenarios.runners.episode_metrics import contact_peak_ratio, episode_metrics
 from scenarios.runners.reference import RAMP_S, REST_S, intended_grip_n, reference_from_windows
 from scenarios.runners.semg_reference import SemgReference
-from scenarios.runners.trial_loop import Frames, TrialLoop
+from scenarios.runners.trial_loop import DEFAULT_HAND, Frames, HandSettings, TrialLoop
 from scenarios.runners.trial_outcome import TrialReferee, judge
 from scenarios.schema import ORACLE
 from sim.hand.objects import ObjectSpec
@@ -313,6 +313,8 @@ class ReplaySpec:
     lift_height_m : float or None
         The lift the task asks for (the referee's secure lift), m; ``None``: held on the
         table (and a recording without a pitch is not lifted).
+    hand : HandSettings
+        The hand's drive, paradigm and own slip response.
     """
 
     controller: str = "pid"
@@ -323,6 +325,7 @@ class ReplaySpec:
     hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N
     seed: int = 0
     lift_height_m: float | None = LIFT_HEIGHT_M
+    hand: HandSettings = DEFAULT_HAND
 
 
 def recorded_arm_poses(recording: Recording, calibration: Recording | None = None) -> ArmPoses:
@@ -488,12 +491,13 @@ def episode_on_recording(recording: Recording, cal: RecordedCalibration, obj: Ob
         raise RecordingError(f"{recording.source} lasts {recording.duration_s:.2f} s; expected "
                              f"at least the episode's {spec.episode_s:g} s")
     with one_blas_thread():
-        design = grasp_design(obj, spec.controller, spec.control_dt_s, spec.controller_spec)
+        design = grasp_design(obj, spec.controller, spec.control_dt_s,
+                              spec.hand.check().controller_spec(spec.controller_spec))
         person = RecordedPerson(recording, cal, spec, poses=poses)
         loop = TrialLoop(obj, design, person, limit_s=spec.episode_s,
                          control_dt_s=spec.control_dt_s, lift_height_m=spec.lift_height_m,
                          seed=session_seed(spec.seed),
-                         frames=Frames() if record_frames else None)
+                         frames=Frames() if record_frames else None, hand=spec.hand)
         loop.run()
         person.samples_to(spec.episode_s)  # the windows of the whole episode, for the metrics
     if loop.failure is not None:

@@ -71,7 +71,7 @@ from scenarios.live.samples import SampleGuard
 from scenarios.live.timing import percentile, warnings_for
 from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
 from scenarios.runners.semg_reference import SemgReference
-from scenarios.runners.trial_loop import Frames, TrialLoop
+from scenarios.runners.trial_loop import DEFAULT_HAND, Frames, HandSettings, TrialLoop
 from sim.hand.objects import ObjectSpec
 from sim.recording import Recording
 from sim.user.feedback import FeedbackDevice
@@ -106,6 +106,8 @@ class SessionSettings:
         (``None``: none).
     seed : int
         Seeds the environment's reset (as an offline episode with the same seed).
+    hand : HandSettings
+        The hand's drive, paradigm and own slip response.
     """
 
     duration_s: float = 8.0
@@ -116,6 +118,7 @@ class SessionSettings:
     timeout_s: float = TIMEOUT_S
     frame_dt_s: float | None = None
     seed: int = 0
+    hand: HandSettings = DEFAULT_HAND
 
 
 class LiveGrasp:
@@ -176,7 +179,8 @@ class LiveGrasp:
         self.settings, self.cal, self.obj, self.controller = s, cal, obj, controller
         self.arm = arm
         self.wrist_tremor_m = float(arm.tremor_m)
-        self.design = grasp_design(obj, controller, s.control_dt_s, controller_spec)
+        self.design = grasp_design(obj, controller, s.control_dt_s,
+                                   s.hand.check().controller_spec(controller_spec))
         self.chain = SemgReference(cal.calibration, fs_hz=cal.fs_hz,
                                    channel_index=cal.channel_index,
                                    hand_force_at_mvc_n=s.hand_force_at_mvc_n,
@@ -185,7 +189,7 @@ class LiveGrasp:
                                control_dt_s=s.control_dt_s, lift_height_m=LIFT_HEIGHT_M,
                                seed=session_seed(s.seed),
                                frames=None if s.frame_dt_s is None
-                               else Frames(s.frame_dt_s, "state"))
+                               else Frames(s.frame_dt_s, "state"), hand=s.hand)
         self.env = self.trial.env
         self.guard = SampleGuard(cal.integer)
         self.fs_hz = cal.fs_hz
@@ -585,6 +589,7 @@ class LiveGrasp:
                        ("t_s", "reference_n", "grip_force_n", "object_height_m",
                         "slip_speed_m_s", "feedback", "wrist_height_m")},
             "feedback": self.feedback.mode,
+            **self.settings.hand.fields(),
             "arm": {**self.arm.summary(),
                     "lift_start_s": float(t[rising[0]]) if rising.size else None,
                     "secure_lift_s": referee.secure_lift_s},

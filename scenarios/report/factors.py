@@ -18,7 +18,8 @@ FACTOR_NAMES = {
     "object.break_force_n": "break force (N)", "controller.kind": "controller",
     "estimator.name": "estimator", "estimator.mode": "mode",
     "controller.slip_reflex.enabled": "reflex", "subject.subject_id": "subject",
-    "user.kind": "user", "user.feedback": "feedback",
+    "user.kind": "user", "user.feedback": "feedback", "paradigm": "paradigm",
+    "hand.drive": "drive", "auto_grip": "auto-grip",
 }
 #: Config path -> the result field holding the value that actually ran (e.g. the object's
 #: mass when the config left it to the object library).
@@ -27,6 +28,7 @@ _RESULT_FIELDS = {
     "object.friction": "object_friction", "object.break_force_n": "object_break_force_n",
     "controller.kind": "controller", "estimator.name": "estimator", "estimator.mode": "mode",
     "subject.subject_id": "subject_id", "user.kind": "user", "user.feedback": "feedback",
+    "paradigm": "paradigm", "hand.drive": "drive", "auto_grip": "auto_grip",
 }
 #: Config paths that are never grouping dimensions.
 NOT_FACTORS = frozenset({"seed"})

@@ -19,6 +19,7 @@ from controllers.design import DEFAULT_SPECS
 from scenarios.outcomes import OUTCOMES
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.episode import EpisodeSpec, run_episode
+from scenarios.runners.trial_loop import DEFAULT_HAND, HandSettings
 from scenarios.schema import ORACLE, derive_seed
 from scenarios.stats import wilson_interval
 from sim.hand.objects import ObjectSpec
@@ -56,6 +57,7 @@ def compare_references(
     user: str = "reacting",
     feedback: str = "none",
     practice: int = 5,
+    hand: HandSettings = DEFAULT_HAND,
 ) -> dict[str, Any]:
     """Run one grasp per subject and estimator; summarize per estimator.
 
@@ -86,6 +88,8 @@ def compare_references(
         The user kind and feedback mode (:func:`scenarios.runners.episode.run_episode`).
     practice : int
         Practice lifts before each measured trial (0: the novice).
+    hand : HandSettings
+        The hand's drive, paradigm and own slip response.
 
     Returns
     -------
@@ -111,7 +115,7 @@ def compare_references(
                     result = run_episode(subject, obj, EpisodeSpec(
                         estimator=name, mode=mode, controller=controller, controller_spec=spec,
                         seed=episode_seed, episode_s=episode_s, user=user, feedback=feedback,
-                        practice=practice))
+                        practice=practice, hand=hand))
                 except (DivergedError, UnsupportedScenarioError) as exc:
                     rows.append({**base, "status": "failed", "error": str(exc)})
                     continue
@@ -139,6 +143,7 @@ def compare_references(
                        "break_force_n": obj.break_force_n},
             "controller": controller, "subjects": list(subject_ids), "seed": seed,
             "sessions": sessions, "user": user, "feedback": feedback, "practice": practice,
+            **hand.fields(),
             "rows": rows, "summary": summary}
 
 

@@ -78,6 +78,8 @@ LOAD_DELAY_S = 0.5
 SLIP_ONSET_M_S = 0.005
 """Slip recovery: slip speed at which the object has started to slip (a slip event), m/s."""
 FORCE_MATCH_CONTACT_N = 0.5
+TARGET_BAND = 0.1
+"""Force matching: the grip has reached its target once within this fraction of it."""
 
 
 def calibration_settings(scenario: Scenario) -> CalibrationSettings:
@@ -289,6 +291,8 @@ def run_force_matching_scenario(scenario: Scenario) -> dict[str, Any]:
         (hand grip force over the last ``hold_s``), ``abs_error_n``
         (``|mean - target|``), ``cv`` (SD over mean of the grip in that hold),
         ``user_cv`` (the same for the user's own force, mapped to the hand),
+        ``time_to_target_s`` (from the user's contraction onset to the first step where
+        the grip is within :data:`TARGET_BAND` of the target; ``None`` when it never is),
         ``user_corrections``; means over ``protocol.trials``.
     """
     p = scenario.protocol
@@ -296,9 +300,13 @@ def run_force_matching_scenario(scenario: Scenario) -> dict[str, Any]:
         setup = TaskSetup(scenario)
         goal_n = p.target_fraction * HAND_FORCE_AT_MVC_N
         on_table = force_task(goal_n, limit_s=setup.episode_s)
-        means, errors, cvs, user_cvs, corrections = [], [], [], [], 0
+        means, errors, cvs, user_cvs, reach, corrections = [], [], [], [], [], 0
         for i in range(p.trials):
             t = setup.trial(i, on_table)
+            within = np.flatnonzero(np.abs(t.traces["grip_force_n"] - goal_n)
+                                    <= TARGET_BAND * goal_n)
+            reach.append(float(t.traces["t_s"][within[0]]) - t.stream.start_s
+                         if within.size else None)
             hold = t.traces["t_s"] >= setup.episode_s - p.hold_s
             grip = t.traces["grip_force_n"][hold]
             user = t.stream.oracle_n[:t.traces["t_s"].size][hold]
@@ -316,4 +324,5 @@ def run_force_matching_scenario(scenario: Scenario) -> dict[str, Any]:
 
     return {**setup.identity(), "target_fraction": p.target_fraction, "target_n": goal_n,
             "mean_force_n": mean_of(means), "abs_error_n": mean_of(errors), "cv": mean_of(cvs),
-            "user_cv": mean_of(user_cvs), "user_corrections": corrections, **setup.timings}
+            "user_cv": mean_of(user_cvs), "time_to_target_s": mean_of(reach),
+            "user_corrections": corrections, **setup.timings}

@@ -23,12 +23,16 @@ from sim.recording import load_recording
 TO_HAND_AT_MVC_N = 30.0
 
 
-def _export(tmp_path, recording, estimator, mode, *, design=None, channels=(6, 7, 8)):
+def _export(tmp_path, recording, estimator, mode, *, design=None, channels=(6, 7, 8),
+            paradigm="force", rest=False):
     fitted = fit_calibration(recording, estimator, mode=mode, channels=list(channels), seed=0)
     window = feature_window(recording.fs_hz, recording.n_channels, fitted.channel_index)
-    ex = export_c(fitted.calibration.pipeline, estimator, mode, window, tmp_path, design=design,
-                  to_hand=TO_HAND_AT_MVC_N / fitted.calibration.mvc_cal_n,
-                  reference_max_n=1.2 * TO_HAND_AT_MVC_N)
+    cal = fitted.calibration
+    ex = export_c(cal.pipeline, estimator, mode, window, tmp_path, design=design,
+                  to_hand=TO_HAND_AT_MVC_N / cal.mvc_cal_n,
+                  reference_max_n=1.2 * TO_HAND_AT_MVC_N, paradigm=paradigm,
+                  rest_on_n=cal.rest_on_n if rest else 0.0,
+                  rest_off_n=cal.rest_off_n if rest else 0.0)
     library_path, warnings = build_export(ex)
     assert warnings == "", warnings  # the export compiles clean with -Wall -Wextra -Wpedantic
     return fitted, ex, CompiledLibrary(library_path)
@@ -112,3 +116,57 @@ def test_controller_commands_agree_on_the_hands_observations(c_compiler, session
     assert len(observations) > 300
     assert any(o.both_sides for o in observations)  # the gate handed over to force control
     assert np.max(np.abs(c_commands - commands)) <= check.COMMAND_TOLERANCE
+
+
+def _running_max_while_positive(values):
+    """force_hold from the force reference, recomputed: the largest value of each run of
+    positive values so far, 0 outside them."""
+    out, held = np.zeros_like(values), 0.0
+    for k, v in enumerate(values):
+        held = max(held, v) if v > 0 else 0.0
+        out[k] = held
+    return out
+
+
+@pytest.mark.parametrize("paradigm", ["force", "force_hold"])
+def test_the_runtimes_hand_reference_follows_python(c_compiler, sessions, tmp_path, paradigm):
+    # griploop_reference.c (rest threshold, force mapping, paradigm) on the C estimates of a
+    # whole recording, against griploop's Python parts fed the same estimates
+    fit, replay_rec = sessions
+    fitted, ex, library = _export(tmp_path, fit, "ss_kf", "free_run", paradigm=paradigm,
+                                  rest=True)
+    assert ex.facts["rest_on_n"] > 0.0 and ex.facts["paradigm"] == paradigm
+    r = _replay(library, fitted, ex, replay_rec)
+    c_ref, py_ref = check.replay_reference(library, r.estimate_c_n, ex.facts)
+    assert np.max(np.abs(c_ref - py_ref)) <= check.REFERENCE_TOLERANCE_N
+    closed = c_ref > 0
+    # the gate closes and opens again several times: both edges are exercised
+    assert closed.any() and np.count_nonzero(np.diff(closed.astype(int)) == -1) >= 2
+    force = check.python_reference(r.estimate_c_n, {**ex.facts, "paradigm": "force"})
+    if paradigm == "force":
+        assert np.array_equal(py_ref, force)
+    else:
+        np.testing.assert_allclose(c_ref, _running_max_while_positive(force), atol=1e-3)
+        assert np.all(c_ref >= force - 1e-3) and np.max(c_ref - force) > 1.0
+        # never falls while the gate stays closed; 0 at the first update it opens
+        for k in np.flatnonzero(closed[1:] & closed[:-1]) + 1:
+            assert c_ref[k] >= c_ref[k - 1]
+        assert np.all(c_ref[np.flatnonzero(~closed)] == 0.0)
+
+
+def test_a_paradigm_without_c_shaping_is_refused_before_any_file(sessions, tmp_path):
+    from controllers.paradigms import Force, register_paradigm, unregister_paradigm
+    from scenarios.deploy.writer import ParadigmNotExportableError
+
+    fit, _ = sessions
+    fitted = fit_calibration(fit, "ss_kf", mode="free_run", channels=[6, 7, 8], seed=0)
+    window = feature_window(fit.fs_hz, fit.n_channels, fitted.channel_index)
+    register_paradigm("plugin_hold", Force)
+    try:
+        with pytest.raises(ParadigmNotExportableError, match="exportable paradigms: force, "
+                           "force_hold"):
+            export_c(fitted.calibration.pipeline, "ss_kf", "free_run", window,
+                     tmp_path / "c", paradigm="plugin_hold")
+    finally:
+        unregister_paradigm("plugin_hold")
+    assert not (tmp_path / "c").exists()

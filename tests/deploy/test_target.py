@@ -5,18 +5,24 @@ from __future__ import annotations
 import pytest
 
 from scenarios.deploy.session import export_session
+from scenarios.runners.trial_loop import HandSettings
 
 pytestmark = pytest.mark.target
 
-@pytest.mark.parametrize(("estimator", "controller"), [("ss_kf", "pid"), ("mlp", "lead_lag")])
+@pytest.mark.parametrize(("estimator", "controller", "paradigm"),
+                         [("ss_kf", "pid", "force"), ("mlp", "lead_lag", "force_hold")])
 def test_the_target_replay_equals_the_host_build(arm_tools, c_compiler, sessions, tmp_path,
-                                                 estimator, controller):
+                                                 estimator, controller, paradigm):
     fit, replay = sessions
-    _, report = export_session(fit, estimator, tmp_path, channels=[6, 7, 8],
-                               controller=controller, object_name="can",
-                               check_recording=replay, target="cortex-m4")
+    export, report = export_session(fit, estimator, tmp_path, channels=[6, 7, 8],
+                                    controller=controller, object_name="can",
+                                    check_recording=replay, target="cortex-m4",
+                                    hand=HandSettings(paradigm=paradigm))
     t = report["target"]
     assert t["matches_host"], t["max_abs_difference_from_host"]
+    # features, estimate and hand reference of every window, and every command
+    windows, steps = report["check"]["windows"], report["check"]["control_steps"]
+    assert t["outputs_compared"] == windows * (export.window.n_features + 2) + steps
     assert t["outputs_compared"] > 5000
     ipu = t["instructions_per_update"]
     assert 0 < ipu["controller"] < 2000

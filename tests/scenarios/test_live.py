@@ -177,6 +177,40 @@ def test_the_live_core_fed_sample_by_sample_is_the_replay_of_its_recording(
     assert markers.count("lift") == 1
 
 
+def test_the_live_core_runs_the_hands_settings_as_the_replay_does(files, calibration,
+                                                                   offline) -> None:
+    """force_hold on the self-locking drive with auto-grip, around the MPC: live and replay
+    run the same settings and give the same trial; the settings change the trial."""
+    from scenarios.runners.trial_loop import HandSettings
+
+    hand = HandSettings("self_locking", "force_hold", True)
+    rec = load_recording(files["grasp"])
+    replay = episode_on_recording(rec, calibration, CAN, ReplaySpec(
+        controller=CONTROLLER, episode_s=SESSION_S, hand=hand))
+    arm = PitchArm(virtual_arm_poses(forearm_m=rec.metadata["forearm_m"]),
+                   OrientationChannels("pitch", (0,)), imu_fs_hz=rec.fs_hz)
+    grasp = LiveGrasp(calibration, CAN, arm=arm, controller=CONTROLLER,
+                      settings=SessionSettings(duration_s=SESSION_S, hand=hand))
+    # the MPC's own sensed slip bound and the hand's slip reflex wrapped around it
+    assert type(grasp.design.controller).__name__ == "SlipReflex"
+    grasp.start()
+    for i in range(rec.n_samples):
+        now, stamp = time.perf_counter(), np.array([i / rec.fs_hz])
+        grasp.feed_imu(rec.pitch_rad[i:i + 1, None], stamp, now)
+        grasp.feed(rec.emg[i:i + 1], stamp, now)
+        if grasp.finished:
+            break
+    report = grasp.report()
+    assert {k: report[k] for k in ("paradigm", "drive", "auto_grip")} == hand.fields()
+    for key in ("reference_n", "grip_force_n", "tracked_reference_n", "command"):
+        np.testing.assert_array_equal(grasp.traces[key], replay.traces[key], err_msg=key)
+    ref, held = np.asarray(replay.traces["reference_n"]), offline.traces["reference_n"]
+    assert not np.array_equal(ref, held)
+    # force_hold: the reference never falls while it is above 0 (the gate closed)
+    on = np.flatnonzero((ref[1:] > 0) & (ref[:-1] > 0)) + 1
+    assert on.size and np.all(ref[on] >= ref[on - 1])
+
+
 def test_a_gap_holds_the_grip_on_the_wall_clock_and_control_resumes(files, calibration,
                                                                      offline) -> None:
     """Deterministic: arrival times and the wall clock are simulated."""

@@ -386,3 +386,30 @@ def test_mpc_solver_is_selectable_and_checked():
         parse_scenario({"kind": "episode", "controller": {"kind": "mpc", "solver": "qrqp"}})
     with pytest.raises(ScenarioError, match="solver applies to"):
         parse_scenario({"kind": "episode", "controller": {"kind": "pid", "solver": "osqp"}})
+
+
+# ------------------------------------------------------------------ the hand's settings
+
+
+@pytest.mark.parametrize(("text", "line", "where", "known"), [
+    ("base:\n  paradigm: hold\n", 2, "base.paradigm", "force, force_hold"),
+    ("base:\n  hand:\n    drive: worm\n", 3, "base.hand.drive", "backdrivable, self_locking"),
+])
+def test_an_unknown_paradigm_or_drive_names_file_line_and_the_known_ones(tmp_path, text, line,
+                                                                         where, known):
+    path = write(tmp_path, text)
+    message = error_of(path)
+    assert message.startswith(f"{path}:{line}: {where}:") and known in message
+    assert "\n" not in message
+
+
+def test_the_hands_settings_stay_out_of_the_canonical_json_at_their_defaults():
+    default = Scenario()
+    same = Scenario.model_validate({"paradigm": "force", "hand": {"drive": "backdrivable"},
+                                    "auto_grip": False})
+    assert same.canonical_json() == default.canonical_json()
+    for change in ({"paradigm": "force_hold"}, {"hand": {"drive": "self_locking"}},
+                   {"auto_grip": True}):
+        moved = Scenario.model_validate(change).canonical_dict()
+        assert moved != default.canonical_dict() and set(moved) - set(
+            default.canonical_dict()) == set(change)

@@ -8,7 +8,9 @@ from pathlib import Path
 
 from controllers.design_plant import object_for
 from scenarios.cli.choices import (
+    add_hand_options,
     add_user_options,
+    check_hand_options,
     check_practice_window,
     check_user_options,
     controller_names,
@@ -17,6 +19,7 @@ from scenarios.cli.choices import (
 )
 from scenarios.cli.errors import UnknownChoiceError, UsageError
 from scenarios.runners.compare import DEFAULT_REFERENCES, compare_references, format_comparison
+from scenarios.runners.trial_loop import HandSettings
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -48,6 +51,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--practice", type=int, default=5, metavar="N",
                    help="practice lifts before each trial, 0..50 (default 5; 0 is the novice)")
     add_user_options(p)
+    add_hand_options(p, paradigm_list=True)
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="write results here")
     p.set_defaults(func=run)
 
@@ -68,16 +72,25 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--sessions: expected at least 1, found {args.sessions}")
     check_user_options(args.user, [args.feedback])
     check_practice_window(args.practice, 400.0, 125.0)
+    paradigms = [p.strip() for p in args.paradigm.split(",") if p.strip()] or ["force"]
+    check_hand_options(paradigms, args.drive)
     obj = object_for(args.object, mass_kg=args.mass_kg, friction=args.friction)
-    result = compare_references(obj, estimators=names, mode=args.mode,
-                                controller=args.controller,
-                                subject_ids=range(1, args.subjects + 1), seed=args.seed,
-                                sessions=args.sessions, user=args.user, feedback=args.feedback,
-                                practice=args.practice)
+    by_paradigm = {p: compare_references(
+        obj, estimators=names, mode=args.mode, controller=args.controller,
+        subject_ids=range(1, args.subjects + 1), seed=args.seed, sessions=args.sessions,
+        user=args.user, feedback=args.feedback, practice=args.practice,
+        hand=HandSettings(args.drive, p, args.auto_grip)) for p in paradigms}
+    result = dict(by_paradigm[paradigms[0]])
+    if len(paradigms) > 1:
+        result["by_paradigm"] = by_paradigm
     print(f"{obj.name} ({obj.mass_kg:g} kg, mu {obj.friction:g}), {args.controller}, "
           f"{args.subjects} subjects x {args.sessions} sessions (seeds from {args.seed} and the "
-          f"subject), {args.user} user, feedback {args.feedback}, practice {args.practice}")
-    print(format_comparison(result))
+          f"subject), {args.user} user, feedback {args.feedback}, practice {args.practice}, "
+          f"{args.drive} drive{', auto-grip' if args.auto_grip else ''}")
+    for paradigm, entry in by_paradigm.items():
+        if len(paradigms) > 1:
+            print(f"paradigm {paradigm}:")
+        print(format_comparison(entry))
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(result, indent=1, default=float))

@@ -11,8 +11,10 @@ import numpy as np
 
 from controllers.design import worst_case
 from scenarios.cli.choices import (
+    add_hand_options,
     add_practice_window_options,
     add_user_options,
+    check_hand_options,
     check_practice_window,
     check_user_options,
     controller_names,
@@ -26,7 +28,8 @@ from scenarios.runners.episode import PHASE_CODES, episode_from_scenario
 from scenarios.runners.video import write_video
 from scenarios.schema import parse_scenario
 
-METRIC_KEYS = ("outcome", "attempts", "time_to_lift_s", "safety_margin_pct", "user_corrections",
+METRIC_KEYS = ("outcome", "attempts", "time_to_lift_s", "safety_margin_pct", "paradigm", "drive",
+               "auto_grip", "user_corrections",
                "practice", "belief_gain", "belief_margin_pct", "tracking_rmse_n",
                "estimation_rmse_n",
                "hold_reference_n",
@@ -65,6 +68,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="how long the object is held in the air, s (default 2)")
     add_user_options(p)
     add_practice_window_options(p)
+    add_hand_options(p)
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write JSON here")
     p.add_argument("--compiled", action="store_true",
                    help="run the fitted estimator and the designed controller as C compiled on "
@@ -104,6 +108,7 @@ def scenario_from_args(args: argparse.Namespace) -> Any:
                       "step_ms": args.step_ms},
         "controller": {"kind": args.controller},
         "user": {"kind": args.user, "feedback": args.feedback, "practice": args.practice},
+        "hand": {"drive": args.drive}, "paradigm": args.paradigm, "auto_grip": args.auto_grip,
     }, source="options")
 
 
@@ -113,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--video: expected a .gif file, found {args.video.name!r}")
     check_user_options(args.user, [args.feedback])
     check_practice_window(args.practice, args.window_ms, args.step_ms)
+    check_hand_options([args.paradigm], args.drive)
     if (args.recording is None) != (args.calibration is None):
         raise UsageError("--recording and --calibration go together; found only "
                          + ("--recording" if args.calibration is None else "--calibration"))
@@ -132,7 +138,8 @@ def run(args: argparse.Namespace) -> int:
     print(format_table(args.controller, analyses, worst_case(analyses) if analyses else None))
     print(f"episode: {args.estimator} ({args.mode}) -> {args.controller} on {row['object_name']} "
           f"({row['object_mass_kg']:g} kg, mu {row['object_friction']:g}), {args.user} user, "
-          f"feedback {args.feedback}, practice {row['practice']}")
+          f"feedback {args.feedback}, practice {row['practice']}; paradigm {row['paradigm']}, "
+          f"{row['drive']} drive, auto-grip {'on' if row['auto_grip'] else 'off'}")
     for key in METRIC_KEYS:
         value = row[key]
         text = f"{value:.4g}" if isinstance(value, float) else str(value)
@@ -173,6 +180,7 @@ def _run_recorded(args: argparse.Namespace) -> int:
     from scenarios.live.arm import ArmPoses
     from scenarios.live.errors import ArmPosesError
     from scenarios.live.recorded import ReplaySpec, episode_on_recording, fit_calibration
+    from scenarios.runners.trial_loop import HandSettings
     from sim.hand.objects import make_object
     from sim.recording import load_recording
 
@@ -192,7 +200,8 @@ def _run_recorded(args: argparse.Namespace) -> int:
     obj = make_object(args.object, **overrides)
     spec = ReplaySpec(controller=args.controller,
                       episode_s=6.0 if args.episode_s is None else args.episode_s,
-                      hold_s=args.hold_s, seed=args.seed)
+                      hold_s=args.hold_s, seed=args.seed,
+                      hand=HandSettings(args.drive, args.paradigm, args.auto_grip))
     result = episode_on_recording(recording, cal, obj, spec, poses=poses,
                                   record_frames=args.video is not None)
     m = result.metrics
@@ -207,7 +216,7 @@ def _run_recorded(args: argparse.Namespace) -> int:
         print(f"  {key:<30} {text}")
     if args.json is not None:
         out = {"recording": str(args.recording), "calibration": cal.summary(),
-               "controller": args.controller,
+               "controller": args.controller, **spec.hand.fields(),
                "arm": "pitch" if recording.pitch_rad is not None else "scripted",
                "object": {"name": obj.name, "mass_kg": obj.mass_kg, "friction": obj.friction},
                "metrics": m,

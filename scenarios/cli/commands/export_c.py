@@ -6,7 +6,13 @@ import argparse
 import json
 from pathlib import Path
 
-from scenarios.cli.choices import controller_names, object_names, one_of
+from scenarios.cli.choices import (
+    add_hand_options,
+    check_hand_options,
+    controller_names,
+    object_names,
+    one_of,
+)
 from scenarios.cli.errors import UsageError
 from scenarios.cli.recording_options import add_recording_options, load_with_options
 
@@ -44,6 +50,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="compile on the host and replay this recording through C and Python")
     p.add_argument("--target", default=None, metavar="TARGET",
                    help="with --check: also run the replay on an emulated " + one_of(TARGETS))
+    add_hand_options(p)
     p.add_argument("--seed", type=int, default=0, help="seed of the fit and the hand (default 0)")
     p.add_argument("--json", default=None, type=Path, metavar="FILE", help="also write JSON here")
     p.set_defaults(func=run)
@@ -54,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
     from estimation.reproduce import parse_channels
     from scenarios.cli.choices import check_choice
     from scenarios.deploy.session import export_session
+    from scenarios.runners.trial_loop import HandSettings
 
     if (args.controller is None) != (args.object is None):
         raise UsageError("--controller and --object go together; found only "
@@ -61,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
     if args.controller is not None:
         check_choice("--controller", args.controller, controller_names())
         check_choice("--object", args.object, object_names())
+    check_hand_options([args.paradigm], args.drive)
     if args.target is not None:
         check_choice("--target", args.target, TARGETS)
         if args.check is None:
@@ -74,7 +83,8 @@ def run(args: argparse.Namespace) -> int:
     export, report = export_session(calibration, args.estimator, args.out, channels=channels,
                                     mode=args.mode, controller=args.controller,
                                     object_name=args.object, check_recording=check,
-                                    target=args.target, seed=args.seed)
+                                    target=args.target, seed=args.seed,
+                                    hand=HandSettings(args.drive, args.paradigm, args.auto_grip))
     print(f"export-c: {len(export.files)} files in {args.out}")
     for name, part in report["models"].items():
         if part is not None:
@@ -86,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"check: {c['samples']} samples, {c['windows']} windows, {c['control_steps']} "
               f"control steps; max |C - Python|: features {err['features']:.3g} "
               f"({c['features_max_ulps']:.2g} float32 ulp), estimate {err['estimate_n']:.3g} N, "
-              f"command {command}")
+              f"reference ({args.paradigm}) {err['reference_n']:.3g} N, command {command}")
     if "target" in report:
         t = report["target"]
         ipu = t["instructions_per_update"]

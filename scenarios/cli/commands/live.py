@@ -9,7 +9,13 @@ import math
 from pathlib import Path
 from typing import Any
 
-from scenarios.cli.choices import controller_names, object_names, one_of
+from scenarios.cli.choices import (
+    add_hand_options,
+    check_hand_options,
+    controller_names,
+    object_names,
+    one_of,
+)
 from scenarios.cli.errors import UsageError
 from scenarios.cli.lsl_options import add_stream_options, resolve_pinned, stream_query
 from scenarios.cli.recording_options import add_recording_options, load_with_options
@@ -51,6 +57,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="the forearm's pitch at rest (hand at the object) and raised as for a "
                    "lift, degrees (default: the calibration recording's arm_poses, which "
                    "griploop calibrate records with an IMU stream)")
+    add_hand_options(p)
     p.add_argument("--calibration", required=True, metavar="CAL",
                    help="calibration recording of the same person and armband (.npz or .csv, "
                    "with force): griploop calibrate --lsl writes one")
@@ -100,6 +107,7 @@ def _check(args: argparse.Namespace) -> None:
     check_choice("--estimator", args.estimator, _free_run_estimators())
     check_choice("--controller", args.controller, controller_names())
     check_choice("--object", args.object, object_names())
+    check_hand_options([args.paradigm], args.drive)
     for flag, value in (("--duration-s", args.duration_s), ("--timeout-s", args.timeout_s),
                         ("--resolve-timeout-s", args.resolve_timeout_s)):
         if not (math.isfinite(value) and value > 0):
@@ -195,8 +203,11 @@ def run(args: argparse.Namespace) -> int:
     if video is None and not args.no_video and not viewer_wanted:
         video = (args.json.with_suffix(".gif") if args.json is not None
                  else Path("griploop-live.gif"))
+    from scenarios.runners.trial_loop import HandSettings
+
     settings = SessionSettings(duration_s=args.duration_s, timeout_s=args.timeout_s,
-                               frame_dt_s=FRAME_DT_S if video is not None else None)
+                               frame_dt_s=FRAME_DT_S if video is not None else None,
+                               hand=HandSettings(args.drive, args.paradigm, args.auto_grip))
     wanted = [(query, "lsl", "stream")]
     if args.imu_lsl is not None:
         wanted.append((stream_query(args, "imu"), "imu", "IMU stream"))
@@ -241,7 +252,9 @@ def run(args: argparse.Namespace) -> int:
         video = Path("griploop-live.gif")
         grasp.keep_frames(FRAME_DT_S)
     print(f"live: {args.estimator} (free_run, calibration R2 {cal.calibration.r2:.3f}) -> "
-          f"{args.controller} on {obj.name} ({obj.mass_kg:g} kg, mu {obj.friction:g}); "
+          f"{args.controller} on {obj.name} ({obj.mass_kg:g} kg, mu {obj.friction:g}), "
+          f"paradigm {args.paradigm}, {args.drive} drive"
+          f"{', auto-grip' if args.auto_grip else ''}; "
           f"stream {lsl.describe(info)} from {lsl.source_of(info)}; "
           f"{arm_text}; outlets {', '.join(outlets.names)}", flush=True)
     try:

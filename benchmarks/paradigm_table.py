@@ -1,0 +1,274 @@
+"""The paradigm table of issue 35: force and force_hold, on both drives, with and without auto_grip.
+
+Every row runs the same practised virtual users on the same seeds (paired): the benchmarks
+of ``griploop`` as their library files set them (``scenarios/library/*.yaml``), with the
+hand's ``paradigm``, ``hand.drive`` and ``auto_grip`` of the row, for each estimator
+(``ss_kf``, ``mlp``, ``latent_kf``; free run, PID) and each feedback (vision only,
+``slip_vibration``). Columns:
+
+- **rigid**: grasp-lift-hold episodes of rigid everyday objects drawn at random per
+  subject (a can of 0.2-1.0 kg, friction 0.3-1.0, three times in four; the aluminium block
+  once in four; ``benchmarks/closed_loop_verdicts.py``'s draw), 15 s trials: held (Wilson
+  95 %), time to a secure lift (median), attempts (mean), safety margin (median);
+- **slip**: slip recovery under a load rising at 1 N/s (3 slips per subject), at the
+  paper's 400/125 ms window and at 200/50 ms: recovered / slipped (Wilson 95 %);
+- **force**: force matching at 20/40/60 % of the hand force at MVC on the block: absolute
+  error and time to reach the target (within 10 %), means with Student-t 95 %;
+- **transfers**: 60 s of timed transfers of the 50 mm block: blocks per minute (mean,
+  Student-t 95 %) and blocks put down but not released;
+- **eggs**: the Virtual Eggs Test's 11 eggs, one transfer each: success (Wilson 95 %),
+  overall and for eggs breaking at 2-4 N.
+
+Run::
+
+    .venv/bin/python benchmarks/paradigm_table.py [--subjects 10] [--workers 2]
+        [--out paradigm_table.jsonl] [--summary paradigm_table.json]
+
+Results are appended to ``--out`` one job per line as they finish, so an interrupted run
+resumes where it stopped; ``--summary`` writes the table's figures. ``--markdown`` prints
+the table as in docs/results/person-in-the-loop.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from multiprocessing import get_context
+from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+ROWS = [(p, d, g) for p in ("force", "force_hold") for d in ("backdrivable", "self_locking")
+        for g in (False, True)]
+ESTIMATORS = ("ss_kf", "mlp", "latent_kf")
+FEEDBACK = ("none", "slip_vibration")
+WINDOWS = ((400.0, 125.0), (200.0, 50.0))
+SEED = 35
+
+
+def _library(kind: str) -> dict:
+    from importlib.resources import files
+
+    import yaml
+
+    return yaml.safe_load((files("scenarios") / "library" / f"{kind}.yaml").read_text())["base"]
+
+
+def _draws(subjects: int) -> list[tuple[int, dict, int]]:
+    """Two rigid objects per subject and a seed for each (closed_loop_verdicts' draw)."""
+    rng = np.random.default_rng(SEED)
+    out = []
+    for subject in range(1, subjects + 1):
+        for _ in range(2):
+            if rng.random() < 0.25:
+                obj = {"name": "block"}
+            else:
+                obj = {"name": "can", "mass_kg": round(float(rng.uniform(0.2, 1.0)), 2),
+                       "friction": round(float(rng.uniform(0.3, 1.0)), 2)}
+            out.append((subject, obj, int(rng.integers(2**31))))
+    return out
+
+
+def jobs(subjects: int) -> list[dict]:
+    """Every scenario of the table, as ``{"id": ..., "scenario": {...}}``."""
+    from scenarios.schema import derive_seed
+
+    out = []
+    draws = _draws(subjects)
+    for estimator in ESTIMATORS:
+        for feedback in FEEDBACK:
+            for paradigm, drive, auto_grip in ROWS:
+                row = {"estimator": {"name": estimator, "mode": "free_run"},
+                       "controller": {"kind": "pid"}, "paradigm": paradigm,
+                       "hand": {"drive": drive}, "auto_grip": auto_grip,
+                       "user": {"kind": "reacting", "feedback": feedback, "practice": 5}}
+                key = f"{paradigm}|{drive}|{int(auto_grip)}|{estimator}|{feedback}"
+                for subject, obj, seed in draws:
+                    out.append({"id": f"rigid|{key}|{subject}|{seed}", "scenario": {
+                        "kind": "episode", "seed": seed, "object": obj,
+                        "subject": {"subject_id": subject}, **row}})
+                for subject in range(1, subjects + 1):
+                    seed = derive_seed(SEED, f"subject {subject}", 0)
+                    subj = {"subject_id": subject}
+                    for window, step in WINDOWS:
+                        base = _library("slip_recovery")
+                        out.append({"id": f"slip|{key}|{subject}|{window:g}", "scenario": {
+                            **base, "seed": seed, "subject": subj, **row,
+                            "estimator": {**row["estimator"], "window_ms": window,
+                                          "step_ms": step}}})
+                    for target in (0.2, 0.4, 0.6):
+                        base = _library("force_matching")
+                        out.append({"id": f"force|{key}|{subject}|{target:g}", "scenario": {
+                            **base, "seed": seed, "subject": subj, **row,
+                            "protocol": {**base["protocol"], "target_fraction": target}}})
+                    base = _library("transfers")
+                    out.append({"id": f"transfers|{key}|{subject}", "scenario": {
+                        **base, "seed": seed, "subject": subj, **row}})
+                    base = _library("eggs")
+                    for egg in (0.4, 0.56, 0.78, 1.1, 1.53, 2.14, 3.0, 4.2, 5.87, 8.22, 11.5):
+                        out.append({"id": f"eggs|{key}|{subject}|{egg:g}", "scenario": {
+                            **base, "seed": seed, "subject": subj, **row,
+                            "protocol": {**base["protocol"], "trials": 1},
+                            "object": {**base["object"], "break_force_n": egg}}})
+    return out
+
+
+def _run(job: dict) -> dict:
+    from scenarios.runners.dispatch import run_scenario
+    from scenarios.schema import parse_scenario
+
+    t0 = time.perf_counter()
+    try:
+        row = run_scenario(parse_scenario(job["scenario"], source=job["id"]))
+    except Exception as exc:  # a failed scenario is counted, never dropped
+        return {"id": job["id"], "error": f"{type(exc).__name__}: {exc}"}
+    keep = {k: v for k, v in row.items() if k != "traces" and not k.startswith("t_")}
+    return {"id": job["id"], "row": keep, "wall_s": time.perf_counter() - t0}
+
+
+def summarize(results: list[dict]) -> dict:
+    """The table's figures per row (paradigm, drive, auto_grip) over estimators and feedback."""
+    from scenarios.stats import mean_interval, wilson_interval
+
+    def ci(values: list) -> dict:
+        m, lo, hi = mean_interval([v for v in values if v is not None])
+        return {"mean": None if np.isnan(m) else m,
+                "ci95": None if np.isnan(lo) else [lo, hi], "n": len(values)}
+
+    def rate(k: int, n: int) -> dict:
+        return {"rate": k / n if n else None, "ci95": list(wilson_interval(k, n)) if n else None,
+                "k": k, "n": n}
+
+    table: dict = {}
+    for paradigm, drive, auto_grip in ROWS:
+        for feedback in (*FEEDBACK, "all"):
+            key = f"{paradigm}|{drive}|{int(auto_grip)}"
+            mine = [r for r in results if "row" in r and r["id"].split("|")[1:4]
+                    == key.split("|") and (feedback == "all" or r["id"].split("|")[5]
+                                           == feedback)]
+            failed = sum(1 for r in results if "error" in r and r["id"].split("|")[1:4]
+                         == key.split("|") and (feedback == "all" or r["id"].split("|")[5]
+                                                == feedback))
+
+            def of(kind: str, mine: list = mine) -> list[dict]:
+                return [r["row"] for r in mine if r["id"].startswith(kind + "|")]
+
+            rigid = of("rigid")
+            held = sum(r["outcome"] == "held" for r in rigid)
+            slip = {}
+            for window, _ in WINDOWS:
+                rows = [r["row"] for r in mine if r["id"].startswith("slip|")
+                        and r["id"].endswith(f"|{window:g}")]
+                slip[f"{window:g}"] = rate(sum(r["recovered"] for r in rows),
+                                           sum(r["n"] for r in rows))
+            force = of("force")
+            transfers = of("transfers")
+            eggs = of("eggs")
+            mid = [r for r in eggs if 2.0 <= r["break_force_n"] <= 4.0]
+            table[f"{key}|{feedback}"] = {
+                "paradigm": paradigm, "drive": drive, "auto_grip": auto_grip,
+                "feedback": feedback, "failed": failed,
+                "rigid_held": rate(held, len(rigid)),
+                "time_to_lift_s": _median([r["time_to_lift_s"] for r in rigid]),
+                "attempts": ci([r["attempts"] for r in rigid])["mean"],
+                "margin_pct": _median([r["safety_margin_pct"] for r in rigid]),
+                "slip_recovered": slip,
+                "force_abs_error_n": ci([r["abs_error_n"] for r in force]),
+                "time_to_target_s": ci([r.get("time_to_target_s") for r in force]),
+                "transfers_per_min": ci([r["blocks_per_min"] for r in transfers]),
+                "not_released": int(sum(r["not_released"] for r in transfers)),
+                "transfers_started": int(sum(r["transfers"] for r in transfers)),
+                "eggs_success": rate(sum(r["success"] for r in eggs),
+                                     sum(r["transfers"] for r in eggs)),
+                "eggs_success_2_4_n": rate(sum(r["success"] for r in mid),
+                                           sum(r["transfers"] for r in mid)),
+            }
+    return table
+
+
+def _median(values: list) -> float | None:
+    kept = [v for v in values if v is not None]
+    return float(np.median(kept)) if kept else None
+
+
+def markdown(table: dict, feedback: str = "all") -> str:
+    """The table's rows for one feedback (``all``: both pooled)."""
+    def pct(r: dict) -> str:
+        if not r or r["rate"] is None:
+            return "-"
+        return f"{100 * r['rate']:.0f} ({100 * r['ci95'][0]:.0f}-{100 * r['ci95'][1]:.0f})"
+
+    def mean(r: dict, spec: str = ".2f") -> str:
+        if r["mean"] is None:
+            return "-"
+        ci = r["ci95"]
+        return format(r["mean"], spec) + ("" if ci is None else
+                                          f" ({format(ci[0], spec)}-{format(ci[1], spec)})")
+
+    lines = ["| paradigm | drive | auto-grip | rigid held % | lift s | attempts | margin % | "
+             "slip 400/125 % | slip 200/50 % | force error N | to target s | transfers/min | "
+             "not released | eggs % | eggs 2-4 N % |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for entry in table.values():
+        if entry["feedback"] != feedback:
+            continue
+        lines.append(
+            f"| {entry['paradigm']} | {entry['drive']} | {'on' if entry['auto_grip'] else 'off'}"
+            f" | {pct(entry['rigid_held'])} | {_fmt(entry['time_to_lift_s'])} | "
+            f"{_fmt(entry['attempts'])} | {_fmt(entry['margin_pct'], '.0f')} | "
+            f"{pct(entry['slip_recovered']['400'])} | {pct(entry['slip_recovered']['200'])} | "
+            f"{mean(entry['force_abs_error_n'])} | {mean(entry['time_to_target_s'])} | "
+            f"{mean(entry['transfers_per_min'], '.1f')} | {entry['not_released']} of "
+            f"{entry['transfers_started']} | {pct(entry['eggs_success'])} | "
+            f"{pct(entry['eggs_success_2_4_n'])} |")
+    return "\n".join(lines)
+
+
+def _fmt(value: float | None, spec: str = ".2f") -> str:
+    return "-" if value is None else format(value, spec)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--subjects", type=int, default=10)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--out", type=Path, default=Path("paradigm_table.jsonl"))
+    parser.add_argument("--summary", type=Path, default=None)
+    parser.add_argument("--markdown", action="store_true")
+    args = parser.parse_args(argv)
+    todo = jobs(args.subjects)
+    done = {}
+    if args.out.exists():
+        for line in args.out.read_text().splitlines():
+            if line.strip():
+                r = json.loads(line)
+                done[r["id"]] = r
+    pending = [j for j in todo if j["id"] not in done]
+    print(f"{len(todo)} scenarios, {len(done)} done, {len(pending)} to run", flush=True)
+    t0 = time.perf_counter()
+    with get_context("fork").Pool(args.workers, maxtasksperchild=200) as pool, \
+            args.out.open("a") as fh:
+        for i, result in enumerate(pool.imap(_run, pending, chunksize=1), 1):
+            fh.write(json.dumps(result, default=float) + "\n")
+            fh.flush()
+            done[result["id"]] = result
+            if i % 200 == 0 or i == len(pending):
+                print(f"{i} of {len(pending)} in {time.perf_counter() - t0:.0f} s", flush=True)
+    results = [done[j["id"]] for j in todo if j["id"] in done]
+    table = summarize(results)
+    if args.summary is not None:
+        args.summary.write_text(json.dumps(table, indent=1, default=float))
+    if args.markdown:
+        for feedback in (*FEEDBACK, "all"):
+            print(f"\nfeedback: {feedback}\n")
+            print(markdown(table, feedback))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
