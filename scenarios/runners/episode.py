@@ -99,7 +99,7 @@ from sim.user.subjects import VirtualSubject
 
 __all__ = ["EpisodeResult", "EpisodeSpec", "HAND_FORCE_AT_MVC_N", "controller_spec",
            "episode_from_scenario", "episode_spec", "run_episode", "run_episode_scenario",
-           "scenario_object", "seed_sequences"]
+           "hand_settings", "scenario_object", "seed_sequences"]
 
 
 # ------------------------------------------------------------------------ episode

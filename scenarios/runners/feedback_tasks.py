@@ -37,7 +37,7 @@ the trials share; the timed transfers are :mod:`scenarios.runners.transfers`.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -236,6 +236,20 @@ class _RisingLoad:
                                              or t_s >= self.onset_s + RECOVERY_WINDOW_S)
 
 
+def slip_trials(setup: TaskSetup, scenario: Scenario) -> Iterator[tuple[Any, _RisingLoad]]:
+    """The slip-recovery trials of ``scenario``, each with its load, as they end.
+
+    Yields ``(trial, load)`` for each of ``protocol.trials`` rising loads on the held
+    object (:func:`run_slip_recovery_scenario` counts them; an analysis reads their
+    traces: ``load.onset_s`` is the slip onset, ``None`` when it never slipped).
+    """
+    p = scenario.protocol
+    task = setup.grasp_task(hold_s=p.hold_s, place=False)  # held to the end
+    for i in range(p.trials):
+        load = _RisingLoad(task.lift_height_m, p.load_rate_n_s)
+        yield setup.trial(i, task, TrialHooks(load=load, until=load.done)), load
+
+
 def run_slip_recovery_scenario(scenario: Scenario) -> dict[str, Any]:
     """Runner of kind ``slip_recovery``: ``protocol.trials`` rising loads (module notes).
 
@@ -253,13 +267,10 @@ def run_slip_recovery_scenario(scenario: Scenario) -> dict[str, Any]:
     p = scenario.protocol
     with one_blas_thread():
         setup = TaskSetup(scenario)
-        task = setup.grasp_task(hold_s=p.hold_s, place=False)  # held to the end
         n = recovered = not_lifted = no_slip = corrections = 0
         slip_loads: list[float] = []
         reactions: list[float] = []
-        for i in range(p.trials):
-            load = _RisingLoad(task.lift_height_m, p.load_rate_n_s)
-            t = setup.trial(i, task, TrialHooks(load=load, until=load.done))
+        for t, load in slip_trials(setup, scenario):
             corrections += setup.operator.corrections
             if not load.started:
                 not_lifted += 1

@@ -68,7 +68,7 @@ class TrialSetup:
         The feature window and its increment, ms (the calibration's).
     hand : HandSettings
         The hand's drive, paradigm and slip response (the design carries the slip
-        response already: :meth:`HandSettings.controller_spec`).
+        response already: :meth:`~scenarios.runners.trial_loop.HandSettings.controller_spec`).
     """
 
     subject: VirtualSubject

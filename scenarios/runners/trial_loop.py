@@ -268,7 +268,7 @@ class TrialLoop:
         The recorder keeps the controller's observations and commands.
     hand : HandSettings
         The hand's drive and paradigm (its slip response is in ``design``:
-        :meth:`HandSettings.controller_spec`).
+        :meth:`~scenarios.runners.trial_loop.HandSettings.controller_spec`).
 
     Attributes
     ----------

@@ -132,6 +132,17 @@ def _one_error_line(capsys) -> str:
     return err[0]
 
 
+def _feed_sample_by_sample(grasp: LiveGrasp, rec) -> None:
+    """Start ``grasp`` and feed it each orientation sample, then each sEMG sample, of ``rec``."""
+    grasp.start()
+    for i in range(rec.n_samples):
+        now, stamp = time.perf_counter(), np.array([i / rec.fs_hz])
+        grasp.feed_imu(rec.pitch_rad[i:i + 1, None], stamp, now)
+        grasp.feed(rec.emg[i:i + 1], stamp, now)
+        if grasp.finished:
+            break
+
+
 # ----------------------------------------------------------------------------- the core
 def test_the_live_core_fed_sample_by_sample_is_the_replay_of_its_recording(
         files, calibration, offline) -> None:
@@ -146,13 +157,7 @@ def test_the_live_core_fed_sample_by_sample_is_the_replay_of_its_recording(
                    OrientationChannels("pitch", (0,)), imu_fs_hz=rec.fs_hz)
     grasp = LiveGrasp(calibration, CAN, arm=arm, controller=CONTROLLER,
                       settings=SessionSettings(duration_s=SESSION_S, frame_dt_s=0.04))
-    grasp.start()
-    for i in range(rec.n_samples):
-        now, stamp = time.perf_counter(), np.array([i / rec.fs_hz])
-        grasp.feed_imu(rec.pitch_rad[i:i + 1, None], stamp, now)
-        grasp.feed(rec.emg[i:i + 1], stamp, now)
-        if grasp.finished:
-            break
+    _feed_sample_by_sample(grasp, rec)
     report = grasp.report()
     assert len(grasp.frames) == SESSION_S / 0.04
     for key in ("reference_n", "grip_force_n", "tracked_reference_n", "object_height_m",
@@ -193,13 +198,7 @@ def test_the_live_core_runs_the_hands_settings_as_the_replay_does(files, calibra
                       settings=SessionSettings(duration_s=SESSION_S, hand=hand))
     # the MPC's own sensed slip bound and the hand's slip reflex wrapped around it
     assert type(grasp.design.controller).__name__ == "SlipReflex"
-    grasp.start()
-    for i in range(rec.n_samples):
-        now, stamp = time.perf_counter(), np.array([i / rec.fs_hz])
-        grasp.feed_imu(rec.pitch_rad[i:i + 1, None], stamp, now)
-        grasp.feed(rec.emg[i:i + 1], stamp, now)
-        if grasp.finished:
-            break
+    _feed_sample_by_sample(grasp, rec)
     report = grasp.report()
     assert {k: report[k] for k in ("paradigm", "drive", "auto_grip")} == hand.fields()
     for key in ("reference_n", "grip_force_n", "tracked_reference_n", "command"):
