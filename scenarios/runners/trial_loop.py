@@ -114,12 +114,13 @@ class GivenReference:
 
 def given_reference_trial(obj: ObjectSpec, design: Any, reference_n: np.ndarray, *,
                           control_dt_s: float, lift_at_s: float = math.inf,
-                          seed: int = 0) -> TrialLoop:
-    """Run a trial of :class:`GivenReference` over ``reference_n`` (its length sets the limit);
-    the finished :class:`TrialLoop` (its ``traces()``, ``info``, ``failure``)."""
+                          seed: int = 0, hand: HandSettings | None = None) -> TrialLoop:
+    """Run a trial of :class:`GivenReference` over ``reference_n`` (its length sets the limit)
+    on ``hand`` (default today's: :data:`DEFAULT_HAND`); the finished :class:`TrialLoop`
+    (its ``traces()``, ``info``, ``failure``)."""
     loop = TrialLoop(obj, design, GivenReference(reference_n, lift_at_s=lift_at_s),
                      limit_s=len(reference_n) * control_dt_s, control_dt_s=control_dt_s,
-                     lift_height_m=LIFT_HEIGHT_M, seed=seed)
+                     lift_height_m=LIFT_HEIGHT_M, seed=seed, hand=hand or DEFAULT_HAND)
     loop.run()
     return loop
 

@@ -28,8 +28,10 @@ fitted to any outcome.
 
 **What the simulation does with it** (:class:`sim.hand.grasp_env.GraspEnv`). The digits
 move only where the motor drives them: while the command closes, they may close but not
-open (the object cannot push them open); while it opens, they may open but not close;
-with no command they are locked where they stand, and the grip stays. Each digit's
+open (the object cannot push them open); while it opens, they may open but not close,
+and no faster than the motor turns the worm at that command's no-load speed (the
+object's push does not drive a worm either way); with no command they are locked where
+they stand, and the grip stays. Each digit's
 joint carries a one-sided stop that follows it (a ratchet, updated at every control
 step from its position then) with the stiffness of a gear tooth contact
 (:attr:`DriveSpec.holding_solref`). The motor is sized for the same rated grip and

@@ -34,7 +34,7 @@ from gymnasium import spaces
 from sim.hand.contact import ContactReading, OutcomeTracker, read_contacts
 from sim.hand.drive import DriveSpec, make_drive, motor_for
 from sim.hand.errors import GraspFailedError, HandSpecError
-from sim.hand.model import HandIds, MotorSpec, PadSpec, build_model
+from sim.hand.model import DRIVE_COEF, HandIds, MotorSpec, PadSpec, build_model
 from sim.hand.objects import ObjectSpec, as_object_spec
 from sim.hand.wrist import CommandedWrist, WristSchedule, min_jerk
 from sim.references import Reference, StreamReference, as_reference
@@ -199,6 +199,10 @@ class GraspEnv(gym.Env):
         self._digit_qpos = [int(self.model.jnt_qposadr[j]) for j in self._digits]
         self._digit_range = [tuple(self.model.jnt_range[j].tolist()) for j in self._digits]
         self._locking = self.drive.self_locking
+        # a self-locking drive opens the digits no faster than the motor turns the worm:
+        # the coupled digit angle's no-load speed per unit of command, times the period
+        self._opening_per_command = (self.motor.output_no_load_speed_rad_s
+                                     / sum(DRIVE_COEF.values()) * self.control_dt_s)
         if self._locking:
             for j in self._digits:
                 self.model.jnt_solref[j] = self.drive.holding_solref
@@ -364,8 +368,11 @@ class GraspEnv(gym.Env):
         """A self-locking drive: each digit may move only where the motor drives it.
 
         Closing: the digit's opening stop follows it up (the object cannot push it
-        open); opening: its closing stop follows it down; no command: both stops where
-        it stands (:mod:`sim.hand.drive`). Updated once per control step.
+        open); opening: its closing stop follows it down, and its opening stop is where
+        the motor turning the worm at the command's no-load speed takes it in one period
+        (the object's push cannot open it faster: the load does not drive a worm); no
+        command: both stops where it stands (:mod:`sim.hand.drive`). Updated once per
+        control step.
         """
         m, q = self.model, self.data.qpos
         held = self._held
@@ -378,7 +385,11 @@ class GraspEnv(gym.Env):
             if u > 0.0:
                 stop[0], stop[1] = max(stop[0], now), hi0
             elif u < 0.0:
-                stop[0], stop[1] = lo0, min(stop[1], now)
+                # from the stop the digit rests on (not the position it sank to under the
+                # stop's compliance, which would add up over the steps)
+                at = max(min(now, stop[1]), stop[0])
+                stop[0] = max(lo0, at + u * self._opening_per_command)
+                stop[1] = min(stop[1], now)
             else:
                 stop[0], stop[1] = max(stop[0], min(now, stop[1])), min(stop[1], max(now,
                                                                                  stop[0]))

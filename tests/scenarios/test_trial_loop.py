@@ -87,3 +87,31 @@ def test_the_recorder_keeps_what_the_controller_saw_and_computed() -> None:
                                   np.float32(rec.computed[:-1]).astype(float))
     assert rec.observations[-1].reference_n == 5.0
     assert traces["wrist_height_m"][-1] == pytest.approx(LIFT_HEIGHT_M)
+
+
+def test_force_hold_on_the_self_locking_hand_keeps_the_grip_through_a_dip_of_the_estimate():
+    """A reference with a dip below the can's slip force while it is held, then rest:
+    under force on the backdrivable hand the grip follows the dip; under force_hold on the
+    self-locking hand the reference and the grip stay, and the hand opens at rest."""
+    from scenarios.runners.trial_loop import HandSettings
+
+    t = np.arange(0.0, 5.5, DT)
+    ref = np.interp(t, [0.2, 0.7, 3.0, 3.05, 3.8, 3.85, 4.5, 4.55],
+                    [0.0, 8.0, 8.0, 2.0, 2.0, 8.0, 8.0, 0.0])
+    design = grasp_design(CAN, "pid", DT, None)
+    runs = {hand: given_reference_trial(CAN, design, ref, control_dt_s=DT, lift_at_s=1.2,
+                                        hand=HandSettings(*hand)).traces()
+            for hand in (("backdrivable", "force"), ("self_locking", "force_hold"))}
+    held = runs["self_locking", "force_hold"]
+    # the reference the loop tracked: the largest since it rose above 0, 0 at rest
+    expected = np.where(ref > 0, np.maximum.accumulate(np.where(ref > 0, ref, 0.0)), 0.0)
+    n = held["reference_n"].size
+    np.testing.assert_allclose(held["reference_n"], expected[:n], atol=1e-12)
+    dip = (t[:n] >= 3.2) & (t[:n] <= 3.8)
+    before = float(np.median(held["grip_force_n"][(t[:n] >= 2.5) & (t[:n] < 3.0)]))
+    assert np.all(held["grip_force_n"][dip] >= 0.95 * before)
+    assert held["object_height_m"][dip].min() > 0.5 * LIFT_HEIGHT_M  # still held
+    assert held["grip_force_n"][-1] < 0.5  # opened at rest
+    follows = runs["backdrivable", "force"]
+    m = follows["grip_force_n"].size
+    assert np.median(follows["grip_force_n"][dip[:m]]) < 0.5 * before  # the grip dipped

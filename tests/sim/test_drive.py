@@ -110,3 +110,25 @@ def test_closing_does_not_reopen_when_the_command_falls() -> None:
     _run(back, 0.6, 1.5)
     strong_back = back.last_info["grip_force_n"]
     assert _run(back, 0.1, 1.0)[-1, 2] < 0.5 * strong_back  # the backdrivable grip follows
+
+
+def test_a_small_opening_command_opens_no_faster_than_the_motor_turns_the_worm() -> None:
+    """The object's push does not drive a worm: under an opening command the digits open
+    at most at the motor's no-load speed for that command (the coupled digit angle moves
+    1/2 of the tendon's 5.9 rad/s at full command), while the backdrivable hand's digits
+    are pushed open by the squeezed pads."""
+    from sim.hand.model import DRIVE_COEF
+
+    command, seconds = -0.05, 0.3
+    speed = MotorSpec().output_no_load_speed_rad_s / sum(DRIVE_COEF.values())
+    opened = {}
+    for drive in ("self_locking", "backdrivable"):
+        env = _env(drive)
+        _run(env, 0.3, 2.0)
+        _run(env, 0.0 if drive == "self_locking" else 0.3, 0.5)
+        before = env.last_info["finger_position_rad"]
+        run = _run(env, command, seconds)
+        opened[drive] = before - run[:, 1].min()
+        assert opened[drive] >= 0.0
+    assert opened["self_locking"] <= abs(command) * speed * seconds + 1e-3
+    assert opened["backdrivable"] > 1.2 * opened["self_locking"]
