@@ -10,10 +10,14 @@ hand's ``paradigm``, ``hand.drive`` and ``auto_grip`` of the row, for each estim
   subject (a can of 0.2-1.0 kg, friction 0.3-1.0, three times in four; the aluminium block
   once in four; ``benchmarks/closed_loop_verdicts.py``'s draw), 15 s trials: held (Wilson
   95 %), time to a secure lift (median), attempts (mean), safety margin (median);
-- **slip**: slip recovery under a load rising at 1 N/s (3 slips per subject), at the
-  paper's 400/125 ms window and at 200/50 ms: recovered / slipped (Wilson 95 %);
+- **slip**: slip recovery under a load rising at 1 N/s (3 loads per subject), at the
+  paper's 400/125 ms window and at 200/50 ms: recovered / slipped (Wilson 95 %), and,
+  since a hand that grips harder slips less often and later, **kept**: the lifted cans
+  still in the hand at the end (recovered, or never slipped) over the lifted, and the
+  mean load at the slip onset;
 - **force**: force matching at 20/40/60 % of the hand force at MVC on the block: absolute
-  error and time to reach the target (within 10 %), means with Student-t 95 %;
+  error, the hand's CV and time to reach the target (within 10 %), means with
+  Student-t 95 %;
 - **transfers**: 60 s of timed transfers of the 50 mm block: blocks per minute (mean,
   Student-t 95 %) and blocks put down but not released;
 - **eggs**: the Virtual Eggs Test's 11 eggs, one transfer each: success (Wilson 95 %),
@@ -160,12 +164,15 @@ def summarize(results: list[dict]) -> dict:
 
             rigid = of("rigid")
             held = sum(r["outcome"] == "held" for r in rigid)
-            slip = {}
+            slip, kept, slip_load = {}, {}, {}
             for window, _ in WINDOWS:
                 rows = [r["row"] for r in mine if r["id"].startswith("slip|")
                         and r["id"].endswith(f"|{window:g}")]
                 slip[f"{window:g}"] = rate(sum(r["recovered"] for r in rows),
                                            sum(r["n"] for r in rows))
+                kept[f"{window:g}"] = rate(sum(r["recovered"] + r["no_slip"] for r in rows),
+                                           sum(r["n"] + r["no_slip"] for r in rows))
+                slip_load[f"{window:g}"] = ci([r["slip_load_n"] for r in rows])["mean"]
             force = of("force")
             transfers = of("transfers")
             eggs = of("eggs")
@@ -174,11 +181,17 @@ def summarize(results: list[dict]) -> dict:
                 "paradigm": paradigm, "drive": drive, "auto_grip": auto_grip,
                 "feedback": feedback, "failed": failed,
                 "rigid_held": rate(held, len(rigid)),
+                "rigid_held_by_estimator": {
+                    e: rate(sum(r["outcome"] == "held" for r in rs), len(rs))
+                    for e in ESTIMATORS
+                    for rs in [[r["row"] for r in mine if r["id"].startswith("rigid|")
+                                and r["id"].split("|")[4] == e]]},
                 "time_to_lift_s": _median([r["time_to_lift_s"] for r in rigid]),
                 "attempts": ci([r["attempts"] for r in rigid])["mean"],
                 "margin_pct": _median([r["safety_margin_pct"] for r in rigid]),
-                "slip_recovered": slip,
+                "slip_recovered": slip, "slip_kept": kept, "slip_load_n": slip_load,
                 "force_abs_error_n": ci([r["abs_error_n"] for r in force]),
+                "force_cv": ci([r["cv"] for r in force]),
                 "time_to_target_s": ci([r.get("time_to_target_s") for r in force]),
                 "transfers_per_min": ci([r["blocks_per_min"] for r in transfers]),
                 "not_released": int(sum(r["not_released"] for r in transfers)),
@@ -211,9 +224,10 @@ def markdown(table: dict, feedback: str = "all") -> str:
                                           f" ({format(ci[0], spec)}-{format(ci[1], spec)})")
 
     lines = ["| paradigm | drive | auto-grip | rigid held % | lift s | attempts | margin % | "
-             "slip 400/125 % | slip 200/50 % | force error N | to target s | transfers/min | "
-             "not released | eggs % | eggs 2-4 N % |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "slip recovered 400/125 % | kept 400/125 % | slip recovered 200/50 % | "
+             "kept 200/50 % | force error N | hand CV % | to target s | transfers/min | "
+             "not released | eggs % | eggs 2-4 N % | failed |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for entry in table.values():
         if entry["feedback"] != feedback:
             continue
@@ -221,12 +235,39 @@ def markdown(table: dict, feedback: str = "all") -> str:
             f"| {entry['paradigm']} | {entry['drive']} | {'on' if entry['auto_grip'] else 'off'}"
             f" | {pct(entry['rigid_held'])} | {_fmt(entry['time_to_lift_s'])} | "
             f"{_fmt(entry['attempts'])} | {_fmt(entry['margin_pct'], '.0f')} | "
-            f"{pct(entry['slip_recovered']['400'])} | {pct(entry['slip_recovered']['200'])} | "
-            f"{mean(entry['force_abs_error_n'])} | {mean(entry['time_to_target_s'])} | "
+            f"{pct(entry['slip_recovered']['400'])} | {pct(entry['slip_kept']['400'])} | "
+            f"{pct(entry['slip_recovered']['200'])} | {pct(entry['slip_kept']['200'])} | "
+            f"{mean(entry['force_abs_error_n'])} | {mean(_pct_of(entry['force_cv']), '.1f')} | "
+            f"{mean(entry['time_to_target_s'])} | "
             f"{mean(entry['transfers_per_min'], '.1f')} | {entry['not_released']} of "
             f"{entry['transfers_started']} | {pct(entry['eggs_success'])} | "
-            f"{pct(entry['eggs_success_2_4_n'])} |")
+            f"{pct(entry['eggs_success_2_4_n'])} | {entry['failed']} |")
     return "\n".join(lines)
+
+
+def markdown_rigid(table: dict, feedback: str = "all") -> str:
+    """Rigid objects held, per estimator, for one feedback."""
+    def pct(r: dict) -> str:
+        if not r or r["rate"] is None:
+            return "-"
+        return (f"{100 * r['rate']:.0f} ({100 * r['ci95'][0]:.0f}-{100 * r['ci95'][1]:.0f}; "
+                f"{r['k']} of {r['n']})")
+
+    lines = ["| paradigm | drive | auto-grip | " + " | ".join(ESTIMATORS) + " |",
+             "|---|---|---|" + "---|" * len(ESTIMATORS)]
+    for entry in table.values():
+        if entry["feedback"] == feedback:
+            by = entry["rigid_held_by_estimator"]
+            lines.append(f"| {entry['paradigm']} | {entry['drive']} | "
+                         f"{'on' if entry['auto_grip'] else 'off'} | "
+                         + " | ".join(pct(by[e]) for e in ESTIMATORS) + " |")
+    return "\n".join(lines)
+
+
+def _pct_of(r: dict) -> dict:
+    """A mean-and-interval of fractions, in percent."""
+    return {"mean": None if r["mean"] is None else 100 * r["mean"],
+            "ci95": None if r["ci95"] is None else [100 * v for v in r["ci95"]], "n": r["n"]}
 
 
 def _fmt(value: float | None, spec: str = ".2f") -> str:
@@ -240,6 +281,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("paradigm_table.jsonl"))
     parser.add_argument("--summary", type=Path, default=None)
     parser.add_argument("--markdown", action="store_true")
+    parser.add_argument("--summarize-only", action="store_true",
+                        help="summarize --out as it is, running nothing")
     args = parser.parse_args(argv)
     todo = jobs(args.subjects)
     done = {}
@@ -248,7 +291,7 @@ def main(argv: list[str] | None = None) -> int:
             if line.strip():
                 r = json.loads(line)
                 done[r["id"]] = r
-    pending = [j for j in todo if j["id"] not in done]
+    pending = [] if args.summarize_only else [j for j in todo if j["id"] not in done]
     print(f"{len(todo)} scenarios, {len(done)} done, {len(pending)} to run", flush=True)
     t0 = time.perf_counter()
     with get_context("fork").Pool(args.workers, maxtasksperchild=200) as pool, \
@@ -267,6 +310,8 @@ def main(argv: list[str] | None = None) -> int:
         for feedback in (*FEEDBACK, "all"):
             print(f"\nfeedback: {feedback}\n")
             print(markdown(table, feedback))
+        print("\nrigid objects held, per estimator (both feedbacks):\n")
+        print(markdown_rigid(table))
     return 0
 
 

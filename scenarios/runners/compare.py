@@ -123,28 +123,31 @@ def compare_references(
                 rows.append({**base, "status": "ok", "error": None,
                              **{k: row[k] for k in COLUMNS},
                              **{o: row["outcome"] == o for o in OUTCOMES}})
-    summary = {}
-    for name in estimators:
-        ok = [r for r in rows if r["estimator"] == name and r["status"] == "ok"]
-        entry: dict[str, Any] = {"mode": "oracle" if name == ORACLE else mode,
-                                 "n_ok": len(ok), "n_failed": sum(
-                                     r["estimator"] == name and r["status"] == "failed"
-                                     for r in rows)}
-        for col in (*COLUMNS, *OUTCOMES):
-            values = [float(r[col]) for r in ok if r[col] is not None]
-            entry[col] = float(np.mean(values)) if values else None
-        entry["held_ci95"] = list(wilson_interval(sum(r["held"] for r in ok), len(ok)))
-        by_subject = [np.mean([r["held"] for r in ok if r["subject_id"] == sid])
-                      for sid in subject_ids if any(r["subject_id"] == sid for r in ok)]
-        entry["held_by_subject"] = ([float(min(by_subject)), float(max(by_subject))]
-                                    if by_subject else None)
-        summary[name] = entry
+    summary = {name: _summarize(rows, name, mode, subject_ids) for name in estimators}
     return {"object": {"name": obj.name, "mass_kg": obj.mass_kg, "friction": obj.friction,
                        "break_force_n": obj.break_force_n},
             "controller": controller, "subjects": list(subject_ids), "seed": seed,
             "sessions": sessions, "user": user, "feedback": feedback, "practice": practice,
-            **hand.fields(),
-            "rows": rows, "summary": summary}
+            **hand.fields(), "rows": rows, "summary": summary}
+
+
+def _summarize(rows: list[dict[str, Any]], name: str, mode: str,
+               subject_ids: Sequence[int]) -> dict[str, Any]:
+    """One estimator's entry of :func:`compare_references`'s ``summary``."""
+    ok = [r for r in rows if r["estimator"] == name and r["status"] == "ok"]
+    entry: dict[str, Any] = {"mode": "oracle" if name == ORACLE else mode,
+                             "n_ok": len(ok), "n_failed": sum(
+                                 r["estimator"] == name and r["status"] == "failed"
+                                 for r in rows)}
+    for col in (*COLUMNS, *OUTCOMES):
+        values = [float(r[col]) for r in ok if r[col] is not None]
+        entry[col] = float(np.mean(values)) if values else None
+    entry["held_ci95"] = list(wilson_interval(sum(r["held"] for r in ok), len(ok)))
+    by_subject = [np.mean([r["held"] for r in ok if r["subject_id"] == sid])
+                  for sid in subject_ids if any(r["subject_id"] == sid for r in ok)]
+    entry["held_by_subject"] = ([float(min(by_subject)), float(max(by_subject))]
+                                if by_subject else None)
+    return entry
 
 
 def format_comparison(result: dict[str, Any]) -> str:

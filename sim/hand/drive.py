@@ -45,9 +45,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Any
 
 from sim.errors import GriploopError
-from sim.hand.model import MotorSpec
+from sim.hand.model import DRIVE_COEF, MotorSpec
 from sim.registry import Registry
 
 
@@ -162,6 +163,75 @@ def motor_for(drive: DriveSpec, motor: MotorSpec) -> MotorSpec:
         return motor
     return replace(motor, efficiency=motor.efficiency * eta,
                    stall_torque_nm=motor.stall_torque_nm / eta)
+
+
+class DigitLock:
+    """A self-locking drive on a built hand: each digit moves only where the motor drives it.
+
+    Each digit's joint range is a pair of stops moved once per control step
+    (:meth:`step`). Closing: the opening stop follows the digit up (the object cannot
+    push it open); opening: the closing stop follows it down, and the opening stop is
+    where the motor turning the worm at the command's no-load speed takes it in one
+    period (the object's push cannot open it faster: the load does not drive a worm); no
+    command: both stops where it stands. The stops have the drive's holding stiffness.
+
+    Parameters
+    ----------
+    model, data : mujoco.MjModel, mujoco.MjData
+        The hand (``model``'s joint ranges and limit parameters are changed).
+    drive : DriveSpec
+        A self-locking drive.
+    motor : MotorSpec
+        The motor as sized for it (:func:`motor_for`).
+    control_dt_s : float
+        Control period, s.
+    joints : sequence of str
+        The digits' joints.
+    """
+
+    def __init__(self, model: Any, data: Any, drive: DriveSpec, motor: MotorSpec,
+                 control_dt_s: float, joints: tuple[str, ...] = ("index", "middle", "thumb"),
+                 ) -> None:
+        self.data = data
+        self.joints = [model.joint(n).id for n in joints]
+        self.qpos_adr = [int(model.jnt_qposadr[j]) for j in self.joints]
+        self.ranges = [tuple(model.jnt_range[j].tolist()) for j in self.joints]
+        self._jnt_range = model.jnt_range  # a view, fetched once
+        # the coupled digit angle's no-load speed per unit of command, times the period
+        self.opening_per_command = (motor.output_no_load_speed_rad_s
+                                    / sum(DRIVE_COEF.values()) * control_dt_s)
+        for j in self.joints:
+            model.jnt_solref[j] = drive.holding_solref
+            model.jnt_solimp[j, :3] = drive.holding_solimp
+        self._held: list[list[float]] | None = None
+
+    def reset(self) -> None:
+        """The digits free within their joint ranges (an episode's start)."""
+        for j, rng in zip(self.joints, self.ranges, strict=True):
+            self._jnt_range[j] = rng
+        self._held = None
+
+    def step(self, u: float) -> None:
+        """Move the stops for a control period at command ``u`` (-1..1)."""
+        q, ranges = self.data.qpos, self._jnt_range
+        held = self._held
+        if held is None:
+            held = self._held = [[lo, hi] for lo, hi in self.ranges]
+        for stop, j, adr, (lo0, hi0) in zip(held, self.joints, self.qpos_adr, self.ranges,
+                                            strict=True):
+            now = q.item(adr)
+            if u > 0.0:
+                stop[0], stop[1] = max(stop[0], now), hi0
+            elif u < 0.0:
+                # from the stop the digit rests on (not the position it sank to under the
+                # stop's compliance, which would add up over the steps)
+                at = max(min(now, stop[1]), stop[0])
+                stop[0] = max(lo0, at + u * self.opening_per_command)
+                stop[1] = min(stop[1], now)
+            else:
+                stop[0], stop[1] = (max(stop[0], min(now, stop[1])),
+                                    min(stop[1], max(now, stop[0])))
+            ranges[j] = stop
 
 
 register_drive(BACKDRIVABLE)

@@ -32,9 +32,9 @@ import numpy as np
 from gymnasium import spaces
 
 from sim.hand.contact import ContactReading, OutcomeTracker, read_contacts
-from sim.hand.drive import DriveSpec, make_drive, motor_for
+from sim.hand.drive import DigitLock, DriveSpec, make_drive, motor_for
 from sim.hand.errors import GraspFailedError, HandSpecError
-from sim.hand.model import DRIVE_COEF, HandIds, MotorSpec, PadSpec, build_model
+from sim.hand.model import HandIds, MotorSpec, PadSpec, build_model
 from sim.hand.objects import ObjectSpec, as_object_spec
 from sim.hand.wrist import CommandedWrist, WristSchedule, min_jerk
 from sim.references import Reference, StreamReference, as_reference
@@ -194,19 +194,9 @@ class GraspEnv(gym.Env):
                                    * self.motor.torque_constant_nm_a)
         self._windows: tuple[tuple[float, float], ...] = ()
         self._windows_key: tuple[WristSchedule, float] | None = None
-        # the digits' joints: a self-locking drive holds each with a stop that follows it
-        self._digits = [self.model.joint(n).id for n in ("index", "middle", "thumb")]
-        self._digit_qpos = [int(self.model.jnt_qposadr[j]) for j in self._digits]
-        self._digit_range = [tuple(self.model.jnt_range[j].tolist()) for j in self._digits]
-        self._locking = self.drive.self_locking
-        # a self-locking drive opens the digits no faster than the motor turns the worm:
-        # the coupled digit angle's no-load speed per unit of command, times the period
-        self._opening_per_command = (self.motor.output_no_load_speed_rad_s
-                                     / sum(DRIVE_COEF.values()) * self.control_dt_s)
-        if self._locking:
-            for j in self._digits:
-                self.model.jnt_solref[j] = self.drive.holding_solref
-                self.model.jnt_solimp[j, :3] = self.drive.holding_solimp
+        # a self-locking drive holds each digit with stops that follow it
+        self._lock = (DigitLock(self.model, self.data, self.drive, self.motor,
+                                self.control_dt_s) if self.drive.self_locking else None)
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
@@ -290,9 +280,8 @@ class GraspEnv(gym.Env):
         self._lift_start_s: float | None = None
         if self.commanded is not None:
             self.commanded.reset()
-        for j, (lo, hi) in zip(self._digits, self._digit_range, strict=True):
-            m.jnt_range[j, 0], m.jnt_range[j, 1] = lo, hi
-        self._held: list[list[float]] | None = None
+        if self._lock is not None:
+            self._lock.reset()
         self._clipped = 0
         self._warn_view = d.warning.number  # a view on mjData, updated in place
         self._warnings = self._warn_view.tolist()
@@ -323,8 +312,8 @@ class GraspEnv(gym.Env):
             u = 0.0 if u != u else (1.0 if u > 1.0 else -1.0)
         ctrl = self._ctrl
         ctrl[self._i_motor] = u
-        if self._locking:
-            self._hold_digits(u)
+        if self._lock is not None:
+            self._lock.step(u)
         t = d.time
         commanded = self.commanded
         if commanded is not None:
@@ -363,37 +352,6 @@ class GraspEnv(gym.Env):
         truncated = self._step_count >= self.max_steps or failure is not None
         obs, info = self._observe_info(ref, terms, failure)
         return obs, float(reward), bool(terminated), bool(truncated), info
-
-    def _hold_digits(self, u: float) -> None:
-        """A self-locking drive: each digit may move only where the motor drives it.
-
-        Closing: the digit's opening stop follows it up (the object cannot push it
-        open); opening: its closing stop follows it down, and its opening stop is where
-        the motor turning the worm at the command's no-load speed takes it in one period
-        (the object's push cannot open it faster: the load does not drive a worm); no
-        command: both stops where it stands (:mod:`sim.hand.drive`). Updated once per
-        control step.
-        """
-        m, q = self.model, self.data.qpos
-        held = self._held
-        if held is None:
-            held = self._held = [[lo, hi] for lo, hi in self._digit_range]
-        for i, j in enumerate(self._digits):
-            now = q.item(self._digit_qpos[i])
-            lo0, hi0 = self._digit_range[i]
-            stop = held[i]
-            if u > 0.0:
-                stop[0], stop[1] = max(stop[0], now), hi0
-            elif u < 0.0:
-                # from the stop the digit rests on (not the position it sank to under the
-                # stop's compliance, which would add up over the steps)
-                at = max(min(now, stop[1]), stop[0])
-                stop[0] = max(lo0, at + u * self._opening_per_command)
-                stop[1] = min(stop[1], now)
-            else:
-                stop[0], stop[1] = max(stop[0], min(now, stop[1])), min(stop[1], max(now,
-                                                                                 stop[0]))
-            m.jnt_range[j, 0], m.jnt_range[j, 1] = stop[0], stop[1]
 
     def _step_scheduled(self, t: float) -> None:
         """Physics of one control period with the wrist on its schedule."""

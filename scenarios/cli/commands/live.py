@@ -174,11 +174,8 @@ def _open_imu(args: argparse.Namespace, info: Any, cal_recording: Any,
 
 def run(args: argparse.Namespace) -> int:
     """Run ``griploop live``; returns the exit status."""
-    import sys
-
     from estimation.reproduce import parse_channels
     from scenarios.live import lsl
-    from scenarios.live.arm import KeyArm, LineKeys
     from scenarios.live.display import FRAME_DT_S, Viewer, has_display, render_states
     from scenarios.live.inlets import run_session
     from scenarios.live.recorded import fit_calibration
@@ -215,19 +212,7 @@ def run(args: argparse.Namespace) -> int:
     lsl.check_stream(info, n_channels=cal.n_channels, fs_hz=cal.fs_hz,
                      source=cal_recording.source)
     imu_info = rest[0] if rest else None
-    imu_inlet = None
-    if imu_info is not None:
-        imu_inlet, arm = _open_imu(args, imu_info, cal_recording, lsl)
-        arm_text = (f"the wrist follows the forearm's pitch on {lsl.describe(imu_info)} "
-                    f"({arm.channels.kind} {', '.join(arm.channels.labels)}; rest "
-                    f"{math.degrees(arm.poses.rest_pitch_rad):.1f} deg, raised "
-                    f"{math.degrees(arm.poses.raised_pitch_rad):.1f} deg = "
-                    f"{100 * arm.poses.lift_height_m:g} cm)")
-    else:
-        keys = LineKeys(sys.stdin)
-        arm = KeyArm(keys.presses, closed=lambda: keys.closed)
-        arm_text = ("no --imu-lsl: press Enter to lift the wrist, Enter again to put it down"
-                    + ("" if sys.stdin.isatty() else " (each line read from stdin)"))
+    imu_inlet, arm, arm_text = _arm(args, imu_info, cal_recording, lsl)
     outlets = lsl.SessionOutlets(1.0 / settings.control_dt_s, prefix=args.outlet_prefix,
                                  feedback=None if args.feedback == "none" else args.feedback)
     grasp: LiveGrasp | None = None
@@ -275,6 +260,27 @@ def run(args: argparse.Namespace) -> int:
         raise DivergedError(f"physics diverged at t = {report['session_s']:.3f} s: "
                             f"{grasp.failure}")
     return 0
+
+
+def _arm(args: argparse.Namespace, imu_info: Any, cal_recording: Any,
+         lsl: Any) -> tuple[Any, Any, str]:
+    """The IMU inlet (or ``None``), the arm that moves the wrist, and how, for the banner."""
+    import sys
+
+    from scenarios.live.arm import KeyArm, LineKeys
+
+    if imu_info is not None:
+        imu_inlet, arm = _open_imu(args, imu_info, cal_recording, lsl)
+        return imu_inlet, arm, (
+            f"the wrist follows the forearm's pitch on {lsl.describe(imu_info)} "
+            f"({arm.channels.kind} {', '.join(arm.channels.labels)}; rest "
+            f"{math.degrees(arm.poses.rest_pitch_rad):.1f} deg, raised "
+            f"{math.degrees(arm.poses.raised_pitch_rad):.1f} deg = "
+            f"{100 * arm.poses.lift_height_m:g} cm)")
+    keys = LineKeys(sys.stdin)
+    arm = KeyArm(keys.presses, closed=lambda: keys.closed)
+    return None, arm, ("no --imu-lsl: press Enter to lift the wrist, Enter again to put it "
+                       "down" + ("" if sys.stdin.isatty() else " (each line read from stdin)"))
 
 
 def _finish(args: argparse.Namespace, grasp: Any, info: Any, imu_info: Any, cal: Any, obj: Any,
