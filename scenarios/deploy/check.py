@@ -19,7 +19,7 @@ within 1e-3 (N, command units).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -39,6 +39,7 @@ from scenarios.deploy.library import (
 from scenarios.live.arm import LIFT_HEIGHT_M
 from scenarios.live.recorded import RecordedPerson, ReplaySpec, check_layout
 from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
+from scenarios.runners.semg_reference import HandReference
 from scenarios.runners.trial_loop import DEFAULT_HAND, HandSettings, TrialLoop
 from sim.c_source import ExportError
 from sim.hand.objects import ObjectSpec
@@ -134,23 +135,22 @@ def replay_estimator(library: CompiledLibrary, recording: Recording, pipeline: A
                           fs.t_s)
 
 
-def python_reference(estimates_n: np.ndarray, facts: Mapping[str, Any]) -> np.ndarray:
+def python_reference(estimates_n: np.ndarray, reference: HandReference) -> np.ndarray:
     """The hand reference griploop's Python parts make of a sequence of estimates, N.
 
-    The rest gate (``rest_on_n``, ``rest_off_n``), the force mapping (``to_hand``,
-    clipped to ``0 .. reference_max_n``; a NaN estimate holds the reference) and the
-    ``paradigm``, as a trial applies them (:mod:`scenarios.runners.semg_reference`,
-    :class:`~scenarios.runners.trial_loop.TrialLoop`); ``facts`` as
-    :attr:`scenarios.deploy.writer.CExport.facts`.
+    The rest gate, the force mapping (clipped to ``0 .. reference_max_n``; a NaN
+    estimate holds the reference) and the paradigm of ``reference``, as a trial applies
+    them (:mod:`scenarios.runners.semg_reference`,
+    :class:`~scenarios.runners.trial_loop.TrialLoop`).
 
     Returns
     -------
     ndarray, shape (n,)
     """
-    gate = RestGate(facts["rest_on_n"], facts["rest_off_n"])
-    paradigm = make_paradigm(facts.get("paradigm", "force"))
-    to_hand = 1.0 if facts.get("to_hand") is None else float(facts["to_hand"])
-    ceiling = np.inf if facts.get("reference_max_n") is None else float(facts["reference_max_n"])
+    gate = RestGate(reference.rest_on_n, reference.rest_off_n)
+    paradigm = make_paradigm(reference.paradigm)
+    to_hand = 1.0 if reference.to_hand is None else float(reference.to_hand)
+    ceiling = np.inf if reference.reference_max_n is None else float(reference.reference_max_n)
     held, out = 0.0, []
     for estimate in np.asarray(estimates_n, dtype=float):
         value = gate.step(float(estimate)) * to_hand
@@ -161,7 +161,7 @@ def python_reference(estimates_n: np.ndarray, facts: Mapping[str, Any]) -> np.nd
 
 
 def replay_reference(library: CompiledLibrary, estimates_n: np.ndarray,
-                     facts: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+                     reference: HandReference) -> tuple[np.ndarray, np.ndarray]:
     """The C runtime's and the Python hand reference for the same estimates, N.
 
     Returns
@@ -169,7 +169,7 @@ def replay_reference(library: CompiledLibrary, estimates_n: np.ndarray,
     c_n, python_n : ndarray, shape (n,)
     """
     c = CompiledReference(library)
-    return c.run(estimates_n), python_reference(estimates_n, facts)
+    return c.run(estimates_n), python_reference(estimates_n, reference)
 
 
 def hand_observations(design: Any, obj: ObjectSpec, recording: Recording, fitted: Any, *,

@@ -23,6 +23,7 @@ from estimation.features import PAPER_CHANNELS
 from scenarios.deploy.build import build_export
 from scenarios.deploy.library import CompiledController, CompiledLibrary, CompiledStream
 from scenarios.deploy.writer import export_c
+from scenarios.runners.semg_reference import HandReference
 from sim.c_source import ExportError
 
 #: The armband of the virtual subjects: 8 channels at 200 Hz.
@@ -98,10 +99,8 @@ def compiled_pair(calibration: Any, design: Any, *, hand_force_at_mvc_n: float,
     with tempfile.TemporaryDirectory(prefix="griploop-compiled-") as tmp:
         out = Path(build_dir) if build_dir is not None else Path(tmp)
         export = export_c(calibration.pipeline, calibration.name, calibration.mode, window, out,
-                          design=design,
-                          to_hand=hand_force_at_mvc_n / calibration.mvc_cal_n,
-                          reference_max_n=1.2 * hand_force_at_mvc_n,
-                          rest_on_n=calibration.rest_on_n, rest_off_n=calibration.rest_off_n)
+                          design=design, reference=HandReference.of_calibration(
+                              calibration, hand_force_at_mvc_n))
         library = CompiledLibrary(build_export(export)[0])  # loaded: the files may go
     pipeline = CompiledPipeline(library, calibration.pipeline,
                                 uses_force=bool(export.estimator.summary["uses_force"]),

@@ -23,6 +23,7 @@ from scenarios.deploy.build import build_export
 from scenarios.deploy.library import CompiledLibrary
 from scenarios.deploy.writer import CExport, export_c
 from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
+from scenarios.runners.semg_reference import HandReference
 from scenarios.runners.trial_loop import DEFAULT_HAND, HandSettings
 from sim.recording import Recording
 
@@ -89,11 +90,9 @@ def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
         obj = make_object(object_name)
         design = grasp_design(obj, controller, control_dt_s, hand.controller_spec(None))
     window = feature_window(calibration.fs_hz, calibration.n_channels, fitted.channel_index)
-    to_hand = HAND_FORCE_AT_MVC_N / cal.mvc_cal_n
     export = export_c(cal.pipeline, estimator, mode, window, out_dir, design=design,
-                      to_hand=to_hand, reference_max_n=1.2 * HAND_FORCE_AT_MVC_N,
-                      rest_on_n=cal.rest_on_n, rest_off_n=cal.rest_off_n,
-                      paradigm=hand.paradigm)
+                      reference=HandReference.of_calibration(cal, HAND_FORCE_AT_MVC_N,
+                                                             hand.paradigm))
     report: dict[str, Any] = {"files": [str(p) for p in export.files],
                               "models": export.summary(), "hand": hand.fields()}
     if check_recording is None:
@@ -104,7 +103,7 @@ def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
                                     step_ms=window.step_ms,
                                     uses_force=bool(export.estimator.summary["uses_force"]))
     c_reference, py_reference = check.replay_reference(library, replay.estimate_c_n,
-                                                       export.facts)
+                                                       export.reference)
     command_error = c_commands = None
     observations: list = []
     if design is not None:

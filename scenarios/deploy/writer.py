@@ -9,12 +9,12 @@ kind, non-finite coefficients, an unstable state matrix) leaves the folder untou
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 from estimation.export_c import FeatureWindow, export_estimator, export_features
+from scenarios.runners.semg_reference import HandReference
 from sim.c_source import TYPES_HEADER, CModel, ExportError, render, types_header
 
 #: Paradigms (:mod:`controllers.paradigms`) the runtime shapes the reference by.
@@ -58,6 +58,10 @@ class CExport:
     window : FeatureWindow
     mode : str
         The estimator's mode.
+    reference : HandReference
+        How ``griploop_reference.c`` makes the hand reference of an estimate.
+    facts : dict
+        What the templates state: rates, window sizes and ``reference``'s fields.
     """
 
     out_dir: Path
@@ -67,6 +71,7 @@ class CExport:
     controller: CModel | None
     window: FeatureWindow
     mode: str
+    reference: HandReference = field(default_factory=HandReference)
     facts: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -88,9 +93,8 @@ class CExport:
 
 
 def export_c(pipeline: Any, estimator: str, mode: str, window: FeatureWindow,
-             out_dir: Path, *, design: Any = None, to_hand: float | None = None,
-             reference_max_n: float | None = None, rest_on_n: float = 0.0,
-             rest_off_n: float = 0.0, paradigm: str = "force") -> CExport:
+             out_dir: Path, *, design: Any = None,
+             reference: HandReference | None = None) -> CExport:
     """Write the C files of a fitted estimator (and a designed controller) to ``out_dir``.
 
     Parameters
@@ -106,16 +110,12 @@ def export_c(pipeline: Any, estimator: str, mode: str, window: FeatureWindow,
         Created if missing; existing ``griploop_*`` files are replaced.
     design : controllers.design.ControllerDesign, optional
         A design whose runtime controller is exported too.
-    to_hand, reference_max_n : float, optional
-        The episode's force mapping (hand N per estimated N) and reference ceiling, N,
-        stated in ``griploop.h`` for the developer.
-    rest_on_n, rest_off_n : float
-        The hand's rest threshold on the estimate, N (:mod:`estimation.rest_gate`, the
-        calibration's ``rest_on_n`` and ``rest_off_n``; 0: none), applied by
-        ``griploop_reference.c`` before the mapping.
-    paradigm : str
-        How the reference follows the estimate (:data:`EXPORTABLE_PARADIGMS`), shaped by
-        ``griploop_reference.c`` as :mod:`controllers.paradigms` shapes it.
+    reference : HandReference, optional
+        How the estimate becomes the hand reference, shaped by ``griploop_reference.c``
+        as a trial shapes it
+        (:meth:`~scenarios.runners.semg_reference.HandReference.of_calibration`): the
+        rest threshold, the force mapping and ceiling (stated in ``griploop.h``), the paradigm
+        (:data:`EXPORTABLE_PARADIGMS`). Default: none of them.
 
     Returns
     -------
@@ -130,7 +130,12 @@ def export_c(pipeline: Any, estimator: str, mode: str, window: FeatureWindow,
     ParadigmNotExportableError, controllers.paradigms.UnknownParadigmError
         A paradigm without C shaping (before any file is written).
     """
-    check_paradigm_exportable(paradigm)
+    reference = HandReference() if reference is None else reference
+    check_paradigm_exportable(reference.paradigm)
+    try:
+        reference.check()
+    except ValueError as exc:
+        raise ExportError(str(exc)) from None
     win, step = window.samples
     period = step / window.fs_hz
     fitted_dt = getattr(pipeline.estimator_, "dt_s", None)
@@ -149,14 +154,8 @@ def export_c(pipeline: Any, estimator: str, mode: str, window: FeatureWindow,
     texts: dict[str, str] = {TYPES_HEADER: types_header(digests=[m.digest for m in models])}
     for m in models:
         texts.update(m.files)
-    if not (math.isfinite(rest_on_n) and math.isfinite(rest_off_n)
-            and 0.0 <= rest_off_n <= rest_on_n):
-        raise ExportError(f"rest threshold: expected 0 <= off <= on (finite, N), found on "
-                          f"{rest_on_n!r}, off {rest_off_n!r}")
     facts = {"fs_hz": window.fs_hz, "window_samples": win, "step_samples": step,
-             "period_s": period, "to_hand": to_hand, "reference_max_n": reference_max_n,
-             "rest_on_n": float(rest_on_n), "rest_off_n": float(rest_off_n),
-             "paradigm": paradigm}
+             "period_s": period, **asdict(reference)}
     for name in ("griploop.h", "griploop_reference.c", "griploop_runtime.c"):
         texts[name] = render("scenarios.deploy", name + ".j2", features=features, estimator=est,
                              controller=controller, mode=mode, **facts)
@@ -167,4 +166,4 @@ def export_c(pipeline: Any, estimator: str, mode: str, window: FeatureWindow,
         path = out_dir / name
         path.write_text(text, encoding="utf-8")
         files.append(path)
-    return CExport(out_dir, files, features, est, controller, window, mode, facts)
+    return CExport(out_dir, files, features, est, controller, window, mode, reference, facts)

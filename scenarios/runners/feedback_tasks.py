@@ -191,7 +191,7 @@ def run_eggs_scenario(scenario: Scenario) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------- slip recovery
-class _RisingLoad:
+class RisingLoad:
     """The slip-recovery disturbance: a load that rises until the object slips, then stays.
 
     It starts :data:`LOAD_DELAY_S` after the wrist has reached the top of the lift with
@@ -236,7 +236,7 @@ class _RisingLoad:
                                              or t_s >= self.onset_s + RECOVERY_WINDOW_S)
 
 
-def slip_trials(setup: TaskSetup, scenario: Scenario) -> Iterator[tuple[Any, _RisingLoad]]:
+def slip_trials(setup: TaskSetup, scenario: Scenario) -> Iterator[tuple[Any, RisingLoad]]:
     """The slip-recovery trials of ``scenario``, each with its load, as they end.
 
     Yields ``(trial, load)`` for each of ``protocol.trials`` rising loads on the held
@@ -246,7 +246,7 @@ def slip_trials(setup: TaskSetup, scenario: Scenario) -> Iterator[tuple[Any, _Ri
     p = scenario.protocol
     task = setup.grasp_task(hold_s=p.hold_s, place=False)  # held to the end
     for i in range(p.trials):
-        load = _RisingLoad(task.lift_height_m, p.load_rate_n_s)
+        load = RisingLoad(task.lift_height_m, p.load_rate_n_s)
         yield setup.trial(i, task, TrialHooks(load=load, until=load.done)), load
 
 

@@ -16,8 +16,10 @@ through the same mapping.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -31,6 +33,47 @@ STEP_MS = 125.0
 """The paper's window increment, ms (the default of ``estimator.step_ms``)."""
 CEILING = 1.2
 """References are clipped to this many times the hand force at the user's MVC."""
+
+@dataclass(frozen=True)
+class HandReference:
+    """How an estimate becomes the hand's reference: rest gate, force mapping, paradigm.
+
+    Attributes
+    ----------
+    to_hand : float or None
+        Hand newtons per estimated user newton (``None``: 1).
+    reference_max_n : float or None
+        The reference's ceiling, N (``None``: none).
+    rest_on_n, rest_off_n : float
+        The rest gate's edges on the estimate, N (:mod:`estimation.rest_gate`; 0: none).
+    paradigm : str
+        How the reference follows the gated, mapped estimate (:mod:`controllers.paradigms`).
+    """
+
+    to_hand: float | None = None
+    reference_max_n: float | None = None
+    rest_on_n: float = 0.0
+    rest_off_n: float = 0.0
+    paradigm: str = "force"
+
+    @classmethod
+    def of_calibration(cls, calibration: Any, hand_force_at_mvc_n: float,
+                       paradigm: str = "force") -> HandReference:
+        """The chain every trial runs for ``calibration`` (its ``mvc_cal_n`` and rest
+        thresholds), mapped so its strongest squeeze asks ``hand_force_at_mvc_n``."""
+        return cls(hand_force_at_mvc_n / calibration.mvc_cal_n,
+                   CEILING * hand_force_at_mvc_n, calibration.rest_on_n,
+                   calibration.rest_off_n, paradigm)
+
+    def check(self) -> HandReference:
+        """``self``; ValueError naming the rest thresholds when they are not
+        ``0 <= off <= on`` and finite."""
+        on, off = self.rest_on_n, self.rest_off_n
+        if not (math.isfinite(on) and math.isfinite(off) and 0.0 <= off <= on):
+            raise ValueError(f"rest threshold: expected 0 <= off <= on (finite, N), found on "
+                             f"{on!r}, off {off!r}")
+        return self
+
 
 #: ``forces() -> (true grip N, measured force N)`` of every sample pushed so far.
 Forces = Callable[[], tuple[np.ndarray, np.ndarray | None]]
@@ -91,8 +134,8 @@ class SemgReference:
         self.window = FeatureWindow(fs_hz, channel_index, window_ms=window_ms,
                                     step_ms=step_ms, integer=integer)
         self.hop = self.window.step
-        self.to_hand = hand_force_at_mvc_n / calibration.mvc_cal_n
-        self.ceiling = CEILING * hand_force_at_mvc_n
+        mapping = HandReference.of_calibration(calibration, hand_force_at_mvc_n)
+        self.to_hand, self.ceiling = mapping.to_hand, mapping.reference_max_n
         self._forces = forces
         self.stream = None if self.oracle else calibration.pipeline.streaming(calibration.mode)
         self.reset()

@@ -16,15 +16,15 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 from pydantic_core import PydanticUndefined
 
 from scenarios.schema.names import (  # noqa: F401  (re-exported: the schema's public names)
-    _NAMES,
     INTACT,
     NO_ESTIMATOR,
     ORACLE,
     PRACTICE_RANGE,
+    REGISTRY_LISTS,
     STEP_RANGE_MS,
     WINDOW_RANGE_MS,
-    _registered,
     check_declared_options,
+    check_registered,
     controller_names,
     controller_own_options,
     drive_names,
@@ -47,8 +47,8 @@ DEFAULT_TIME_LIMIT_S = 120.0
 
 
 def __getattr__(attr: str) -> Any:
-    if attr in _NAMES:  # the names registered at the time of reading
-        return _NAMES[attr]()
+    if attr in REGISTRY_LISTS:  # the names registered at the time of reading
+        return REGISTRY_LISTS[attr]()
     raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
 
 
@@ -122,7 +122,7 @@ class SubjectConfig(_Model):
     @field_validator("generator")
     @classmethod
     def _registered_generator(cls, value: str) -> str:
-        return _registered(value, generator_names())
+        return check_registered(value, generator_names())
 
 
 class ProtocolConfig(_Model):
@@ -227,7 +227,7 @@ class ObjectConfig(_Model):
     @field_validator("name")
     @classmethod
     def _registered_object(cls, value: str) -> str:
-        return _registered(value, object_names())
+        return check_registered(value, object_names())
 
     @model_validator(mode="after")
     def _size_matches_shape(self) -> ObjectConfig:
@@ -285,7 +285,7 @@ class EstimatorConfig(_Model):
     @field_validator("name")
     @classmethod
     def _registered_estimator(cls, value: str) -> str:
-        return _registered(value, estimator_choices())
+        return check_registered(value, estimator_choices())
 
     @field_validator("options")
     @classmethod
@@ -369,7 +369,7 @@ class ControllerConfig(_Model):
     @field_validator("kind")
     @classmethod
     def _registered_controller(cls, value: str) -> str:
-        return _registered(value, controller_names())
+        return check_registered(value, controller_names())
 
     @field_validator("options")
     @classmethod
@@ -403,7 +403,7 @@ class ControllerConfig(_Model):
         if self.solver is not None:
             from controllers.mpc import QP_SOLVERS  # imported only when a solver is named
 
-            _registered(self.solver, QP_SOLVERS)
+            check_registered(self.solver, QP_SOLVERS)
         return self
 
 
@@ -459,12 +459,12 @@ class UserConfig(_Model):
     @field_validator("kind")
     @classmethod
     def _registered_kind(cls, value: str) -> str:
-        return _registered(value, user_kinds())
+        return check_registered(value, user_kinds())
 
     @field_validator("feedback")
     @classmethod
     def _registered_feedback(cls, value: str) -> str:
-        return _registered(value, feedback_modes())
+        return check_registered(value, feedback_modes())
 
     @model_validator(mode="after")
     def _feedback_fits_kind(self) -> UserConfig:
@@ -499,7 +499,7 @@ class HandConfig(_Model):
     @field_validator("drive")
     @classmethod
     def _registered_drive(cls, value: str) -> str:
-        return _registered(value, drive_names())
+        return check_registered(value, drive_names())
 
 
 class Scenario(_Model):
@@ -540,12 +540,12 @@ class Scenario(_Model):
     @field_validator("kind")
     @classmethod
     def _registered_kind(cls, value: str) -> str:
-        return _registered(value, scenario_kinds())
+        return check_registered(value, scenario_kinds())
 
     @field_validator("paradigm")
     @classmethod
     def _registered_paradigm(cls, value: str) -> str:
-        return _registered(value, paradigm_names())
+        return check_registered(value, paradigm_names())
 
     @model_validator(mode="after")
     def _protocol_fits_kind(self) -> Scenario:

@@ -103,14 +103,15 @@ def paradigm_names() -> tuple[str, ...]:
     return names()
 
 
-_NAMES = {"ESTIMATORS": estimator_choices, "OBJECTS": object_names,
+#: Module attributes of :mod:`scenarios.schema.models` that list what is registered now.
+REGISTRY_LISTS = {"ESTIMATORS": estimator_choices, "OBJECTS": object_names,
           "GENERATORS": generator_names, "CONTROLLERS": controller_names,
           "SCENARIO_KINDS": scenario_kinds, "USER_KINDS": user_kinds,
           "FEEDBACK_MODES": feedback_modes, "DRIVES": drive_names,
           "PARADIGMS": paradigm_names}
 
 
-def _registered(value: str, names: tuple[str, ...]) -> str:
+def check_registered(value: str, names: tuple[str, ...]) -> str:
     """``value`` if it is one of ``names``; else the one-line error listing them."""
     if value not in names:
         raise ValueError(f"expected one of {', '.join(names)} (found {value!r})")

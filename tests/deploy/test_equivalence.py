@@ -7,6 +7,8 @@ within 1e-3 (N, command units) over the whole recording.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -17,6 +19,7 @@ from scenarios.deploy.build import build_export
 from scenarios.deploy.library import CompiledLibrary
 from scenarios.deploy.writer import export_c
 from scenarios.live.recorded import fit_calibration
+from scenarios.runners.semg_reference import HandReference
 from sim.hand.objects import make_object
 from sim.recording import load_recording
 
@@ -28,11 +31,11 @@ def _export(tmp_path, recording, estimator, mode, *, design=None, channels=(6, 7
     fitted = fit_calibration(recording, estimator, mode=mode, channels=list(channels), seed=0)
     window = feature_window(recording.fs_hz, recording.n_channels, fitted.channel_index)
     cal = fitted.calibration
+    reference = HandReference.of_calibration(cal, TO_HAND_AT_MVC_N, paradigm)
+    if not rest:
+        reference = replace(reference, rest_on_n=0.0, rest_off_n=0.0)
     ex = export_c(cal.pipeline, estimator, mode, window, tmp_path, design=design,
-                  to_hand=TO_HAND_AT_MVC_N / cal.mvc_cal_n,
-                  reference_max_n=1.2 * TO_HAND_AT_MVC_N, paradigm=paradigm,
-                  rest_on_n=cal.rest_on_n if rest else 0.0,
-                  rest_off_n=cal.rest_off_n if rest else 0.0)
+                  reference=reference)
     library_path, warnings = build_export(ex)
     assert warnings == "", warnings  # the export compiles clean with -Wall -Wextra -Wpedantic
     return fitted, ex, CompiledLibrary(library_path)
@@ -135,14 +138,14 @@ def test_the_runtimes_hand_reference_follows_python(c_compiler, sessions, tmp_pa
     fit, replay_rec = sessions
     fitted, ex, library = _export(tmp_path, fit, "ss_kf", "free_run", paradigm=paradigm,
                                   rest=True)
-    assert ex.facts["rest_on_n"] > 0.0 and ex.facts["paradigm"] == paradigm
+    assert ex.reference.rest_on_n > 0.0 and ex.facts["paradigm"] == paradigm
     r = _replay(library, fitted, ex, replay_rec)
-    c_ref, py_ref = check.replay_reference(library, r.estimate_c_n, ex.facts)
+    c_ref, py_ref = check.replay_reference(library, r.estimate_c_n, ex.reference)
     assert np.max(np.abs(c_ref - py_ref)) <= check.REFERENCE_TOLERANCE_N
     closed = c_ref > 0
     # the gate closes and opens again several times: both edges are exercised
     assert closed.any() and np.count_nonzero(np.diff(closed.astype(int)) == -1) >= 2
-    force = check.python_reference(r.estimate_c_n, {**ex.facts, "paradigm": "force"})
+    force = check.python_reference(r.estimate_c_n, replace(ex.reference, paradigm="force"))
     if paradigm == "force":
         assert np.array_equal(py_ref, force)
     else:
@@ -166,7 +169,7 @@ def test_a_paradigm_without_c_shaping_is_refused_before_any_file(sessions, tmp_p
         with pytest.raises(ParadigmNotExportableError, match="exportable paradigms: force, "
                            "force_hold"):
             export_c(fitted.calibration.pipeline, "ss_kf", "free_run", window,
-                     tmp_path / "c", paradigm="plugin_hold")
+                     tmp_path / "c", reference=HandReference(paradigm="plugin_hold"))
     finally:
         unregister_paradigm("plugin_hold")
     assert not (tmp_path / "c").exists()

@@ -102,3 +102,13 @@ def test_every_file_names_the_version_and_its_model_digest(fitted, tmp_path):
     assert includes == {"<math.h>", "<stdint.h>"}
     # the digest is of the coefficients: another fit, another digest
     assert model_digest("x", {"a": np.ones(2)}, {}) != model_digest("x", {"a": np.zeros(2)}, {})
+
+
+def test_a_rest_threshold_open_above_its_close_is_refused_before_any_file(fitted, tmp_path):
+    from scenarios.runners.semg_reference import HandReference
+
+    recording, cal = fitted
+    with pytest.raises(ExportError, match="expected 0 <= off <= on"):
+        export_c(cal.calibration.pipeline, "ss_kf", "free_run", _window(recording, cal),
+                 tmp_path / "out", reference=HandReference(rest_on_n=1.0, rest_off_n=2.0))
+    assert not (tmp_path / "out").exists()
