@@ -8,7 +8,7 @@ export MUJOCO_GL ?= egl
 export PYOPENGL_PLATFORM ?= egl
 export MPLBACKEND ?= Agg
 
-.PHONY: demo test test-dispatch docs bench lint clean pretrained
+.PHONY: demo test test-verdicts test-dispatch docs bench lint clean pretrained
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -31,7 +31,14 @@ demo: $(STAMP)
 TEST_WORKERS ?= auto
 test: $(STAMP)
 	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks examples docs
-	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not verdict"
+
+# the tests marked "verdict": the population-scale findings (many subjects or episodes judged
+# against measured human figures: the practised users' rigid objects, the feedback benchmarks,
+# the library held with the oracle, the virtual population against the real recordings).
+# .ci/run runs them after make test; together the two run every test.
+test-verdicts: $(STAMP)
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m verdict
 
 # the tests that compare values computed through different shapes, chunkings or code paths
 # (marker "portable", tests/portable.py), again with numpy's vector loops limited to AVX2
@@ -60,8 +67,9 @@ bench: $(STAMP)
 
 # the transfer_mlp networks shipped in the package (estimation/pretrained) for the default
 # settings; run after a change to what builds them (a test checks they are this source's)
+# (importing scenarios registers the "virtual" corpus they are pretrained on)
 pretrained: $(STAMP)
-	$(PY) -c "from estimation.transfer import ship_default_networks as s; print(*s(), sep='\n')"
+	$(PY) -c "import scenarios; from estimation.transfer import ship_default_networks as s; print(*s(), sep='\n')"
 
 lint: $(STAMP)
 	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks examples docs

@@ -23,6 +23,7 @@ from _timing import goal_line, time_call  # noqa: E402
 
 from controllers.base import Observation  # noqa: E402
 from controllers.design import cached_plant_family, design_for_object  # noqa: E402
+from controllers.design_spec import DesignSpec  # noqa: E402
 from sim.hand.objects import make_object  # noqa: E402
 
 TARGET_STEP_US = 10.0
@@ -49,7 +50,7 @@ def main() -> int:
     family = cached_plant_family(can, 0.01)
     build_s = time.perf_counter() - start
     forces = 3.0 + 17.0 * (0.5 + 0.5 * np.sin(np.linspace(0, 20 * np.pi, 2000)))
-    fixed = design_for_object(can, "pid", scheduled=False).core.designs[0]
+    fixed = design_for_object(can, "pid", DesignSpec(scheduled=False)).core.designs[0]
     rows = [("fixed PI (reference)", step_time_us(fixed, forces))]
     for kind in ("pid", "lead_lag"):
         core = design_for_object(can, kind).core

@@ -25,7 +25,7 @@ import numpy as np
 from _timing import goal_line
 
 from estimation.paper import TABLE3
-from scenarios.deploy.session import export_session
+from scenarios.deploy.session import ExportSpec, export_session
 from scenarios.deploy.target import CLOCK_HZ, TargetToolsMissingError, target_tools
 from scenarios.runners.subject import calibration_session
 from sim.user.subjects import VirtualSubject
@@ -53,9 +53,10 @@ def main() -> int:
     for name, mode, channels in ESTIMATORS:
         controller = CONTROLLERS[len(rows) % 2]
         with tempfile.TemporaryDirectory() as tmp:
-            export, report = export_session(fit, name, Path(tmp), channels=channels, mode=mode,
-                                            controller=controller, object_name="can",
-                                            check_recording=replay, target="cortex-m4")
+            spec = ExportSpec(name, channels, mode=mode, controller=controller,
+                              object_name="can")
+            export, report = export_session(fit, spec, Path(tmp), check_recording=replay,
+                                            target="cortex-m4")
         t = report["target"]
         objects = t["objects"]
         ipu = t["instructions_per_update"]

@@ -41,7 +41,7 @@ from _timing import goal_line  # noqa: E402
 
 from controllers.base import observation_from_info  # noqa: E402
 from controllers.design import design_for_object  # noqa: E402
-from sim.hand.grasp_env import GraspEnv, WristSchedule  # noqa: E402
+from sim.hand.grasp_env import GraspEnv, GraspTask, HandSpec, WristSchedule  # noqa: E402
 from sim.hand.model import build_pinch_model  # noqa: E402
 from sim.hand.objects import make_object  # noqa: E402
 
@@ -105,7 +105,7 @@ def lift_overhead(obj: str, n_steps: int, repeats: int) -> tuple[float, float, i
     and calls ``mj_step`` every substep). Returns ``(env_us, raw_us, n_sub)``.
     """
     schedule = WristSchedule(lift_after_s=0.3, lift_duration_s=0.6)
-    env = GraspEnv(obj, 10.0, episode_s=1e6, schedule=schedule)
+    env = GraspEnv(obj, 10.0, wrist=schedule, task=GraspTask(episode_s=1e6))
     env.reset(seed=0)
     action = np.array([0.15], dtype=np.float32)
     info = env.last_info
@@ -176,7 +176,7 @@ def closed_loop_factor(obj_name: str, episode_s: float, repeats: int) -> tuple[f
     obj = make_object(obj_name)
     design = design_for_object(obj, "pid")  # plant family from the cache after the first run
     schedule = WristSchedule(lift_after_s=1.0, lift_duration_s=0.6)
-    env = GraspEnv(obj, 0.0, episode_s=episode_s, schedule=schedule)
+    env = GraspEnv(obj, 0.0, wrist=schedule, task=GraspTask(episode_s=episode_s))
     n = env.max_steps
     dt_c = env.control_dt_s
     ref = [min(1.0, k * dt_c / 0.5) * 10.0 for k in range(n)]
@@ -267,7 +267,7 @@ def _apply_options(model: mujoco.MjModel, base: tuple[int, float, int], options:
 
 def physics_options(obj: str, repeats: int, n_steps: int = 500) -> None:
     """Raw ``mj_step`` speed of the cheaper physics options in a lifted, held grasp."""
-    env = GraspEnv(obj, 10.0, episode_s=1e6)
+    env = GraspEnv(obj, 10.0, task=GraspTask(episode_s=1e6))
     env.reset(seed=0)
     env.steady_grasp(10.0, lifted=True)
     m, d = env.model, env.data
@@ -313,7 +313,7 @@ def _lift_jumps(obj: str = "can", grip_n: float = 12.0) -> tuple[float, float, f
     """Grip range and largest one-substep change (N) during a smooth lift at a held command."""
     from sim.hand.contact import read_contacts
 
-    env = GraspEnv(obj, grip_n, episode_s=1e6)
+    env = GraspEnv(obj, grip_n, task=GraspTask(episode_s=1e6))
     env.reset(seed=0)
     env.steady_grasp(grip_n)
     m, d, ids, sch = env.model, env.data, env.ids, env.schedule
@@ -408,7 +408,8 @@ def main(argv: list[str] | None = None) -> int:
         evaluate_options()
         return 0
 
-    env = GraspEnv(args.object, 15.0, physics_dt_s=args.physics_dt, episode_s=1e6)
+    env = GraspEnv(args.object, 15.0, hand=HandSpec(physics_dt_s=args.physics_dt),
+                   task=GraspTask(episode_s=1e6))
     env.reset(seed=0)
     u = env.steady_grasp(15.0, lifted=True)
     m, d, n_sub = env.model, env.data, env.n_substeps

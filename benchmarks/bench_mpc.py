@@ -38,6 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _timing import goal_line  # noqa: E402
 
 from controllers.design import design_for_object  # noqa: E402
+from controllers.design_spec import DesignSpec  # noqa: E402
 from controllers.mpc import MPC  # noqa: E402
 from controllers.qp import CasadiSolver, DaqpSolver  # noqa: E402
 from scenarios.runners.trial_loop import given_reference_trial  # noqa: E402
@@ -62,7 +63,7 @@ def reference(t: np.ndarray) -> np.ndarray:
 def design(solver: str):
     """The library's scheduled MPC for the can, every banked design with ``solver``."""
     obj = make_object("can", mass_kg=0.3, friction=0.5)
-    d = design_for_object(obj, "mpc", control_dt_s=DT_S, force_max_n=FORCE_MAX_N)
+    d = design_for_object(obj, "mpc", DesignSpec(force_max_n=FORCE_MAX_N), control_dt_s=DT_S)
     for mpc in d.core.designs:
         mpc.solver = solver
         mpc._qp = None  # set up again, with this solver, at the first solve

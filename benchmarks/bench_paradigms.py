@@ -61,9 +61,9 @@ def _trials(hand: tuple[str, str, bool]) -> tuple[float, float]:
 
 def _env_step_us(drive: str, commands: np.ndarray) -> float:
     """Microseconds per control step of the hand environment on ``commands``."""
-    from sim.hand.grasp_env import GraspEnv
+    from sim.hand.grasp_env import GraspEnv, GraspTask, HandSpec
 
-    env = GraspEnv("can", 0.0, episode_s=60.0, drive=drive)
+    env = GraspEnv("can", 0.0, hand=HandSpec(drive=drive), task=GraspTask(episode_s=60.0))
     env.reset(seed=0)
     action = np.zeros(1, dtype=np.float32)
     t0 = time.perf_counter()

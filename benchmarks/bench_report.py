@@ -47,14 +47,14 @@ SIZE_LIMIT_MB = 1.5
 
 def small_store(path: Path, n: int) -> Path:
     """The first ``n`` scenarios of the demo sweep, run into a new store at ``path``."""
-    from scenarios.execution.sweep import plan, run_sweep
+    from scenarios.execution.sweep import SweepExecution, plan, run_sweep
     from scenarios.schema import expand_sweep, load_sweep
     from scenarios.store import ResultStore
 
     spec = load_sweep(ROOT / "scenarios" / "library" / "demo.yaml")
     with ResultStore(path) as store:
-        run_sweep(plan(expand_sweep(spec))[:n], store, workers=1, sweep_name=spec.name,
-                  progress=False)
+        run_sweep(plan(expand_sweep(spec))[:n], store, SweepExecution(workers=1),
+                  sweep_name=spec.name, progress=False)
     return path
 
 

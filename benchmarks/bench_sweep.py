@@ -29,8 +29,8 @@ main itself before the change (same 54 episodes, warm plant cache, loaded
 machine): 1 worker 34.3 s, 2 workers 27.6 s (1.24x; 58.7 scenarios/min/worker);
 2 workers held 811-838 MB RSS.
 
-**Ours.** ``run_sweep(workers=n)`` forks ``n`` sandbox children from the driver
-(already importing griploop) and reuses designs from the disk cache
+**Ours.** ``run_sweep(planned, store, SweepExecution(workers=n))`` forks ``n`` sandbox
+children from the driver (already importing griploop) and reuses designs from the disk cache
 (:mod:`controllers.design_cache`). All runs share one fresh cache directory; a
 first, untimed-for-goals pass fills it (its time is printed as "cold": plant
 families linearized and designs made once, as a first sweep on a new machine
@@ -160,7 +160,7 @@ def main_executor(workers: int):
 
 def timed_sweep(planned, tmp: Path, label: str, workers: int, reference: bool) -> dict:
     """Run the sweep into a new store; wall time, peak memory and worker CPU time."""
-    from scenarios.execution.sweep import run_sweep
+    from scenarios.execution.sweep import SweepExecution, run_sweep
     from scenarios.store import ResultStore
 
     db = tmp / f"{label}-{time.monotonic_ns()}.sqlite"
@@ -170,9 +170,11 @@ def timed_sweep(planned, tmp: Path, label: str, workers: int, reference: bool) -
         with ResultStore(db) as store:
             if reference:
                 with main_executor(workers) as address:
-                    summary = run_sweep(planned, store, scheduler=address, progress=False)
+                    summary = run_sweep(planned, store, SweepExecution(scheduler=address),
+                                        progress=False)
             else:
-                summary = run_sweep(planned, store, workers=workers, progress=False)
+                summary = run_sweep(planned, store, SweepExecution(workers=workers),
+                                    progress=False)
             busy_s = sum(r["duration_s"] for r in store.rows())
         wall = time.perf_counter() - t0
     if summary.ok + summary.failed != len(planned) or summary.failed:

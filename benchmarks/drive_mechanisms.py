@@ -36,11 +36,11 @@ def _reached(run: np.ndarray, end: float) -> str:
 
 
 def main() -> int:
-    from sim.hand.grasp_env import GraspEnv, WristSchedule
+    from sim.hand.grasp_env import GraspEnv, GraspTask, HandSpec, WristSchedule
 
     for drive in ("backdrivable", "self_locking"):
-        env = GraspEnv("can", 0.0, episode_s=60.0, drive=drive,
-                       schedule=WristSchedule(lift_after_s=1.0))
+        env = GraspEnv("can", 0.0, wrist=WristSchedule(lift_after_s=1.0),
+                       hand=HandSpec(drive=drive), task=GraspTask(episode_s=60.0))
         env.reset(seed=0)
         _run(env, 0.3, 2.0)
         env.set_object_load(2.0)
@@ -52,7 +52,7 @@ def main() -> int:
               f"{'dropped' if info['dropped'] else 'held'}, grip {held[-1, 2]:.2f} N, largest "
               f"change {change:.2f} %, digits moved {np.ptp(held[:, 1]) * 1e3:.3f} mrad")
         env.close()
-        env = GraspEnv("can", 0.0, episode_s=60.0, drive=drive)
+        env = GraspEnv("can", 0.0, hand=HandSpec(drive=drive), task=GraspTask(episode_s=60.0))
         env.reset(seed=0)
         _run(env, 0.3, 2.0)
         _run(env, 0.0, 1.0)

@@ -12,7 +12,7 @@ tracks the closing command through its ``track`` method).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from controllers.base import Observation, as_observation
@@ -20,6 +20,37 @@ from controllers.errors import SpecificationError
 
 if TYPE_CHECKING:
     import control
+
+
+@dataclass(frozen=True)
+class GateSpec:
+    """How a :class:`ContactGate` releases, approaches and hands over (see its phases).
+
+    Attributes
+    ----------
+    release_below_n : float
+        A reference below this (N) opens the hand and re-arms the gate.
+    opening_command : float
+        Normalized command while open or opening (negative opens).
+    approach_speed_rad_s : float
+        Finger closing speed after the first touch, rad/s.
+    approach_gain : float
+        Integral gain of the speed servo, command units per rad.
+    force_rate_n_s : float
+        Largest rise rate of the reference after the hand-over, N/s.
+    lost_contact_s : float
+        Time without both sides touching after which force control stops, s.
+    handover_fraction : float
+        Grip, as a fraction of the reference, at which force control starts.
+    """
+
+    release_below_n: float = 0.1
+    opening_command: float = -0.3
+    approach_speed_rad_s: float = 0.15
+    approach_gain: float = 8.0
+    force_rate_n_s: float = 15.0
+    lost_contact_s: float = 0.1
+    handover_fraction: float = 0.5
 
 
 class ContactGate:
@@ -61,26 +92,16 @@ class ContactGate:
         ``handover(obs, u)`` and ``loop(plant)``.
     closing_command : float
         Normalized command while closing (real hands close fully in 0.4-1 s).
-    release_below_n : float
-        A reference below this (N) opens the hand and re-arms the gate.
-    opening_command : float
-        Normalized command while open or opening (negative opens).
     feedforward : callable, optional
         ``feedforward(reference_n) -> command`` holding that force in steady
         state (:meth:`controllers.design.ControllerDesign.feedforward`). Without
         it the approach and the hand-over start from ``closing_command``.
-    approach_speed_rad_s : float
-        Finger closing speed after the first touch, rad/s.
-    approach_gain : float
-        Integral gain of the speed servo, command units per rad.
-    force_rate_n_s : float
-        Largest rise rate of the reference after the hand-over, N/s.
-    lost_contact_s : float
-        Time without both sides touching after which force control stops, s.
-    handover_fraction : float
-        Grip, as a fraction of the reference, at which force control starts.
     dt_s : float
         Control period, s.
+    spec : GateSpec, optional
+        Release threshold and opening command, approach servo, hand-over fraction,
+        reference rise rate and contact-loss time (default ``GateSpec()``); kept
+        as the gate's attributes of the same names.
     """
 
     def __init__(
@@ -88,24 +109,22 @@ class ContactGate:
         controller: Any,
         *,
         closing_command: float = 0.2,
-        release_below_n: float = 0.1,
-        opening_command: float = -0.3,
         feedforward: Callable[[float], float] | None = None,
-        approach_speed_rad_s: float = 0.15,
-        approach_gain: float = 8.0,
-        force_rate_n_s: float = 15.0,
-        lost_contact_s: float = 0.1,
-        handover_fraction: float = 0.5,
         dt_s: float = 0.01,
+        spec: GateSpec | None = None,
     ) -> None:
+        g = GateSpec() if spec is None else spec
+        approach_speed_rad_s, approach_gain = g.approach_speed_rad_s, g.approach_gain
+        force_rate_n_s, lost_contact_s = g.force_rate_n_s, g.lost_contact_s
+        handover_fraction = g.handover_fraction
         if not 0 < closing_command <= 1:
             raise SpecificationError(
                 f"ContactGate: expected 0 < closing_command <= 1, found {closing_command}"
             )
         self.controller = controller
         self.closing_command = float(closing_command)
-        self.release_below_n = float(release_below_n)
-        self.opening_command = float(opening_command)
+        self.release_below_n = float(g.release_below_n)
+        self.opening_command = float(g.opening_command)
         self.feedforward = feedforward
         if min(approach_speed_rad_s, approach_gain, force_rate_n_s, lost_contact_s, dt_s) <= 0:
             raise SpecificationError(

@@ -17,6 +17,30 @@ COMMAND_LIMITS = (-1.0, 1.0)
 
 
 @dataclass(frozen=True)
+class Implementation:
+    """How a designed controller runs on the hand: its period, its delay and its command range.
+
+    Shared by the designs (:func:`~controllers.pid.design_pid`,
+    :func:`~controllers.lead_lag.design_lead_lag`, :class:`~controllers.mpc.MPC`) and the
+    :class:`~controllers.pid.PID` they build; the loop analysis includes the delay.
+
+    Attributes
+    ----------
+    dt_s : float or None
+        Control period, s; ``None``: the discrete design plant's (required for a
+        continuous plant, and by a :class:`~controllers.pid.PID` built directly).
+    computation_delay_samples : int
+        Whole control periods between measuring the force and applying the command.
+    u_limits : (float, float)
+        Command saturation, normalized motor command (default ``(-1, 1)``).
+    """
+
+    dt_s: float | None = None
+    computation_delay_samples: int = 1
+    u_limits: tuple[float, float] = COMMAND_LIMITS
+
+
+@dataclass(frozen=True)
 class Observation:
     """What the prosthesis knows at one control step.
 

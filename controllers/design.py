@@ -38,10 +38,11 @@ from controllers.design_plant import (
     operating_point,
     plant_family,
 )
+from controllers.design_spec import DesignSpec
 from controllers.errors import PlantError, SpecificationError
 from controllers.plant import delay
 from controllers.plant_cache import cached_family
-from controllers.reflex import SlipReflex
+from controllers.reflex import ReflexSpec, SlipReflex
 from controllers.registry import (
     bank_designer,
     controller_info,
@@ -410,66 +411,23 @@ def _kind_options(kind: str, given: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def design_for_object(
-    obj: ObjectSpec,
-    kind: str,
-    *,
-    control_dt_s: float = 0.01,
-    phase_margin_deg: float = 60.0,
-    crossover_rad_s: float | None = None,
-    bandwidth_rad_s: float | None = None,
-    horizon: int | None = None,
-    lag_ratio: float | None = None,
-    safety_factor: float = 1.5,
-    slip_reflex: dict[str, float] | None = None,
-    closing_command: float = 0.2,
-    scheduled: bool = True,
-    operating_force_n: float | None = None,
-    force_max_n: float | None = None,
-    forces_n: tuple[float, ...] = DEFAULT_FORCE_GRID_N,
-    **kind_options: Any,
-) -> ControllerDesign:
+def design_for_object(obj: ObjectSpec, kind: str, spec: DesignSpec | None = None, *,
+                      control_dt_s: float = 0.01) -> ControllerDesign:
     """Design a force controller for ``obj`` from a specification.
 
     Parameters
     ----------
     obj : ObjectSpec
-        The grasped object; its plant family is linearized over ``forces_n``.
+        The grasped object; its plant family is linearized over ``spec.forces_n``.
     kind : str
         Controller kind registered in :mod:`controllers.registry` (``"pid"``,
         ``"lead_lag"``, ``"mpc"``, ...).
+    spec : DesignSpec, optional
+        Loop targets, reflex, closing command, schedule, force limit, design grid
+        and the kind's own options (default ``DesignSpec()``;
+        :meth:`~controllers.design_spec.DesignSpec.from_mapping` reads a flat specification).
     control_dt_s : float
         Control period, s.
-    phase_margin_deg : float
-        Target phase margin (PID and lead-lag), degrees, met at every design force.
-    crossover_rad_s, bandwidth_rad_s : float, optional
-        Target gain crossover or closed-loop bandwidth (PID and lead-lag), rad/s;
-        neither: :data:`DEFAULT_CROSSOVER_RAD_S`.
-    horizon, lag_ratio : int, float, optional
-        MPC horizon in control periods; lead-lag crossover over integral corner
-        ``wc / wl`` (defaults: the kinds' registered ones, 20 and :data:`LEAD_LAG_RATIO`).
-    safety_factor : float
-        Grip over the *sensed* slip threshold for the MPC's lower bound
-        (:class:`controllers.bounds.SensedSlipBound`).
-    slip_reflex : dict, optional
-        Keyword arguments of :class:`controllers.reflex.SlipReflex` (``dt_s``
-        and ``max_force_n`` are filled in); enables the reflex.
-    closing_command : float
-        Normalized motor command while closing onto the object.
-    scheduled : bool
-        Schedule designs over the grid (default) or make one fixed design at
-        ``operating_force_n``.
-    operating_force_n : float, optional
-        The fixed design's force, N; default
-        :func:`controllers.design_plant.default_operating_force_n`.
-    force_max_n : float, optional
-        The user's force limit (a fragile setting), N: the MPC's upper bound and
-        the reflex's ceiling. ``None``: no limit.
-    forces_n : tuple of float
-        The design grid, N.
-    **kind_options
-        Further options of the kind (its registered ``options``); options of
-        other kinds are ignored.
 
     Raises
     ------
@@ -480,45 +438,45 @@ def design_for_object(
     PlantError
         No usable plant.
     """
+    s = DesignSpec() if spec is None else spec
     info = controller_info(kind)
-    options = _kind_options(kind, {"horizon": horizon, "lag_ratio": lag_ratio, **kind_options})
+    options = _kind_options(kind, dict(s.options))
     dt = float(control_dt_s)
-    family = cached_plant_family(obj, dt, tuple(float(f) for f in forces_n))
-    limit = float("inf") if force_max_n is None else float(force_max_n)
-    sensing = (SensedSlipBound(safety_factor=safety_factor, dt_s=dt) if info["slip_sensing"]
+    family = cached_plant_family(obj, dt, tuple(float(f) for f in s.forces_n))
+    limit = float("inf") if s.force_max_n is None else float(s.force_max_n)
+    sensing = (SensedSlipBound(safety_factor=s.safety_factor, dt_s=dt) if info["slip_sensing"]
                else None)
-    if scheduled:
+    if s.scheduled:
         points = [(p.force_n, p.plant) for p in family.usable]
     else:
-        force = default_operating_force_n(obj) if operating_force_n is None else float(
-            operating_force_n)
+        force = default_operating_force_n(obj) if s.operating_force_n is None else float(
+            s.operating_force_n)
         points = [(force, cached_design_plant(obj, dt, force))]
-    core, spec, notes = _design_bank(
-        kind, points, phase_margin_deg=phase_margin_deg, crossover_rad_s=crossover_rad_s,
-        bandwidth_rad_s=bandwidth_rad_s, options=options, slip_sensing=sensing,
+    core, spec_out, notes = _design_bank(
+        kind, points, phase_margin_deg=s.phase_margin_deg, crossover_rad_s=s.crossover_rad_s,
+        bandwidth_rad_s=s.bandwidth_rad_s, options=options, slip_sensing=sensing,
         force_max_n=limit)
-    public_spec = {**spec, "scheduled": bool(scheduled),
+    public_spec = {**spec_out, "scheduled": bool(s.scheduled),
                    "design_forces_n": [float(f) for f in core.forces_n],
                    "schedule_signal": "measured grip force (attack-release filter)"}
-    if crossover_rad_s is None and bandwidth_rad_s is not None and info["shaping"]:
+    if s.crossover_rad_s is None and s.bandwidth_rad_s is not None and info["shaping"]:
         public_spec["crossover_rad_s"] = "per design force"
     if sensing is not None:
-        public_spec.update(slip_bound="sensed load / (2 mu_hat)", safety_factor=safety_factor,
+        public_spec.update(slip_bound="sensed load / (2 mu_hat)", safety_factor=s.safety_factor,
                            friction_prior=sensing.friction_prior,
-                           force_max_n=None if force_max_n is None else limit)
+                           force_max_n=None if s.force_max_n is None else limit)
     design = ControllerDesign(kind=kind, controller=None, core=core, family=family,
-                              spec=public_spec, scheduled=bool(scheduled), notes=notes)
-    design.controller = _runtime(design, closing_command, slip_reflex, limit)
+                              spec=public_spec, scheduled=bool(s.scheduled), notes=notes)
+    design.controller = _runtime(design, s.closing_command, s.reflex_spec(), limit)
     return design
 
 
 def _runtime(design: ControllerDesign, closing_command: float,
-             slip_reflex: dict[str, float] | None, force_max_n: float) -> Controller:
+             slip_reflex: ReflexSpec | None, force_max_n: float) -> Controller:
     """The controller the hand runs: the approach gate around the bank, then the reflex."""
     dt = design.family.control_dt_s
     controller: Controller = ContactGate(design.core, closing_command=closing_command,
                                          feedforward=design.feedforward, dt_s=dt)
-    if slip_reflex:
-        controller = SlipReflex(controller, dt_s=dt, max_force_n=force_max_n,
-                                **dict(slip_reflex))
+    if slip_reflex is not None:
+        controller = SlipReflex(controller, slip_reflex, dt_s=dt, max_force_n=force_max_n)
     return controller

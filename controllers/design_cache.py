@@ -32,7 +32,8 @@ file replaced. The cache lives in ``$GRIPLOOP_CACHE_DIR/designs`` (default
 ``~/.cache/griploop/designs``; ``GRIPLOOP_CACHE_DIR=off`` or
 ``GRIPLOOP_DESIGN_CACHE=off`` disables it). Writes are atomic (temporary
 file, then rename), so concurrent workers never read half a file; a
-directory that cannot be written is skipped.
+directory that cannot be written is skipped with a
+:class:`~sim.cache.CacheNotWritableWarning`.
 """
 
 from __future__ import annotations
@@ -54,7 +55,7 @@ import numpy as np
 from controllers import plant_cache
 from controllers.registry import design_modules
 from sim import cache as sim_cache
-from sim.cache import build_lock, write_atomic
+from sim.cache import cached, write_atomic
 from sim.codec import CodecError, decode, encode
 from sim.hand.objects import ObjectSpec
 
@@ -95,8 +96,9 @@ def design_key(obj: ObjectSpec, kind: str, control_dt_s: float, spec: Mapping[st
     control_dt_s : float
         Control period, s.
     spec : mapping
-        Keyword arguments of :func:`controllers.design.design_for_object`
-        (JSON-serializable values; nested mappings allowed).
+        The flat design specification
+        (:meth:`~controllers.design_spec.DesignSpec.from_mapping`; JSON-serializable
+        values, nested mappings allowed).
     forces_n : tuple of float
         The design grid, N.
     """
@@ -204,9 +206,13 @@ class _WrittenThrough(dict):
         merged = {**(stored if isinstance(stored, dict) else {}), **self}
         self._unwritten = False
         try:
-            write_atomic(self._path, dumps(merged, self._key, self._kind))
-        except (OSError, CodecError):
-            pass  # not cached: the analysis is still returned
+            data = dumps(merged, self._key, self._kind)
+        except CodecError:
+            return  # not cached: the analysis is still returned
+        try:
+            write_atomic(self._path, data)
+        except OSError as exc:  # not cached either: said once per directory
+            sim_cache.warn_not_writable(self._path.parent, exc)
 
     def __reduce__(self) -> tuple[type, tuple[dict[float, Any]]]:
         return dict, (dict(self),)
@@ -214,7 +220,7 @@ class _WrittenThrough(dict):
 
 def cached_design(obj: ObjectSpec, kind: str, control_dt_s: float, spec: Mapping[str, Any],
                   forces_n: tuple[float, ...], build: Callable[[], Any]) -> tuple[Any, str]:
-    """The design from the disk cache, or ``build()`` and store it.
+    """The design from the disk cache, or ``build()`` and store it (:func:`sim.cache.cached`).
 
     The returned design's analyses (``design._cache``) start with every one
     stored for this key and write each new one through to the cache.
@@ -238,19 +244,16 @@ def cached_design(obj: ObjectSpec, kind: str, control_dt_s: float, spec: Mapping
     key = design_key(obj, kind, control_dt_s, spec, forces_n)
     stem = root / f"{obj.name}-{kind}-{key}"
     design_path, analyses_path = stem.with_suffix(".design"), stem.with_suffix(".analyses")
-    design, source = _read_design(design_path, key, kind), "disk"
-    if design is None:
-        with build_lock(design_path):  # another worker building it: wait, then read it
-            design = _read_design(design_path, key, kind)
-            if design is None:
-                design = build()
-                try:
-                    write_atomic(design_path, dumps(design, key, kind))
-                    source = "built"
-                except OSError:
-                    source = "built (cache not writable)"
-                except CodecError:  # e.g. a plugin's controller holding a function
-                    source = "built (not storable)"
+
+    def write(path: Path, design: Any) -> str | None:
+        try:
+            data = dumps(design, key, kind)
+        except CodecError:  # e.g. a plugin's controller holding a function
+            return "built (not storable)"
+        write_atomic(path, data)
+        return None
+
+    design, source = cached(design_path, lambda p: _read_design(p, key, kind), build, write)
     stored = _read(analyses_path, key, kind)
     analyses = {**(stored if isinstance(stored, dict) else {}), **design._cache}
     design._cache = _WrittenThrough(analyses, analyses_path, key, kind)
@@ -283,8 +286,8 @@ def grasp_design(obj: ObjectSpec, kind: str, control_dt_s: float,
     control_dt_s : float
         Control period, s.
     spec : mapping or None
-        Keyword arguments of ``design_for_object`` (specification, kind
-        options, ``scheduled``, ``operating_force_n``, ``forces_n``).
+        The flat design specification (``DesignSpec.from_mapping``: loop targets,
+        kind options, ``scheduled``, ``operating_force_n``, ``forces_n``).
 
     Returns
     -------
@@ -292,6 +295,7 @@ def grasp_design(obj: ObjectSpec, kind: str, control_dt_s: float,
     """
     from controllers.design import design_for_object
     from controllers.design_plant import DEFAULT_FORCE_GRID_N
+    from controllers.design_spec import DesignSpec
 
     spec = dict(spec or {})
     if obj.break_force_n is not None:
@@ -301,5 +305,6 @@ def grasp_design(obj: ObjectSpec, kind: str, control_dt_s: float,
     if key not in _MEMO:
         _MEMO[key], _ = cached_design(
             obj, kind, float(control_dt_s), spec, forces_n,
-            lambda: design_for_object(obj, kind, control_dt_s=control_dt_s, **spec))
+            lambda: design_for_object(obj, kind, DesignSpec.from_mapping(spec),
+                                      control_dt_s=control_dt_s))
     return _MEMO[key]

@@ -39,7 +39,13 @@ from controllers.errors import IdentificationError, PlantError
 from controllers.identify import identify_low_order
 from controllers.plant import delay, truncate_slow_modes
 from sim.codec import stored_systems
-from sim.hand.linearize import LinearGrasp, linearize_grasp, simulate_step, step_response_fit
+from sim.hand.linearize import (
+    LinearGrasp,
+    LinearizationSettings,
+    linearize_grasp,
+    simulate_step,
+    step_response_fit,
+)
 from sim.hand.objects import ObjectSpec, make_object
 
 if TYPE_CHECKING:
@@ -142,20 +148,32 @@ def default_operating_force_n(obj: ObjectSpec, *, safety_factor: float = 1.5) ->
     return float(min(10.0, 0.5 * (secure_n + obj.break_force_n)))
 
 
+@dataclass(frozen=True)
+class StepTest:
+    """The simulated command step that checks a design plant's fit or identifies it.
+
+    Attributes
+    ----------
+    command : float
+        Command step from the operating point, normalized command.
+    duration_s : float
+        Length of the simulated step response, s.
+    """
+
+    command: float = 0.05
+    duration_s: float = 1.0
+
+
 def design_plant(
-    name: str | ObjectSpec,
+    obj: str | ObjectSpec,
     *,
-    mass_kg: float | None = None,
-    friction: float | None = None,
     method: Literal["linearized", "identified"] = "linearized",
     grip_force_n: float | None = None,
     control_dt_s: float = 0.01,
-    step_command: float = 0.05,
-    step_duration_s: float = 1.0,
+    step: StepTest | None = None,
     slow_mode_rad_s: float = 0.1,
     weightless: bool | None = None,
-    settle_s: float = 0.5,
-    eps: float = 1e-6,
+    linearization: LinearizationSettings | None = None,
 ) -> DesignPlant:
     """Build the design plant of an object grasped by the simulated hand.
 
@@ -166,19 +184,16 @@ def design_plant(
 
     Parameters
     ----------
-    name : str or ObjectSpec
-        Object name in ``sim.hand.objects.LIBRARY``, or a full object spec.
-    mass_kg, friction : float, optional
-        Overrides of the object's mass (kg) and friction coefficient.
+    obj : str or ObjectSpec
+        Object name in ``sim.hand.objects.LIBRARY``, or a full object spec (with
+        other mass or friction: :func:`object_for`).
     method : {"linearized", "identified"}
     grip_force_n : float, optional
         Operating grip force in N; default :func:`default_operating_force_n`.
     control_dt_s : float
         Control period in seconds.
-    step_command : float
-        Command step (normalized) for the step response.
-    step_duration_s : float
-        Length of the simulated step response, s.
+    step : StepTest, optional
+        The simulated command step (default ``StepTest()``: 0.05 for 1 s).
     slow_mode_rad_s : float
         ``"linearized"`` only: modes slower than this (rad/s; time constants
         above 10 s by default: the object's creep on the pads, which the
@@ -191,10 +206,9 @@ def design_plant(
         when ``grip_force_n`` is below :data:`WEIGHTLESS_BELOW_SLIP_FACTOR` times
         the slip threshold ``m g / (2 mu)``, where no steady lifted grasp exists.
         Recorded in ``fit["weightless"]``.
-    settle_s : float
-        Settling time of each grip correction before linearizing, s.
-    eps : float
-        Finite-difference step of the linearization.
+    linearization : LinearizationSettings, optional
+        Settling time of each grip correction before linearizing, finite-difference
+        step and truncation threshold (default ``LinearizationSettings()``).
 
     Returns
     -------
@@ -209,19 +223,21 @@ def design_plant(
     """
     if method not in PLANT_METHODS:
         raise LookupError(f"plant method: expected one of {list(PLANT_METHODS)}, found {method!r}")
-    obj = _resolve_object(name, mass_kg, friction)
+    obj = obj if isinstance(obj, ObjectSpec) else make_object(obj)
+    step = StepTest() if step is None else step
+    step_command = step.command
     force = default_operating_force_n(obj) if grip_force_n is None else float(grip_force_n)
     if weightless is None:
         weightless = force < WEIGHTLESS_BELOW_SLIP_FACTOR * slip_threshold_n(obj.mass_kg,
                                                                               obj.friction)
     try:
         lin = linearize_grasp(obj, force, lifted=True, control_dt_s=control_dt_s,
-                              settle_s=settle_s, eps=eps, weightless=weightless)
+                              weightless=weightless, settings=linearization)
     except RuntimeError as exc:
         raise PlantError(
             f"design plant: expected a steady grasp of {obj.name} at {force:.3g} N, found: {exc}"
         ) from exc
-    n_steps = int(round(step_duration_s / control_dt_s))
+    n_steps = int(round(step.duration_s / control_dt_s))
     y_nonlinear, y_linear = simulate_step(lin, step_command, n_steps)
     if method == "linearized":
         return _linearized_plant(obj, lin, y_nonlinear, y_linear, control_dt_s=control_dt_s,
@@ -229,16 +245,6 @@ def design_plant(
                                  weightless=weightless)
     return _identified_plant(obj, lin, y_nonlinear, control_dt_s=control_dt_s,
                              step_command=step_command, weightless=weightless)
-
-
-def _resolve_object(name: str | ObjectSpec, mass_kg: float | None,
-                    friction: float | None) -> ObjectSpec:
-    """A library object by name, or a given spec, with the mass and friction overrides."""
-    if isinstance(name, ObjectSpec):
-        overrides = {k: v for k, v in (("mass_kg", mass_kg), ("friction", friction))
-                     if v is not None}
-        return name.replace(**overrides) if overrides else name
-    return object_for(name, mass_kg=mass_kg, friction=friction)
 
 
 def _linearized_plant(obj: ObjectSpec, lin: LinearGrasp, y_nonlinear: np.ndarray,
@@ -370,7 +376,7 @@ def operating_point(obj: ObjectSpec, force_n: float, *, control_dt_s: float = 0.
     notes: list[str] = []
     try:  # the step that checks the fit lasts 0.4 s: the grasp's modes settle within it
         first = design_plant(obj, grip_force_n=force_n, control_dt_s=control_dt_s,
-                             step_duration_s=FAMILY_STEP_S)
+                             step=StepTest(duration_s=FAMILY_STEP_S))
     except PlantError as exc:
         return OperatingPoint(force_n, None, "failed", (str(exc),), str(exc))
     if not first.unstable:
@@ -378,7 +384,8 @@ def operating_point(obj: ObjectSpec, force_n: float, *, control_dt_s: float = 0.
     notes.append(f"linearization has a pole at |z| = {_max_pole(first):.4f}")
     try:
         second = design_plant(obj, grip_force_n=force_n, control_dt_s=control_dt_s,
-                              settle_s=1.5, eps=1e-5, step_duration_s=FAMILY_STEP_S)
+                              step=StepTest(duration_s=FAMILY_STEP_S),
+                              linearization=LinearizationSettings(settle_s=1.5, eps=1e-5))
     except PlantError as exc:
         second = None
         notes.append(f"re-linearization failed: {exc}")
@@ -403,7 +410,7 @@ def operating_point(obj: ObjectSpec, force_n: float, *, control_dt_s: float = 0.
     try:  # a small step: a large one crosses the pads' knee and averages two regimes
         step = max(0.002, 0.1 * first.u0)
         ident = design_plant(obj, grip_force_n=force_n, control_dt_s=control_dt_s,
-                             method="identified", step_command=step)
+                             method="identified", step=StepTest(command=step))
     except (PlantError, IdentificationError) as exc:
         notes.append(f"identification failed: {exc}")
         return OperatingPoint(force_n, None, "failed", tuple(notes), notes[-1])

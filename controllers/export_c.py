@@ -40,14 +40,13 @@ from controllers.reflex import SlipReflex
 from controllers.schedule import ScheduledController
 from sim.c_source import (
     CModel,
+    EmitterRegistry,
     ExportError,
-    check_exportable_name,
     check_finite,
     check_stable,
     model_digest,
     render,
 )
-from sim.registry import Registry
 
 
 class ControllerNotExportableError(ExportError, LookupError):
@@ -73,7 +72,7 @@ class BankTables:
     constants: dict[str, Any]
 
 
-_EMITTERS = Registry("C export of controller", ControllerNotExportableError)
+_EMITTERS = EmitterRegistry("controller", ControllerNotExportableError)
 
 
 def register_controller_c_export(kind: str, emitter: Callable[[ScheduledController], BankTables]
@@ -104,7 +103,7 @@ def check_controller_exportable(kind: str) -> None:
     ControllerNotExportableError
         The message lists the kinds that have one.
     """
-    check_exportable_name(_EMITTERS, kind, "controller", ControllerNotExportableError)
+    _EMITTERS.check(kind)
 
 
 def pid_bank(core: ScheduledController) -> BankTables:
@@ -229,9 +228,9 @@ def controller_context(design: Any) -> tuple[dict[str, np.ndarray], dict[str, An
         non-finite coefficients, or an unstable compensator.
     """
     kind = design.kind
-    check_controller_exportable(kind)
+    emit = _EMITTERS.emitter(kind)
     reflex, gate, core = _layers(design)
-    bank = _EMITTERS.get(kind)(core)
+    bank = emit(core)
     forces = np.asarray(core.forces_n, float)
     edges = np.sqrt(forces[:-1] * forces[1:]) if forces.size > 1 else np.zeros(0)
     gate_tables, gate_constants = _gate_context(design, gate)

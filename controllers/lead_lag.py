@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from controllers.analysis import loop_margins
-from controllers.base import COMMAND_LIMITS, Observation, as_observation
+from controllers.base import COMMAND_LIMITS, Implementation, Observation, as_observation
 from controllers.errors import SpecificationError
 from controllers.pid import required_controller_phase
 from controllers.plant import check_plant, loop_plant, plant_dt
@@ -195,13 +195,11 @@ def design_lead_lag(
     *,
     phase_margin_deg: float = 50.0,
     crossover_rad_s: float,
-    dt_s: float | None = None,
     integral: bool = True,
     lag_ratio: float = 10.0,
     n_lead_stages: int = 1,
     max_stage_lead_deg: float = 65.0,
-    computation_delay_samples: int = 1,
-    u_limits: tuple[float, float] = COMMAND_LIMITS,
+    implementation: Implementation | None = None,
 ) -> LinearController:
     """Design a lead-lag compensator meeting a phase margin at a crossover frequency.
 
@@ -213,8 +211,6 @@ def design_lead_lag(
         Target phase margin in degrees.
     crossover_rad_s : float
         Target gain crossover in rad/s.
-    dt_s : float, optional
-        Control period in seconds (required for a continuous plant).
     integral : bool
         Include the PI-lag ``(s + wl)/s`` (zero steady-state force error).
     lag_ratio : float
@@ -223,10 +219,10 @@ def design_lead_lag(
         Identical lead stages sharing the lead.
     max_stage_lead_deg : float
         Largest lead one stage may give (``beta`` grows fast beyond ~65 deg).
-    computation_delay_samples : int
-        Whole samples of computation delay in the loop.
-    u_limits : (float, float)
-        Command saturation.
+    implementation : Implementation, optional
+        Control period in seconds (required for a continuous plant; default the
+        plant's), whole samples of computation delay in the loop (default 1) and
+        command saturation (default ``(-1, 1)``).
 
     Returns
     -------
@@ -242,7 +238,9 @@ def design_lead_lag(
     """
     import control
     plant_report = check_plant(plant)
-    dt = plant_dt(plant, dt_s)
+    impl = Implementation() if implementation is None else implementation
+    dt = plant_dt(plant, impl.dt_s)
+    computation_delay_samples = impl.computation_delay_samples
     wc = float(crossover_rad_s)
     theta, gain = required_controller_phase(
         plant, phase_margin_deg, wc, dt, computation_delay_samples
@@ -270,7 +268,7 @@ def design_lead_lag(
     c_cont = k * shape
     c_disc = control.c2d(c_cont, dt, method="tustin", prewarp_frequency=wc)
     controller = LinearController(
-        c_disc, u_limits=u_limits, computation_delay_samples=computation_delay_samples
+        c_disc, u_limits=impl.u_limits, computation_delay_samples=computation_delay_samples
     )
     notes = []
     if wp > 0.5 * np.pi / dt:

@@ -34,7 +34,7 @@ from controllers.design import ControllerDesign, OperatingAnalysis
 from controllers.drive import HandLoop
 from controllers.errors import SpecificationError
 from controllers.plant import frequency_response
-from sim.hand.grasp_env import GraspEnv, WristSchedule
+from sim.hand.grasp_env import GraspEnv, GraspTask, HandSpec, WristSchedule
 
 #: Injection frequencies, as multiples of the predicted crossover.
 DEFAULT_FREQUENCY_FACTORS = (0.5, 0.7, 0.85, 1.0, 1.2, 1.4, 2.0)
@@ -263,8 +263,8 @@ def _run_injection(design: ControllerDesign, force_n: float, schedule: WristSche
     """
     dt = design.family.control_dt_s
     n_total = t_s.size
-    env = GraspEnv(design.object, force_n, control_dt_s=dt, episode_s=(n_total + 10) * dt,
-                   schedule=schedule, drive=drive)
+    env = GraspEnv(design.object, force_n, control_dt_s=dt, wrist=schedule,
+                   hand=HandSpec(drive=drive), task=GraspTask(episode_s=(n_total + 10) * dt))
     loop = HandLoop(env, design.controller)
     u_applied = np.zeros(n_total)
     u_ctrl = np.zeros(n_total)

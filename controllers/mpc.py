@@ -47,7 +47,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from controllers.analysis import loop_margins
-from controllers.base import COMMAND_LIMITS, Observation, as_observation
+from controllers.base import Implementation, Observation, as_observation
 from controllers.bounds import ForceBounds, SensedSlipBound
 from controllers.errors import PlantError, SpecificationError
 from controllers.plant import check_plant, frequency_response, loop_plant, plant_dt
@@ -56,6 +56,7 @@ from controllers.qp import (
     CasadiSolver,
     CondensedQP,
     DaqpSolver,
+    QPWeights,
     make_solver,
     prediction_matrices,
 )
@@ -78,6 +79,35 @@ class FallbackEvent:
     time_s: float
     reason: str
     action: float
+
+
+@dataclass(frozen=True)
+class MPCTuning:
+    """The MPC's cost weights, move limit and Kalman filter noise model.
+
+    Attributes
+    ----------
+    rate_weight : float
+        ``rho / (q g^2)`` with ``g`` the plant's peak gain (N per unit command):
+        the dimensionless price of command moves; larger is slower and more robust.
+    du_max : float
+        Largest command change per control period (normalized command).
+    slack_weight : float
+        Linear and quadratic weight of force-bound violations (per N).
+    input_noise_std : float
+        Kalman filter: std of command noise (normalized command).
+    disturbance_std_n : float
+        Kalman filter: std of the per-step output-disturbance increment, N.
+    measurement_noise_std_n : float
+        Kalman filter: std of force measurement noise, N.
+    """
+
+    rate_weight: float = 0.05
+    du_max: float = 0.25
+    slack_weight: float = 1e4
+    input_noise_std: float = 0.02
+    disturbance_std_n: float = 0.5
+    measurement_noise_std_n: float = 0.5
 
 
 @dataclass
@@ -114,29 +144,20 @@ class MPC:
     ----------
     plant : control.LTI
         Design plant, command (-1..1) to grip force (N), continuous or discrete.
-    dt_s : float, optional
-        Control period in seconds (required for a continuous plant).
     horizon : int
         Prediction horizon N in control periods.
-    rate_weight : float
-        ``rho / (q g^2)`` with ``g`` the plant's peak gain (N per unit command):
-        the dimensionless price of command moves; larger is slower and more robust.
-    force_bounds : ForceBounds, optional
-        Slip and fragility bounds; ``None`` leaves force unconstrained.
-    u_limits : (float, float)
-        Command amplitude limits.
-    du_max : float
-        Largest command change per control period.
     solver : {"daqp", "osqp", "proxqp"}
         QP solver: DAQP called directly after the unconstrained fast path
         (default), or osqp / proxqp through ``casadi.conic`` (reference).
-    computation_delay_samples : int
-        Whole samples between measurement and actuation (part of the model).
-    input_noise_std, disturbance_std_n, measurement_noise_std_n : float
-        Kalman filter tuning: std of command noise (units), of the per-step
-        output-disturbance increment (N) and of force measurement noise (N).
-    slack_weight : float
-        Linear and quadratic weight of force-bound violations (per N).
+    implementation : Implementation, optional
+        Control period in seconds (required for a continuous plant; default the
+        plant's), whole samples between measurement and actuation (part of the
+        model; default 1) and command amplitude limits (default ``(-1, 1)``).
+    force_bounds : ForceBounds, optional
+        Slip and fragility bounds; ``None`` leaves force unconstrained.
+    tuning : MPCTuning, optional
+        Move price, move limit, slack weight and Kalman filter noise (default
+        ``MPCTuning()``).
     slip_sensing : SensedSlipBound, optional
         Lower force bound from sensed load and slip (updated every step).
     force_max_n : float
@@ -149,22 +170,19 @@ class MPC:
         self,
         plant: control.LTI,
         *,
-        dt_s: float | None = None,
         horizon: int = 20,
-        rate_weight: float = 0.05,
-        force_bounds: ForceBounds | None = None,
-        u_limits: tuple[float, float] = COMMAND_LIMITS,
-        du_max: float = 0.25,
         solver: str = "daqp",
-        computation_delay_samples: int = 1,
-        input_noise_std: float = 0.02,
-        disturbance_std_n: float = 0.5,
-        measurement_noise_std_n: float = 0.5,
-        slack_weight: float = 1e4,
+        implementation: Implementation | None = None,
+        force_bounds: ForceBounds | None = None,
+        tuning: MPCTuning | None = None,
         slip_sensing: SensedSlipBound | None = None,
         force_max_n: float = float("inf"),
     ) -> None:
         import control
+        impl = Implementation() if implementation is None else implementation
+        tune = MPCTuning() if tuning is None else tuning
+        u_limits, du_max = impl.u_limits, tune.du_max
+        computation_delay_samples = impl.computation_delay_samples
         if solver not in QP_SOLVERS:
             raise SpecificationError(
                 f"MPC: unknown QP solver {solver!r}; valid: {list(QP_SOLVERS)}"
@@ -174,15 +192,15 @@ class MPC:
         if du_max <= 0:
             raise SpecificationError(f"MPC: expected du_max > 0, found {du_max}")
         self.plant_report_ = check_plant(plant)
-        self.dt_s = plant_dt(plant, dt_s)
+        self.dt_s = plant_dt(plant, impl.dt_s)
         self.horizon = int(horizon)
-        self.rate_weight = float(rate_weight)
+        self.rate_weight = float(tune.rate_weight)
         self.force_bounds = force_bounds
         self.u_limits = (float(u_limits[0]), float(u_limits[1]))
         self.du_max = float(du_max)
         self.solver = solver
         self.computation_delay_samples = int(computation_delay_samples)
-        self.slack_weight = float(slack_weight)
+        self.slack_weight = float(tune.slack_weight)
         self.slip_sensing = slip_sensing
         self.force_max_n = float(force_max_n)
 
@@ -201,8 +219,8 @@ class MPC:
         self.rho_ = self.rate_weight * self.gain_scale_**2
 
         g = np.hstack([self.B_, np.vstack([np.zeros((n, 1)), [[1.0]]])])
-        qn = np.diag([input_noise_std**2, disturbance_std_n**2])
-        rn = np.array([[measurement_noise_std_n**2]])
+        qn = np.diag([tune.input_noise_std**2, tune.disturbance_std_n**2])
+        rn = np.array([[tune.measurement_noise_std_n**2]])
         predictor_gain, p_prior, _ = control.dlqe(self.A_, g, self.C_, qn, rn)
         self.predictor_gain_ = np.asarray(predictor_gain, float)
         pc = p_prior @ self.C_.T
@@ -241,8 +259,8 @@ class MPC:
     # -- QP ----------------------------------------------------------------
     def _build_qp(self) -> None:
         """Condense the QP (:class:`controllers.qp.CondensedQP`) and set up its solver."""
-        self.qp_ = CondensedQP(self.A_, self.B_, self.C_, horizon=self.horizon, q=self.q_,
-                               rho=self.rho_, slack_weight=self.slack_weight,
+        weights = QPWeights(q=self.q_, rho=self.rho_, slack_weight=self.slack_weight)
+        self.qp_ = CondensedQP(self.A_, self.B_, self.C_, horizon=self.horizon, weights=weights,
                                u_limits=self.u_limits, du_max=self.du_max)
         self.first_constrained_step_ = self.qp_.first_constrained_step
         self._qp = make_solver(self.qp_, self.solver)

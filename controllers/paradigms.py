@@ -96,14 +96,7 @@ def register_paradigm(name: str, factory: Any, *, replace: bool = False) -> None
     _PARADIGMS.register(name, factory, replace=replace)
 
 
-def unregister_paradigm(name: str) -> None:
-    """Remove a paradigm (no effect if absent)."""
-    _PARADIGMS.unregister(name)
-
-
-def paradigm_names() -> tuple[str, ...]:
-    """Registered paradigms, in registration order."""
-    return _PARADIGMS.names()
+unregister_paradigm, paradigm_names = _PARADIGMS.functions(__name__, "paradigm")
 
 
 def make_paradigm(name: str) -> Paradigm:

@@ -16,12 +16,13 @@ with ``s = e`` or ``s = -y`` (derivative on measurement, no setpoint kick) and
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
 from controllers.analysis import loop_margins
-from controllers.base import COMMAND_LIMITS, Observation, as_observation
+from controllers.base import Implementation, Observation, as_observation
 from controllers.errors import SpecificationError
 from controllers.plant import check_plant, frequency_response, loop_plant, plant_dt
 from controllers.report import DesignReport
@@ -41,19 +42,17 @@ class PID:
         Integral gain, command units per (N s).
     kd_s : float
         Derivative gain, command units s per N.
-    dt_s : float
-        Control period in seconds.
     derivative_filter_s : float
         Time constant ``Tf`` of the first-order derivative filter in seconds.
+    implementation : Implementation
+        Control period ``dt_s`` in seconds (required), computation delay (samples
+        between measuring and applying, used by :meth:`loop`) and command
+        saturation ``u_limits`` (default ``(-1, 1)``).
     tracking_time_s : float, optional
         Back-calculation time constant ``Tt`` (>= ``dt_s``); default
         ``sqrt(Ti Td)`` with ``Ti = kp/ki``, ``Td = kd/kp`` (``Ti`` for a PI).
-    u_limits : (float, float)
-        Command saturation; default ``(-1, 1)``.
     derivative_on : {"measurement", "error"}
         Differentiate ``-y`` (no kick on reference steps) or ``e``.
-    computation_delay_samples : int
-        Samples between measuring and applying, used by :meth:`loop`.
     """
 
     name = "pid"
@@ -64,15 +63,14 @@ class PID:
         kp: float,
         ki_per_s: float,
         kd_s: float,
-        dt_s: float,
         derivative_filter_s: float,
+        implementation: Implementation,
         tracking_time_s: float | None = None,
-        u_limits: tuple[float, float] = COMMAND_LIMITS,
         derivative_on: Literal["measurement", "error"] = "measurement",
-        computation_delay_samples: int = 1,
     ) -> None:
-        if dt_s <= 0:
-            raise SpecificationError(f"PID: expected dt_s > 0, found {dt_s}")
+        dt_s, u_limits = implementation.dt_s, implementation.u_limits
+        if dt_s is None or dt_s <= 0:
+            raise SpecificationError(f"PID: expected implementation.dt_s > 0, found {dt_s}")
         if derivative_filter_s < 0:
             raise SpecificationError(
                 f"PID: expected derivative_filter_s >= 0, found {derivative_filter_s}")
@@ -88,7 +86,7 @@ class PID:
         self.derivative_filter_s = float(derivative_filter_s)
         self.u_limits = (float(u_limits[0]), float(u_limits[1]))
         self.derivative_on = derivative_on
-        self.computation_delay_samples = int(computation_delay_samples)
+        self.computation_delay_samples = int(implementation.computation_delay_samples)
         self._tracking_time_s = tracking_time_s
         self.kp, self.ki_per_s, self.kd_s = float(kp), float(ki_per_s), float(kd_s)
         self._update_tracking()
@@ -234,12 +232,10 @@ def design_pid(
     *,
     phase_margin_deg: float = 60.0,
     crossover_rad_s: float,
-    dt_s: float | None = None,
     structure: Literal["pi", "pid"] = "pi",
     ti_over_td: float = 4.0,
     derivative_filter_ratio: float = 10.0,
-    computation_delay_samples: int = 1,
-    u_limits: tuple[float, float] = COMMAND_LIMITS,
+    implementation: Implementation | None = None,
 ) -> PID:
     """Design a PI or PID so that the loop crosses over at ``crossover_rad_s`` with the given PM.
 
@@ -256,17 +252,15 @@ def design_pid(
         Target phase margin in degrees.
     crossover_rad_s : float
         Target gain-crossover frequency in rad/s.
-    dt_s : float, optional
-        Control period in seconds (required for a continuous plant).
     structure : {"pi", "pid"}
     ti_over_td : float
         ``Ti / Td`` for the PID (4 is the classical choice).
     derivative_filter_ratio : float
         Derivative filter corner as a multiple of the crossover.
-    computation_delay_samples : int
-        Whole samples of computation delay in the loop.
-    u_limits : (float, float)
-        Command saturation.
+    implementation : Implementation, optional
+        Control period in seconds (required for a continuous plant; default the
+        plant's), whole samples of computation delay in the loop (default 1) and
+        command saturation (default ``(-1, 1)``).
 
     Returns
     -------
@@ -283,7 +277,9 @@ def design_pid(
     if structure not in ("pi", "pid"):
         raise SpecificationError(f"structure must be 'pi' or 'pid', found {structure!r}")
     plant_report = check_plant(plant)
-    dt = plant_dt(plant, dt_s)
+    impl = Implementation() if implementation is None else implementation
+    dt = plant_dt(plant, impl.dt_s)
+    computation_delay_samples = impl.computation_delay_samples
     wc = float(crossover_rad_s)
     theta, gain = required_controller_phase(
         plant, phase_margin_deg, wc, dt, computation_delay_samples
@@ -306,10 +302,8 @@ def design_pid(
         kp=float(kp),
         ki_per_s=float(ki),
         kd_s=float(kd),
-        dt_s=dt,
         derivative_filter_s=float(tf),
-        u_limits=u_limits,
-        computation_delay_samples=computation_delay_samples,
+        implementation=replace(impl, dt_s=dt),
     )
     margins = loop_margins(controller.loop(plant))
     controller.report_ = DesignReport(

@@ -14,7 +14,7 @@ Location: ``$GRIPLOOP_CACHE_DIR/plants`` (default ``~/.cache/griploop/plants``;
 temporary file renamed into place), so concurrent workers never read half a
 file. An unreadable, corrupted or foreign cache file is a miss: the family is
 rebuilt and the file replaced; a cache directory that cannot be written is
-skipped (the family is still returned).
+skipped with a :class:`~sim.cache.CacheNotWritableWarning` (the family is still returned).
 """
 
 from __future__ import annotations
@@ -25,18 +25,14 @@ import hashlib
 import io
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from controllers.design_plant import DesignPlant, OperatingPoint, PlantFamily
 from controllers.errors import PlantError
 from sim import cache as sim_cache
-from sim.cache import build_lock, cache_subdir, write_atomic
+from sim.cache import cache_subdir, cached, write_atomic
 from sim.hand.objects import ObjectSpec
-
-if TYPE_CHECKING:
-    pass
 
 FORMAT = 1
 #: Packages whose every source file a plant family depends on (the hand, its XML,
@@ -118,7 +114,7 @@ def load_family(path: Path, obj: ObjectSpec) -> PlantFamily:
 
 def cached_family(obj: ObjectSpec, control_dt_s: float, forces_n: tuple[float, ...],
                   build) -> tuple[PlantFamily, str]:
-    """The family from the disk cache, or ``build()`` and store it.
+    """The family from the disk cache, or ``build()`` and store it (:func:`sim.cache.cached`).
 
     Returns
     -------
@@ -126,22 +122,11 @@ def cached_family(obj: ObjectSpec, control_dt_s: float, forces_n: tuple[float, .
     source : {"disk", "built", "built (cache off)", "built (cache not writable)"}
     """
     root = cache_dir()
-    if root is None:
-        return build(), "built (cache off)"
-    path = root / f"{obj.name}-{family_key(obj, control_dt_s, forces_n)}.npz"
-    family = _load(path, obj)
-    if family is not None:
-        return family, "disk"
-    with build_lock(path):  # another worker building it: wait, then read its file
-        family = _load(path, obj)
-        if family is not None:
-            return family, "disk"
-        family = build()
-        try:
-            save_family(family, path)
-        except OSError:
-            return family, "built (cache not writable)"
-    return family, "built"
+    path = None
+    if root is not None:
+        path = root / f"{obj.name}-{family_key(obj, control_dt_s, forces_n)}.npz"
+    return cached(path, lambda p: _load(p, obj), build,
+                  lambda p, family: save_family(family, p))
 
 
 def _load(path: Path, obj: ObjectSpec) -> PlantFamily | None:

@@ -92,6 +92,25 @@ def prediction_matrices(a: np.ndarray, b: np.ndarray, c: np.ndarray,
     return phi, gamma
 
 
+@dataclass(frozen=True)
+class QPWeights:
+    """Weights of the condensed QP's cost.
+
+    Attributes
+    ----------
+    q : float
+        Output-error weight, per N^2.
+    rho : float
+        Move weight, per unit command^2.
+    slack_weight : float
+        w: linear and quadratic weight of force-bound violations (per N, per N^2).
+    """
+
+    q: float
+    rho: float
+    slack_weight: float
+
+
 @dataclass
 class QPData:
     """One step's QP: ``min 0.5 z'Hz + f'z`` s.t. ``lower <= [I; A] z <= upper``.
@@ -117,10 +136,8 @@ class CondensedQP:
         Augmented prediction model (plant with delay and output disturbance).
     horizon : int
         N, control periods.
-    q, rho : float
-        Output-error weight (per N^2) and move weight (per unit command^2).
-    slack_weight : float
-        w: linear and quadratic weight of force-bound violations (per N, per N^2).
+    weights : QPWeights
+        Output-error, move and slack weights.
     u_limits : (float, float)
         Command amplitude limits.
     du_max : float
@@ -139,8 +156,8 @@ class CondensedQP:
     """
 
     def __init__(self, a: np.ndarray, b: np.ndarray, c: np.ndarray, *, horizon: int,
-                 q: float, rho: float, slack_weight: float, u_limits: tuple[float, float],
-                 du_max: float) -> None:
+                 weights: QPWeights, u_limits: tuple[float, float], du_max: float) -> None:
+        q, rho = weights.q, weights.rho
         n_h, nx = int(horizon), a.shape[0]
         phi, gamma = prediction_matrices(a, b, c, n_h)
         affected = np.nonzero(np.abs(gamma[:, 0]) > 1e-12 * np.abs(gamma).max())[0]
@@ -155,7 +172,7 @@ class CondensedQP:
         self.du_max = float(du_max)
         diff = np.eye(n_h) - np.eye(n_h, k=-1)
         e1 = np.eye(n_h)[:, 0]
-        w = float(slack_weight)
+        w = float(weights.slack_weight)
 
         h_uu = 2.0 * (q * gamma.T @ gamma + rho * diff.T @ diff)
         self.H = np.zeros((self.n, self.n))

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from controllers.base import Observation, as_observation
@@ -38,6 +38,54 @@ Westling 1987), and a step of 30 % of the reference per slip onset."""
 
 class ReflexSpecError(GriploopError, ValueError):
     """A :class:`SlipReflex` parameter is out of range; the message says expected vs found."""
+
+
+@dataclass(frozen=True)
+class ReflexSpec:
+    """The settings of a :class:`SlipReflex` (its law, in the class notes).
+
+    A scenario's ``slip_reflex`` (and :data:`AUTO_GRIP`) sets some of them by name:
+    ``ReflexSpec(**AUTO_GRIP)``.
+
+    Attributes
+    ----------
+    latency_s : float
+        Delay from slip detection to the boost, s (>= 0; rounded to whole periods).
+    gain : float
+        Boost added at each slip onset, as a fraction of the user's reference (>= 0):
+        an isolated onset raises the reference from ``r`` to ``r * (1 + gain)``.
+    slip_speed_threshold_m_s : float
+        Tangential slip speed above which the armed grasp is slipping, m/s (> 0).
+        Default 20 mm/s: on the MuJoCo hand a 0.3 kg can shaken at 4 Hz reads
+        5-13 mm/s at the contacts every half cycle even when held at 1.7 times
+        its slip force (creep of about 1 mm per cycle), while the slips that
+        drop it read 50-300 mm/s; at 5 mm/s each shake cycle is an onset and
+        the boost ratchets to ``max_boost``.
+    arming_s : float
+        Time both sides must have touched before slip can trigger, s (>= 0).
+    decay_s : float
+        Time constant of the exponential decay of the boost while no slip is
+        detected, s (> 0; ``inf`` holds the boost).
+    max_boost : float
+        Cap on the boost (>= 0): the reference is raised at most to
+        ``r * (1 + max_boost)``.
+    distance_gain_per_m : float
+        Extra boost per metre of slip while slip continues, 1/m (>= 0; 0 = onsets only).
+    fragility_margin : float
+        Fraction of the user's force limit kept free, in ``[0, 1)``.
+    release_below_n : float
+        A raw reference below this (N, >= 0) clears the reflex.
+    """
+
+    latency_s: float = 0.05
+    gain: float = 0.3
+    slip_speed_threshold_m_s: float = 0.02
+    arming_s: float = 0.2
+    decay_s: float = 1.0
+    max_boost: float = 1.0
+    distance_gain_per_m: float = 0.0
+    fragility_margin: float = 0.2
+    release_below_n: float = 0.5
 
 
 def _check(name: str, value: float, ok: bool, expected: str) -> float:
@@ -99,37 +147,15 @@ class SlipReflex:
     controller : object
         Controller with ``reset()``, ``act(observation)`` and ``loop(plant)``
         (and ``track(observation, u)`` if :meth:`track` is used).
+    spec : ReflexSpec, optional
+        Latency, gain, slip threshold, arming, decay, caps, fragility margin and
+        release threshold (default ``ReflexSpec()``); kept as the reflex's
+        attributes of the same names.
     dt_s : float
         Control period, s (> 0).
-    latency_s : float
-        Delay from slip detection to the boost, s (>= 0; rounded to whole periods).
-    gain : float
-        Boost added at each slip onset, as a fraction of the user's reference (>= 0):
-        an isolated onset raises the reference from ``r`` to ``r * (1 + gain)``.
-    slip_speed_threshold_m_s : float
-        Tangential slip speed above which the armed grasp is slipping, m/s (> 0).
-        Default 20 mm/s: on the MuJoCo hand a 0.3 kg can shaken at 4 Hz reads
-        5-13 mm/s at the contacts every half cycle even when held at 1.7 times
-        its slip force (creep of about 1 mm per cycle), while the slips that
-        drop it read 50-300 mm/s; at 5 mm/s each shake cycle is an onset and
-        the boost ratchets to ``max_boost``.
-    arming_s : float
-        Time both sides must have touched before slip can trigger, s (>= 0).
-    decay_s : float
-        Time constant of the exponential decay of the boost while no slip is
-        detected, s (> 0; ``inf`` holds the boost).
-    max_boost : float
-        Cap on the boost (>= 0): the reference is raised at most to
-        ``r * (1 + max_boost)``.
-    distance_gain_per_m : float
-        Extra boost per metre of slip while slip continues, 1/m (>= 0; 0 = onsets only).
     max_force_n : float
         The user's force limit, N (> 0): the break force of a fragile object as
         the user sets it; ``inf`` (default) for a robust object.
-    fragility_margin : float
-        Fraction of ``max_force_n`` kept free, in ``[0, 1)``.
-    release_below_n : float
-        A raw reference below this (N, >= 0) clears the reflex.
 
     Attributes
     ----------
@@ -155,19 +181,16 @@ class SlipReflex:
     def __init__(
         self,
         controller: Any,
+        spec: ReflexSpec | None = None,
         *,
         dt_s: float,
-        latency_s: float = 0.05,
-        gain: float = 0.3,
-        slip_speed_threshold_m_s: float = 0.02,
-        arming_s: float = 0.2,
-        decay_s: float = 1.0,
-        max_boost: float = 1.0,
-        distance_gain_per_m: float = 0.0,
         max_force_n: float = math.inf,
-        fragility_margin: float = 0.2,
-        release_below_n: float = 0.5,
     ) -> None:
+        r = ReflexSpec() if spec is None else spec
+        latency_s, gain, arming_s, decay_s = r.latency_s, r.gain, r.arming_s, r.decay_s
+        slip_speed_threshold_m_s, max_boost = r.slip_speed_threshold_m_s, r.max_boost
+        distance_gain_per_m, fragility_margin = r.distance_gain_per_m, r.fragility_margin
+        release_below_n = r.release_below_n
         self.controller = controller
         self.dt_s = _check("dt_s", dt_s, 0 < dt_s < math.inf, "> 0 s")
         self.latency_s = _check("latency_s", latency_s, 0 <= latency_s < math.inf, ">= 0 s")

@@ -2,11 +2,15 @@
 
 A controller kind is registered once with :func:`register_controller`: the
 function that designs one controller on one plant (by ``"module:attribute"``
-reference, imported on first use), the specification options it accepts, their
-defaults, and how a bank of its designs is scheduled over grip force
-(:class:`controllers.schedule.ScheduledController`). Everything else reads the
-registry: :func:`controllers.design.design_for_object`, the scenario schema's
-``controller.kind`` and the CLI's ``--controller`` choices.
+reference, imported on first use) and a :class:`ControllerKind` declaring the
+specification options it accepts, their defaults, and how a bank of its designs is
+scheduled over grip force (:class:`controllers.schedule.ScheduledController`)::
+
+    register_controller("lead_lag", "controllers.lead_lag:design_lead_lag", ControllerKind(
+        options=("lag_ratio",), defaults={"phase_margin_deg": 60.0, "lag_ratio": 2.0}))
+
+Everything else reads the registry: :func:`controllers.design.design_for_object`, the
+scenario schema's ``controller.kind`` and the CLI's ``--controller`` choices.
 
 Two families of specification:
 
@@ -22,8 +26,9 @@ Importing this module imports neither python-control nor any controller module.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from controllers.errors import UnknownControllerError
@@ -41,58 +46,53 @@ LOOP_SHAPING_OPTIONS = ("phase_margin_deg", "crossover_rad_s", "bandwidth_rad_s"
 class ControllerKind(Capabilities):
     """What a controller kind declares when it registers (:func:`register_controller`).
 
+    Every field has a default: a registration declares only what differs.
+
     Attributes
     ----------
     shaping : bool
-        Specified by loop shaping (:data:`LOOP_SHAPING_OPTIONS`) besides ``options``.
+        Specified by loop shaping (:data:`LOOP_SHAPING_OPTIONS`) besides ``options``;
+        otherwise by ``options`` only.
     options : tuple of str
-        Its own specification options (``lag_ratio``, ``horizon``, ...).
+        Its own specification options besides the loop-shaping ones (e.g.
+        ``("lag_ratio",)``, ``("horizon",)``).
     accepted : tuple of str
-        Every option a specification may set (loop shaping and ``options``).
-    defaults, fixed : mapping
-        Default specification; keyword arguments always passed to the design.
+        Every option a specification may set (loop shaping and ``options``): derived
+        at registration, whatever is given.
+    defaults : mapping
+        Default specification (what the CLI and the library start from).
+    fixed : mapping
+        Keyword arguments always passed to the design (e.g. ``structure="pi"``).
     bank_design : callable, str or None
-        What builds each design of a scheduled bank, if not the design function.
+        What builds each design of a scheduled bank, if not the design function (e.g.
+        a constructor that skips the per-design report), or its reference.
     blend : {"switch", "interpolate"}
         How the bank's designs are scheduled over grip force.
     warm : {"neighbours", "all", "none"}
         Which inactive designs track the applied command.
     slip_sensing : bool
-        The design takes ``slip_sensing`` and ``force_max_n``.
+        The design takes ``slip_sensing`` (a sensed slip bound) and ``force_max_n``.
     specified_by : str
-        How the kind is specified, for messages.
+        How the kind is specified, for messages (empty: its accepted options).
     """
 
-    shaping: bool
-    options: tuple[str, ...]
-    accepted: tuple[str, ...]
-    defaults: Mapping[str, Any]
-    fixed: Mapping[str, Any]
-    bank_design: Any
-    blend: str
-    warm: str
-    slip_sensing: bool
-    specified_by: str
+    shaping: bool = True
+    options: tuple[str, ...] = ()
+    accepted: tuple[str, ...] = ()
+    defaults: Mapping[str, Any] = field(default_factory=dict)
+    fixed: Mapping[str, Any] = field(default_factory=dict)
+    bank_design: Any = None
+    blend: str = "switch"
+    warm: str = "neighbours"
+    slip_sensing: bool = False
+    specified_by: str = ""
 
 
 _REGISTRY = Registry("controller", UnknownControllerError, capabilities=ControllerKind)
 
 
-def register_controller(
-    name: str,
-    design: Callable[..., Controller] | str,
-    *,
-    shaping: bool = True,
-    options: tuple[str, ...] = (),
-    defaults: Mapping[str, Any] | None = None,
-    fixed: Mapping[str, Any] | None = None,
-    bank_design: Callable[..., Controller] | str | None = None,
-    blend: str = "switch",
-    warm: str = "neighbours",
-    slip_sensing: bool = False,
-    specified_by: str | None = None,
-    replace: bool = False,
-) -> None:
+def register_controller(name: str, design: Callable[..., Controller] | str,
+                        kind: ControllerKind | None = None, *, replace: bool = False) -> None:
     """Register a controller kind.
 
     Parameters
@@ -102,59 +102,39 @@ def register_controller(
     design : callable or str
         ``design(plant, **spec) -> Controller`` on one design plant (command
         -1..1 to grip force, N), or its ``"package.module:attribute"`` reference.
-    shaping : bool
-        Specified by loop shaping (:data:`LOOP_SHAPING_OPTIONS`); otherwise
-        by ``options`` only.
-    options : tuple of str
-        Specification options of this kind besides the loop-shaping ones
-        (e.g. ``("lag_ratio",)``, ``("horizon",)``).
-    defaults : mapping, optional
-        Default specification (what the CLI and the library start from).
-    fixed : mapping, optional
-        Keyword arguments always passed to ``design`` (e.g. ``structure="pi"``).
-    bank_design : callable or str, optional
-        What builds each design of a scheduled bank, if not ``design`` (e.g. a
-        constructor that skips the per-design report).
-    blend, warm : str
-        :class:`~controllers.schedule.ScheduledController` settings of the bank.
-    slip_sensing : bool
-        The design takes ``slip_sensing`` (a sensed slip bound) and ``force_max_n``.
-    specified_by : str, optional
-        How the kind is specified, for messages (default: its options).
+    kind : ControllerKind, optional
+        What the kind declares: its specification options and their defaults, and how
+        its bank is scheduled (default: ``ControllerKind()``, loop shaping only).
     replace : bool
         Allow replacing an existing registration.
 
     Raises
     ------
     sim.registry.RegistrationError
-        Malformed reference, or ``name`` already registered.
+        Malformed reference, bad ``blend`` or ``warm``, defaults outside the options,
+        or ``name`` already registered.
     """
-    options = tuple(options)
-    if blend not in ("switch", "interpolate") or warm not in ("neighbours", "all", "none"):
+    kind = ControllerKind() if kind is None else kind
+    if kind.blend not in ("switch", "interpolate") or \
+            kind.warm not in ("neighbours", "all", "none"):
         raise RegistrationError(f"controller {name}: expected blend 'switch' or 'interpolate' "
-                                f"and warm 'neighbours', 'all' or 'none', found {blend!r}, "
-                                f"{warm!r}")
-    accepted = (*LOOP_SHAPING_OPTIONS, *options) if shaping else options
-    unknown = sorted(set(defaults or {}) - set(accepted))
+                                f"and warm 'neighbours', 'all' or 'none', found {kind.blend!r}, "
+                                f"{kind.warm!r}")
+    options = tuple(kind.options)
+    accepted = (*LOOP_SHAPING_OPTIONS, *options) if kind.shaping else options
+    unknown = sorted(set(kind.defaults) - set(accepted))
     if unknown:
         raise RegistrationError(f"controller {name}: defaults {unknown} are not among its "
                                 f"options {list(accepted)}")
-    _REGISTRY.register(
-        name, design, replace=replace, shaping=bool(shaping), options=options,
-        accepted=accepted, defaults=dict(defaults or {}), fixed=dict(fixed or {}),
-        bank_design=bank_design, blend=blend, warm=warm, slip_sensing=bool(slip_sensing),
-        specified_by=specified_by or " and ".join(accepted) or "no options",
-    )
+    kind = dataclasses.replace(
+        kind, shaping=bool(kind.shaping), options=options, accepted=accepted,
+        defaults=dict(kind.defaults), fixed=dict(kind.fixed),
+        slip_sensing=bool(kind.slip_sensing),
+        specified_by=kind.specified_by or " and ".join(accepted) or "no options")
+    _REGISTRY.register_record(name, design, kind, replace=replace)
 
 
-def unregister_controller(name: str) -> None:
-    """Remove a controller kind (no effect if absent)."""
-    _REGISTRY.unregister(name)
-
-
-def controller_names() -> tuple[str, ...]:
-    """Every registered controller kind, in registration order."""
-    return _REGISTRY.names()
+unregister_controller, controller_names = _REGISTRY.functions(__name__, "controller")
 
 
 def controller_info(name: str) -> Mapping[str, Any]:
@@ -282,15 +262,14 @@ def __getattr__(attr: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
 
 
-register_controller("pid", "controllers.pid:design_pid", fixed={"structure": "pi"},
-                    defaults={"phase_margin_deg": 60.0, "crossover_rad_s": 30.0},
-                    blend="interpolate", warm="neighbours")
-register_controller("lead_lag", "controllers.lead_lag:design_lead_lag", options=("lag_ratio",),
-                    defaults={"phase_margin_deg": 60.0, "crossover_rad_s": 30.0,
-                              "lag_ratio": 2.0},
-                    blend="switch", warm="none")
-register_controller("mpc", "controllers.mpc:design_mpc", shaping=False,
-                    options=("horizon", "solver"), defaults={"horizon": 20, "solver": "daqp"},
-                    bank_design="controllers.mpc:MPC",
-                    blend="switch", warm="all", slip_sensing=True,
-                    specified_by="horizon and weights")
+register_controller("pid", "controllers.pid:design_pid", ControllerKind(
+    fixed={"structure": "pi"}, defaults={"phase_margin_deg": 60.0, "crossover_rad_s": 30.0},
+    blend="interpolate", warm="neighbours"))
+register_controller("lead_lag", "controllers.lead_lag:design_lead_lag", ControllerKind(
+    options=("lag_ratio",),
+    defaults={"phase_margin_deg": 60.0, "crossover_rad_s": 30.0, "lag_ratio": 2.0},
+    blend="switch", warm="none"))
+register_controller("mpc", "controllers.mpc:design_mpc", ControllerKind(
+    shaping=False, options=("horizon", "solver"), defaults={"horizon": 20, "solver": "daqp"},
+    bank_design="controllers.mpc:MPC", blend="switch", warm="all", slip_sensing=True,
+    specified_by="horizon and weights"))

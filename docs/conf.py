@@ -89,7 +89,7 @@ _THIRD_PARTY = (
 )
 _BUILTIN_NAMES = sorted(name for name in dir(builtins) if not name.startswith("_"))
 nitpick_ignore_regex = [
-    # private names (a base class such as scenarios.schema.models._Model) are not documented
+    # private names (a module's own helpers) are not documented
     (r"py:.*", r"(.*\.)?_[A-Za-z].*"),
     (r"py:.*", rf"({'|'.join(_THIRD_PARTY)})(\..*)?"),
     (r"py:.*", rf"({'|'.join(_BUILTIN_NAMES)})"),

@@ -44,7 +44,7 @@ from estimation.transfer import (
     EPOCH_STAGE,
     PRETRAIN_SEED,
     VALIDATION_SUBJECTS,
-    _TransferStream,
+    TransferStream,
     finetune,
     lagged,
     pretrained_for,
@@ -84,7 +84,7 @@ class AdaptiveMLP(ForceEstimator):
     lags : int
         Past windows in the pretrained networks' input.
     corpus : str
-        Registered pretraining corpus (:func:`estimation.transfer.register_corpus`).
+        Registered pretraining corpus (:func:`estimation.corpora.register_corpus`).
     population : str
         Population variant of the corpus.
     pretrain_subjects, pretrain_seed, pretrain_epochs, validation_subjects : int
@@ -228,7 +228,7 @@ class AdaptiveMLP(ForceEstimator):
         """A stream equal to :meth:`predict`; ``period_s`` (s) shorter than ``dt_s`` is refused."""
         check_mode(mode, self.modes, "AdaptiveMLP")
         check_period(period_s, self.dt_s, "AdaptiveMLP")
-        ensemble = _TransferStream(self.networks_, self.lags, self.n_features_in_, mode) \
+        ensemble = TransferStream(self.networks_, self.lags, self.n_features_in_, mode) \
             if self.networks_ else None
         return scaled(_AdaptiveStream(MLPForward(self.scratch_.net_), ensemble, self.weight_,
                                       mode), scaling)
@@ -239,7 +239,7 @@ class _AdaptiveStream:
 
     uses_force = False
 
-    def __init__(self, scratch: MLPForward, ensemble: _TransferStream | None, weight: float,
+    def __init__(self, scratch: MLPForward, ensemble: TransferStream | None, weight: float,
                  mode: str) -> None:
         self.mode = mode
         self._scratch = scratch

@@ -10,7 +10,6 @@ import warnings
 
 import numpy as np
 
-from estimation.registry import MODES, UnknownEstimatorError  # noqa: F401  (defined there)
 from sim.errors import GriploopError
 
 

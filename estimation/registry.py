@@ -25,9 +25,11 @@ the bare estimators and on the :class:`~estimation.pipeline.ForcePipeline` that
 ``make_estimator`` returns (its parameters are ``estimator__<name>``).
 
 A new estimator is a module with a class satisfying
-:class:`estimation.protocols.Estimator` plus one call::
+:class:`estimation.protocols.Estimator` plus one call, its capabilities declared as an
+:class:`EstimatorKind`::
 
-    register_estimator("my_est", "mypackage.my_est:MyEstimator", modes=("free_run",))
+    register_estimator("my_est", "mypackage.my_est:MyEstimator",
+                       EstimatorKind(modes=("free_run",), takes_seed=True))
 
 Registrations by ``"module:attribute"`` are imported when the estimator is first
 built, so listing the names (:func:`estimator_names`, the scenario schema, the
@@ -36,12 +38,13 @@ CLI's choices) imports neither scikit-learn nor any estimator module.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from sim.errors import GriploopError
-from sim.registry import Capabilities, Registry
+from sim.registry import Capabilities, RegistrationError, Registry
 
 if TYPE_CHECKING:
     from estimation.protocols import Estimator
@@ -59,72 +62,17 @@ class UnknownEstimatorError(GriploopError, LookupError):
 class EstimatorKind(Capabilities):
     """What an estimator declares when it registers (:func:`register_estimator`).
 
+    Every field has a default: a registration declares only what differs.
+
     Attributes
     ----------
     modes : tuple of str
-        Prediction modes it supports (a subset of :data:`MODES`).
+        Prediction modes it supports (a non-empty subset of :data:`MODES`; default both).
     params : mapping
-        Keyword arguments always passed to its factory.
+        Fixed keyword arguments always passed to its factory (e.g. ``kalman=True``).
     order_params : tuple of str
-        Hyperparameters that take the model order of an evaluation.
-    takes_seed, takes_dt, neural : bool
-        It takes ``random_state``; the feature period ``dt_s``; the network options.
-    paper, deployable : bool
-        A column of the paper's tables; built to be deployed (no force sensor).
-    sim_trained : bool
-        It learns from virtual subjects (a pretraining corpus, settings chosen on virtual
-        subjects): it is judged only on subjects of a population it never saw.
-    label : str
-        Short upper-case label of printed tables.
-    """
-
-    modes: tuple[str, ...]
-    params: Mapping[str, Any]
-    order_params: tuple[str, ...]
-    takes_seed: bool
-    takes_dt: bool
-    neural: bool
-    paper: bool
-    deployable: bool
-    sim_trained: bool
-    label: str
-
-
-_REGISTRY = Registry("estimator", UnknownEstimatorError, capabilities=EstimatorKind)
-
-
-def register_estimator(
-    name: str,
-    factory: Callable[..., Estimator] | str,
-    *,
-    modes: tuple[str, ...] = MODES,
-    params: Mapping[str, Any] | None = None,
-    order_params: tuple[str, ...] = (),
-    takes_seed: bool = False,
-    takes_dt: bool = False,
-    neural: bool = False,
-    paper: bool = False,
-    deployable: bool = False,
-    sim_trained: bool = False,
-    label: str | None = None,
-    replace: bool = False,
-) -> None:
-    """Register an estimator under ``name``.
-
-    Parameters
-    ----------
-    name : str
-        Name used in scenarios, sweeps and the CLI.
-    factory : callable or str
-        Class or function ``factory(**hyperparameters) -> Estimator``, or its
-        ``"package.module:attribute"`` reference (imported on first use).
-    modes : tuple of str
-        Prediction modes it supports (``"one_step"``, ``"free_run"``).
-    params : mapping, optional
-        Fixed keyword arguments always passed to ``factory`` (e.g. ``kalman=True``).
-    order_params : tuple of str
-        Hyperparameters that take the model order of an evaluation (e.g.
-        ``("order",)`` for a state-space model, ``("hidden", "delays")``).
+        Hyperparameters that take the model order of an evaluation (e.g. ``("order",)``
+        for a state-space model, ``("hidden", "delays")``).
     takes_seed : bool
         It takes ``random_state`` (an int drawn per subject).
     takes_dt : bool
@@ -136,10 +84,42 @@ def register_estimator(
     deployable : bool
         Needs no force sensor at run time and is built to be deployed.
     sim_trained : bool
-        Learns from virtual subjects (pretraining, a corpus, settings chosen on them):
-        ``griploop reproduce`` judges it on a population it never saw (issue 28).
-    label : str, optional
-        Short upper-case label of printed tables (default: ``name.upper()``).
+        It learns from virtual subjects (a pretraining corpus, settings chosen on virtual
+        subjects): ``griploop reproduce`` judges it only on subjects of a population it
+        never saw (issue 28).
+    label : str
+        Short upper-case label of printed tables (empty: the registered name, upper case).
+    """
+
+    modes: tuple[str, ...] = MODES
+    params: Mapping[str, Any] = field(default_factory=dict)
+    order_params: tuple[str, ...] = ()
+    takes_seed: bool = False
+    takes_dt: bool = False
+    neural: bool = False
+    paper: bool = False
+    deployable: bool = False
+    sim_trained: bool = False
+    label: str = ""
+
+
+_REGISTRY = Registry("estimator", UnknownEstimatorError, capabilities=EstimatorKind)
+
+
+def register_estimator(name: str, factory: Callable[..., Estimator] | str,
+                       kind: EstimatorKind | None = None, *, replace: bool = False) -> None:
+    """Register an estimator under ``name``.
+
+    Parameters
+    ----------
+    name : str
+        Name used in scenarios, sweeps and the CLI.
+    factory : callable or str
+        Class or function ``factory(**hyperparameters) -> Estimator``, or its
+        ``"package.module:attribute"`` reference (imported on first use).
+    kind : EstimatorKind, optional
+        What it declares: modes, fixed parameters, what an evaluation passes it, the
+        tables it belongs to, its label (default: ``EstimatorKind()``).
     replace : bool
         Allow replacing an existing registration.
 
@@ -148,28 +128,18 @@ def register_estimator(
     sim.registry.RegistrationError
         Malformed reference, unknown mode, or ``name`` already registered.
     """
-    from sim.registry import RegistrationError
-
-    bad = [m for m in modes if m not in MODES]
-    if not modes or bad:
+    kind = EstimatorKind() if kind is None else kind
+    bad = [m for m in kind.modes if m not in MODES]
+    if not kind.modes or bad:
         raise RegistrationError(f"estimator {name}: modes must be a non-empty subset of {MODES} "
-                                f"(found {tuple(modes)})")
-    _REGISTRY.register(
-        name, factory, replace=replace, modes=tuple(modes), params=dict(params or {}),
-        order_params=tuple(order_params), takes_seed=bool(takes_seed), takes_dt=bool(takes_dt),
-        neural=bool(neural), paper=bool(paper), deployable=bool(deployable),
-        sim_trained=bool(sim_trained), label=label or name.upper(),
-    )
+                                f"(found {tuple(kind.modes)})")
+    kind = dataclasses.replace(
+        kind, modes=tuple(kind.modes), params=dict(kind.params),
+        order_params=tuple(kind.order_params), label=kind.label or str(name).upper())
+    _REGISTRY.register_record(name, factory, kind, replace=replace)
 
 
-def unregister_estimator(name: str) -> None:
-    """Remove ``name`` from the registry (no effect if absent)."""
-    _REGISTRY.unregister(name)
-
-
-def estimator_names() -> tuple[str, ...]:
-    """Every registered estimator name, in registration order."""
-    return _REGISTRY.names()
+unregister_estimator, estimator_names = _REGISTRY.functions(__name__, "estimator")
 
 
 def estimator_info(name: str) -> Mapping[str, Any]:
@@ -236,31 +206,33 @@ def __getattr__(attr: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
 
 
-register_estimator("ss_kf", "estimation.state_space:SSEstimator", params={"kalman": True},
-                   order_params=("order",), takes_dt=True, paper=True, label="SS_KF")
-register_estimator("ss", "estimation.state_space:SSEstimator", params={"kalman": False},
-                   order_params=("order",), takes_dt=True, label="SS")
-register_estimator("mlp", "estimation.baselines.mlp:MLPBaseline", order_params=("hidden",),
-                   takes_seed=True, takes_dt=True, neural=True, paper=True, label="MLP")
-register_estimator("narx", "estimation.baselines.narx:NARXBaseline",
-                   order_params=("hidden", "delays"), takes_seed=True, takes_dt=True,
-                   neural=True, paper=True, label="NARX")
-register_estimator("lda_qpf", "estimation.baselines.lda_qpf:LDAQPF", paper=True,
-                   label="LDA_QPF")
-register_estimator("latent_kf", "estimation.latent_kf:LatentKalman", label="LATENT_KF")
+register_estimator("ss_kf", "estimation.state_space:SSEstimator", EstimatorKind(
+    params={"kalman": True}, order_params=("order",), takes_dt=True, paper=True, label="SS_KF"))
+register_estimator("ss", "estimation.state_space:SSEstimator", EstimatorKind(
+    params={"kalman": False}, order_params=("order",), takes_dt=True, label="SS"))
+register_estimator("mlp", "estimation.baselines.mlp:MLPBaseline", EstimatorKind(
+    order_params=("hidden",), takes_seed=True, takes_dt=True, neural=True, paper=True,
+    label="MLP"))
+register_estimator("narx", "estimation.baselines.narx:NARXBaseline", EstimatorKind(
+    order_params=("hidden", "delays"), takes_seed=True, takes_dt=True, neural=True, paper=True,
+    label="NARX"))
+register_estimator("lda_qpf", "estimation.baselines.lda_qpf:LDAQPF",
+                   EstimatorKind(paper=True, label="LDA_QPF"))
+register_estimator("latent_kf", "estimation.latent_kf:LatentKalman",
+                   EstimatorKind(label="LATENT_KF"))
 register_estimator("persistence", "estimation.baselines.persistence:Persistence",
-                   modes=("one_step",), label="PERSIST")
+                   EstimatorKind(modes=("one_step",), label="PERSIST"))
 for _feature in ("mav", "rms", "wl"):
     register_estimator(f"features_{_feature}",
                        "estimation.baselines.single_feature:SingleFeatureLinear",
-                       params={"feature": _feature}, label=f"F_{_feature.upper()}")
-register_estimator("ridge", "estimation.deployable:LogRidge", takes_dt=True, deployable=True,
-                   label="RIDGE")
-register_estimator("gbt", "estimation.deployable:BoostedLogRidge", takes_seed=True,
-                   takes_dt=True, deployable=True, label="GBT")
-register_estimator("ss_sim", "estimation.ss_sim:SimulationErrorSS", modes=("free_run",),
-                   takes_dt=True, deployable=True, label="SS_SIM")
-register_estimator("transfer_mlp", "estimation.transfer:TransferMLP", takes_seed=True,
-                   takes_dt=True, deployable=True, sim_trained=True, label="TRANSFER")
-register_estimator("adaptive_mlp", "estimation.adaptive:AdaptiveMLP", takes_seed=True,
-                   takes_dt=True, deployable=True, sim_trained=True, label="ADAPT")
+                       EstimatorKind(params={"feature": _feature}, label=f"F_{_feature.upper()}"))
+register_estimator("ridge", "estimation.deployable:LogRidge", EstimatorKind(
+    takes_dt=True, deployable=True, label="RIDGE"))
+register_estimator("gbt", "estimation.deployable:BoostedLogRidge", EstimatorKind(
+    takes_seed=True, takes_dt=True, deployable=True, label="GBT"))
+register_estimator("ss_sim", "estimation.ss_sim:SimulationErrorSS", EstimatorKind(
+    modes=("free_run",), takes_dt=True, deployable=True, label="SS_SIM"))
+register_estimator("transfer_mlp", "estimation.transfer:TransferMLP", EstimatorKind(
+    takes_seed=True, takes_dt=True, deployable=True, sim_trained=True, label="TRANSFER"))
+register_estimator("adaptive_mlp", "estimation.adaptive:AdaptiveMLP", EstimatorKind(
+    takes_seed=True, takes_dt=True, deployable=True, sim_trained=True, label="ADAPT"))

@@ -42,7 +42,7 @@ from estimation.registry import (
     paper_estimators,
 )
 from estimation.verdicts import (  # noqa: F401  (recommendation, transfer_table re-exported)
-    _fmt,
+    cell,
     format_deployable,
     format_inner_outer,
     format_out_of_population,
@@ -52,9 +52,9 @@ from estimation.verdicts import (  # noqa: F401  (recommendation, transfer_table
 )
 from sim.recording import Recording
 
-#: Paper Table 2/3 estimators, in the paper's column order (``register_estimator(paper=True)``).
+#: Paper Table 2/3 estimators, in the paper's column order (``EstimatorKind(paper=True)``).
 PAPER_ESTIMATORS = paper_estimators()
-#: Estimators that need no force sensor at run time (``register_estimator(deployable=True)``).
+#: Estimators that need no force sensor at run time (``EstimatorKind(deployable=True)``).
 DEPLOYABLE_ESTIMATORS = deployable_estimators()
 
 
@@ -161,14 +161,31 @@ class SubjectScore:
     inner: dict | None = None
 
 
+@dataclass(frozen=True)
+class ScoreSettings:
+    """What the estimators of the paper's protocol are fitted with.
+
+    Attributes
+    ----------
+    channels : sequence of int (1-based) or str, or None
+        sEMG channels whose MAV, RMS and WL are the inputs (``None``: all).
+    order : int
+        SS order; NARX delays and hidden units follow it.
+    nn_params : mapping, optional
+        Overrides for the MLP/NARX hyperparameters.
+    """
+
+    channels: Sequence[int | str] | None = PAPER_CHANNELS
+    order: int = PAPER_ORDER
+    nn_params: Mapping[str, object] | None = None
+
+
 def score_recording(
     recording: Recording,
     estimators: Sequence[str],
     *,
     rng: np.random.Generator | int | None,
-    channels: Sequence[int | str] | None = PAPER_CHANNELS,
-    order: int = PAPER_ORDER,
-    nn_params: Mapping[str, object] | None = None,
+    settings: ScoreSettings = ScoreSettings(),
     orders: Sequence[int] | None = None,
     subject_id: int | None = None,
     inner: Sequence[str] = (),
@@ -183,12 +200,9 @@ def score_recording(
         Registry names.
     rng : numpy.random.Generator, int or None
         Seeds the estimators (:func:`estimation.evaluation.fit_and_score`).
-    channels : sequence of int (1-based) or str, or None
-        sEMG channels whose MAV, RMS and WL are the inputs (``None``: all).
-    order : int
-        SS order; NARX delays and hidden units follow it.
-    nn_params : mapping, optional
-        Overrides for the MLP/NARX hyperparameters.
+    settings : ScoreSettings
+        The input channels, the model order and the network overrides (default: the
+        paper's channels and order).
     orders : sequence of int, optional
         Candidate orders for the AIC curve (needs ``ss_kf``); ``None``: no curve.
     subject_id : int, optional
@@ -204,6 +218,7 @@ def score_recording(
     features : FeatureSet
         The recording's features, ``X`` shape (n_windows, n_inputs).
     """
+    channels, order, nn_params = settings.channels, settings.order, settings.nn_params
     fs = extract_features(recording, channels=channels)
     seeds = np.random.default_rng(rng)
     seed_state = seeds.bit_generator.state
@@ -326,13 +341,13 @@ def format_table2(result: dict, mode: str) -> str:
         row = f"{'V' + str(i + 1):10s}"
         for n in names:
             r = est[n][mode]["per_subject"][i]
-            row += f"{_fmt(r['r2'], 11)}{_fmt(r['nrmse'])}"
+            row += f"{cell(r['r2'], 11)}{cell(r['nrmse'])}"
         lines.append(row)
     for label, key in (("Average", "mean"), ("SD", "sd")):
         row = f"{label:10s}"
         for n in names:
             e = est[n][mode]
-            row += f"{_fmt(e['r2_' + key], 11)}{_fmt(e['nrmse_' + key])}"
+            row += f"{cell(e['r2_' + key], 11)}{cell(e['nrmse_' + key])}"
         lines.append(row)
     for label, idx in (("Paper avg", (0, 2)), ("Paper SD", (1, 3))):
         row = f"{label:10s}"
@@ -358,10 +373,10 @@ def format_others(result: dict, mode: str) -> str:
         if n in PAPER_ESTIMATORS or mode not in est[n]:
             continue
         e = est[n][mode]
-        line = (f"  {estimator_label(n):10s} R2 {_fmt(e['r2_mean'], 7)} +/- {_fmt(e['r2_sd'], 6)}"
-                f" (min {_fmt(e.get('r2_min'), 6, 3)})"
-                f"  NRMSE {_fmt(e['nrmse_mean'], 7)} +/- {_fmt(e['nrmse_sd'], 6)}"
-                f"  RMSE {_fmt(e['rmse_n_mean'], 6, 2)} N")
+        line = (f"  {estimator_label(n):10s} R2 {cell(e['r2_mean'], 7)} +/- {cell(e['r2_sd'], 6)}"
+                f" (min {cell(e.get('r2_min'), 6, 3)})"
+                f"  NRMSE {cell(e['nrmse_mean'], 7)} +/- {cell(e['nrmse_sd'], 6)}"
+                f"  RMSE {cell(e['rmse_n_mean'], 6, 2)} N")
         ref = paper_ref.get(n)
         if ref is not None:
             line += (f"   paper R2 {ref[0]:.4f} +/- {ref[1]:.4f}, "
@@ -495,8 +510,8 @@ def evaluate_recording(
         )
     channels = parse_channels(channels)
     estimators = estimator_names() if estimators is None else tuple(estimators)
-    score, fs = score_recording(recording, estimators, rng=seed, channels=channels, order=order,
-                                nn_params=nn_params)
+    score, fs = score_recording(recording, estimators, rng=seed,
+                                settings=ScoreSettings(channels, order, nn_params))
     res = score.results
     result = aggregate([res])
     result["training"] = training_settings(score.params, _pipelines(res))
@@ -517,8 +532,8 @@ def format_summary(result: dict) -> str:
         t = result["timing"][name]
         for mode, e in modes.items():
             step = t["step_us_median"]
-            line = (f"{name:13s}{mode:10s}{_fmt(e['r2_mean'])}{_fmt(e['nrmse_mean'])}"
-                    f"{_fmt(e['rmse_n_mean'], 8, 2)}{_fmt(t['train_ms_median'], 10, 2)}"
+            line = (f"{name:13s}{mode:10s}{cell(e['r2_mean'])}{cell(e['nrmse_mean'])}"
+                    f"{cell(e['rmse_n_mean'], 8, 2)}{cell(t['train_ms_median'], 10, 2)}"
                     f"{'n/a' if step is None else f'{step:.2f}':>9s}")
             bad = [r["status"] for r in e["per_subject"] if r["status"] != "ok"]
             if bad:

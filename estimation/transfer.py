@@ -24,12 +24,13 @@ subject's. The pretrained weights and that choice are stored as arrays and JSON,
 the settings, the corpus and the source of the modules that make the corpus: the default
 ensembles ship in the package (``make pretrained`` writes them), and every ensemble built
 is cached (``$GRIPLOOP_CACHE_DIR/pretrained``); a missing, unreadable or mismatched file
-is rebuilt, never trusted (:mod:`estimation.pretrained_store`). Pretraining is
-deterministic for a seed (one BLAS thread, seeded networks).
+is rebuilt, never trusted (:mod:`estimation.pretrained_store`); a cache directory that
+cannot be written is a warning (:func:`sim.cache.cached`). Pretraining is deterministic for
+a seed (one BLAS thread, seeded networks).
 
-Corpora are registered by name (:func:`register_corpus`); ``"virtual"`` is the paper's
-protocol recorded from :func:`sim.user.subjects.make_population` subjects with the noise
-generator (:mod:`scenarios.runners.pretraining`).
+Corpora are registered by name (:mod:`estimation.corpora`) by the layer that records them;
+``"virtual"`` is the paper's protocol recorded from virtual subjects with the noise
+generator, registered by the scenarios package.
 """
 
 from __future__ import annotations
@@ -38,16 +39,16 @@ import functools
 import hashlib
 import json
 from collections.abc import Callable, Sequence
-from importlib import resources
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.special import expit
 
 from estimation import pretrained_store as store
 from estimation.base import ForceEstimator
-from estimation.baselines.mlp import fit_quietly
+from estimation.baselines.mlp import MLPForward, fit_quietly
+from estimation.corpora import Corpus, corpus_builder, corpus_packages, corpus_source
 from estimation.deployable import check_period
 from estimation.errors import EstimationInputError, check_features, check_mode, check_target
 from estimation.metrics import r2_score
@@ -55,8 +56,6 @@ from estimation.normalize import MinMaxScaling
 from estimation.pretrained_store import Network, Pretrained
 from estimation.streaming import scaled
 from sim import cache as sim_cache
-from sim.cache import build_lock, cache_subdir
-from sim.registry import Registry
 
 #: Version of the cache format (weights NPZ + JSON); another version is rebuilt.
 FORMAT = 1
@@ -74,39 +73,6 @@ TRANSFER_POPULATION = "default"
 #: Pretraining mini-batch and Adam step size (about 20 s for 3 networks on 40 subjects).
 PRETRAIN_BATCH = 128
 PRETRAIN_RATE = 2e-3
-
-Corpus = list[tuple[np.ndarray, np.ndarray, int]]
-
-
-class UnknownCorpusError(EstimationInputError, LookupError):
-    """A pretraining corpus name is not registered."""
-
-
-_CORPORA = Registry("pretraining corpus", UnknownCorpusError)
-
-
-def register_corpus(name: str, builder: Callable[..., Corpus] | str, *,
-                    replace: bool = False) -> None:
-    """Register a pretraining corpus.
-
-    Parameters
-    ----------
-    name : str
-        Name used by ``TransferMLP(corpus=name)``.
-    builder : callable or str
-        ``builder(*, n_inputs, n_subjects, seed, population) -> [(U, y, n_id), ...]``: per
-        subject, normalized features ``U`` (n_windows, n_inputs), normalized force ``y`` and
-        the number of identification windows; ``population`` names the population variant
-        the subjects come from (``sim.user.populations``; a builder that has no variants
-        accepts ``"default"``). Or its ``"module:attribute"`` reference.
-    replace : bool
-        Allow replacing an existing registration.
-    """
-    _CORPORA.register(name, builder, replace=replace)
-
-
-register_corpus("virtual", "scenarios.runners.pretraining:virtual_corpus")
-
 
 def lagged(U: np.ndarray, lags: int) -> np.ndarray:
     """``[u(k), u(k-1), ..., u(k-lags)]`` per row, the first row repeated before the start.
@@ -218,39 +184,87 @@ def _choose_finetuning(networks: Sequence[Network], validation: Corpus, lags: in
     return best[1], best[0], {"candidates": table}
 
 
-_SOURCE_PACKAGES = ("sim.user", "sim.recording", "estimation")
-_SOURCE_MODULES = (("scenarios.runners", "pretraining.py"),)
+_SOURCE_PACKAGES = ("sim.recording", "estimation")
 
 
 @functools.cache
-def source_digest() -> str:
-    """SHA-256 of everything that makes a corpus or a pretrained network, and the version.
+def source_digest(corpus: str) -> str:
+    """SHA-256 of everything that makes ``corpus``'s pretrained networks, and the version.
 
-    Every module of :mod:`sim.user` (the virtual subjects), :mod:`sim.recording` (the
-    recording type) and :mod:`estimation` (features, scaling, this module, and the
-    subpackages: ``baselines/mlp.py`` trains the networks), walked as the design cache
-    walks its packages (:func:`sim.cache.source_digest`), and the corpus builder: an edit
+    Every module of the packages the corpus depends on
+    (:func:`estimation.corpora.corpus_packages`: the virtual subjects for ``"virtual"``),
+    of :mod:`sim.recording` (the recording type) and of :mod:`estimation` (features,
+    scaling, this module, and the subpackages: ``baselines/mlp.py`` trains the networks),
+    walked as the design cache walks its packages (:func:`sim.cache.source_digest`), and
+    the module of the corpus's builder (:func:`estimation.corpora.corpus_source`): an edit
     to any of them makes the cached and the shipped networks stale.
+
+    Raises
+    ------
+    estimation.corpora.UnknownCorpusError
+        ``corpus`` is not registered.
     """
-    h = hashlib.sha256(sim_cache.source_digest(_SOURCE_PACKAGES).encode())
-    for package, name in _SOURCE_MODULES:  # read, not imported (estimation's layer)
-        h.update(resources.files(package).joinpath(name).read_bytes())
+    packages = (*corpus_packages(corpus), *_SOURCE_PACKAGES)
+    h = hashlib.sha256(sim_cache.source_digest(packages).encode())
+    h.update(corpus_source(corpus))
     return h.hexdigest()
 
 
 _MEMO: dict[str, Pretrained] = {}
 
 
-def _settings(n_inputs: int, corpus: str, n_subjects: int, seed: int, hidden: Sequence[int],
-              lags: int, n_networks: int, epochs: int, validation_subjects: int,
-              population: str) -> dict:
-    return {"format": FORMAT, "n_inputs": int(n_inputs), "corpus": corpus,
-            "population": str(population),
-            "pretrain_subjects": int(n_subjects), "pretrain_seed": int(seed),
-            "hidden": [int(h) for h in hidden], "lags": int(lags),
-            "n_networks": int(n_networks), "pretrain_epochs": int(epochs),
-            "pretrain_batch": PRETRAIN_BATCH, "pretrain_rate": PRETRAIN_RATE,
-            "validation_subjects": int(validation_subjects), "source": source_digest()}
+@dataclass(frozen=True)
+class Pretraining:
+    """What a pretrained ensemble is made from: its corpus, its networks, their training.
+
+    Attributes
+    ----------
+    corpus : str
+        Registered pretraining corpus (:func:`estimation.corpora.register_corpus`).
+    n_subjects : int
+        Virtual subjects in the corpus.
+    seed : int
+        Population seed of the corpus (validation subjects: population ``seed + 1``).
+    hidden : tuple of int
+        Hidden layer sizes (logistic units).
+    lags : int
+        Past windows in the input.
+    n_networks : int
+        Networks in the ensemble (each pretrained with its own seed).
+    epochs : int
+        Epochs of pretraining.
+    validation_subjects : int
+        Virtual subjects on which the fine-tuning length and step size are chosen.
+    population : str
+        Population variant of the corpus (``sim.user.populations``).
+    """
+
+    corpus: str = "virtual"
+    n_subjects: int = 40
+    seed: int = PRETRAIN_SEED
+    hidden: tuple[int, ...] = (32, 16)
+    lags: int = 2
+    n_networks: int = 3
+    epochs: int = 60
+    validation_subjects: int = VALIDATION_SUBJECTS
+    population: str = "default"
+
+    def settings(self, n_inputs: int) -> dict:
+        """The ensemble's settings for ``n_inputs`` features, as stored and keyed (JSON).
+
+        Raises
+        ------
+        estimation.corpora.UnknownCorpusError
+            The corpus is not registered.
+        """
+        return {"format": FORMAT, "n_inputs": int(n_inputs), "corpus": self.corpus,
+                "population": str(self.population),
+                "pretrain_subjects": int(self.n_subjects), "pretrain_seed": int(self.seed),
+                "hidden": [int(h) for h in self.hidden], "lags": int(self.lags),
+                "n_networks": int(self.n_networks), "pretrain_epochs": int(self.epochs),
+                "pretrain_batch": PRETRAIN_BATCH, "pretrain_rate": PRETRAIN_RATE,
+                "validation_subjects": int(self.validation_subjects),
+                "source": source_digest(self.corpus)}
 
 
 def _key(settings: dict) -> str:
@@ -264,7 +278,7 @@ def build_pretrained(settings: dict) -> Pretrained:
     from estimation.threads import one_blas_thread
 
     t0 = time.perf_counter()
-    builder = _CORPORA.entry(settings["corpus"]).resolve()
+    builder = corpus_builder(settings["corpus"])
     lags, hidden = settings["lags"], settings["hidden"]
     with one_blas_thread():
         train = builder(n_inputs=settings["n_inputs"], n_subjects=settings["pretrain_subjects"],
@@ -288,11 +302,7 @@ def build_pretrained(settings: dict) -> Pretrained:
     return Pretrained(tuple(networks), epochs, lr, info)
 
 
-def pretrained(n_inputs: int, *, corpus: str = "virtual", n_subjects: int = 40,
-               seed: int = PRETRAIN_SEED, hidden: Sequence[int] = (32, 16), lags: int = 2,
-               n_networks: int = 3, epochs: int = 60,
-               validation_subjects: int = VALIDATION_SUBJECTS,
-               population: str = "default") -> Pretrained:
+def pretrained(n_inputs: int, pretraining: Pretraining | None = None) -> Pretrained:
     """The pretrained ensemble for ``n_inputs`` features: memory, shipped, disk, else built.
 
     A stored file (shipped in the package, or in the cache) is used only if its JSON
@@ -301,32 +311,44 @@ def pretrained(n_inputs: int, *, corpus: str = "virtual", n_subjects: int = 40,
     and written to the cache (:mod:`estimation.pretrained_store`). ``info["cache"]`` says
     which happened (``"memory"``, ``"shipped"``, ``"disk"``, ``"built"``, ``"rebuilt:
     <reason>"``).
+
+    Parameters
+    ----------
+    n_inputs : int
+        Features per window.
+    pretraining : Pretraining, optional
+        What the ensemble is made from (default: ``Pretraining()``, the shipped one).
     """
-    settings = _settings(n_inputs, corpus, n_subjects, seed, hidden, lags, n_networks, epochs,
-                         validation_subjects, population)
+    settings = (pretraining or Pretraining()).settings(n_inputs)
     key = _key(settings)
-    if key in _MEMO:
-        return _MEMO[key]
-    model, status = store.read(store.SHIPPED_DIR / f"{store.PREFIX}{key}", settings, key,
-                               EPOCH_STAGE, found="shipped")
-    folder = cache_subdir("pretrained")
-    if model is None and folder is None:
+    if key not in _MEMO:
+        model, status = store.read(store.SHIPPED_DIR / f"{store.PREFIX}{key}", settings, key,
+                                   EPOCH_STAGE, found="shipped")
+        _MEMO[key] = model if model is not None else _from_cache(settings, key, status)
+    return _MEMO[key]
+
+
+def _from_cache(settings: dict, key: str, missing: str) -> Pretrained:
+    """The ensemble from the disk cache, or built and stored (:func:`sim.cache.cached`).
+
+    ``info["cache"]`` of a built one says why the stored files were not used (``missing``
+    when there were none).
+    """
+    folder = sim_cache.cache_subdir("pretrained")
+    path = None if folder is None else folder / f"{store.PREFIX}{key}"
+    why = missing  # the last read's reason, for a model built after it
+
+    def read(path: Path) -> Pretrained | None:
+        nonlocal why
+        model, why = store.read(path, settings, key, EPOCH_STAGE, found="disk", missing=why)
+        return model
+
+    def build() -> Pretrained:
         model = build_pretrained(settings)
-        model.info["cache"] = status
-    elif model is None:
-        path = folder / f"{store.PREFIX}{key}"
-        model, status = store.read(path, settings, key, EPOCH_STAGE, found="disk",
-                                   missing=status)
-        if model is None:
-            # another process may be building the same network: wait for it, then read it
-            with build_lock(path):
-                model, status = store.read(path, settings, key, EPOCH_STAGE, found="disk",
-                                           missing=status)
-                if model is None:
-                    model = build_pretrained(settings)
-                    model.info["cache"] = status
-                    store.save(path, model)
-    _MEMO[key] = model
+        model.info["cache"] = why
+        return model
+
+    model, _ = sim_cache.cached(path, read, build, store.save)
     return model
 
 
@@ -338,11 +360,11 @@ def pretrained_for(estimator: Any, n_inputs: int, hidden: Sequence[int]) -> Pret
     (:class:`TransferMLP`, :class:`estimation.adaptive.AdaptiveMLP`); ``hidden`` are the
     pretrained networks' layer sizes.
     """
-    return pretrained(n_inputs, corpus=estimator.corpus, n_subjects=estimator.pretrain_subjects,
-                      seed=estimator.pretrain_seed, hidden=tuple(hidden), lags=estimator.lags,
-                      n_networks=estimator.n_networks, epochs=estimator.pretrain_epochs,
-                      validation_subjects=estimator.validation_subjects,
-                      population=estimator.population)
+    return pretrained(n_inputs, Pretraining(
+        corpus=estimator.corpus, n_subjects=estimator.pretrain_subjects,
+        seed=estimator.pretrain_seed, hidden=tuple(hidden), lags=estimator.lags,
+        n_networks=estimator.n_networks, epochs=estimator.pretrain_epochs,
+        validation_subjects=estimator.validation_subjects, population=estimator.population))
 
 
 #: Feature layouts whose default ensembles ship: all 8 channels and channels 6-8 (MAV, RMS
@@ -360,7 +382,8 @@ def ship_default_networks(n_inputs: Sequence[int] = SHIPPED_LAYOUTS,
     ``make pretrained`` runs this after a change to what builds them (the key's source
     digest); each is read from the cache or built first. Returns the stems written.
     """
-    return store.ship([pretrained(n, population=p) for p in populations for n in n_inputs])
+    return store.ship([pretrained(n, Pretraining(population=p))
+                       for p in populations for n in n_inputs])
 
 
 def clear_memory() -> None:
@@ -381,7 +404,7 @@ class TransferMLP(ForceEstimator):
     lags : int
         Past windows in the input.
     corpus : str
-        Registered pretraining corpus (:func:`register_corpus`).
+        Registered pretraining corpus (:func:`estimation.corpora.register_corpus`).
     pretrain_subjects : int
         Virtual subjects in the corpus.
     pretrain_seed : int
@@ -485,12 +508,27 @@ class TransferMLP(ForceEstimator):
         """A stream equal to :meth:`predict`; ``period_s`` (s) shorter than ``dt_s`` is refused."""
         check_mode(mode, self.modes, "TransferMLP")
         check_period(period_s, self.dt_s, "TransferMLP")
-        return scaled(_TransferStream(self.networks_, self.lags, self.n_features_in_, mode),
+        return scaled(TransferStream(self.networks_, self.lags, self.n_features_in_, mode),
                       scaling)
 
 
-class _TransferStream:
-    """One window at a time: a ring of the last ``lags + 1`` inputs, then every network."""
+class TransferStream:
+    """One window at a time: a ring of the last ``lags + 1`` inputs, then every network.
+
+    Each network runs :class:`estimation.baselines.mlp.MLPForward`; the estimate is their
+    mean.
+
+    Parameters
+    ----------
+    networks : sequence of Network
+        The ensemble.
+    lags : int
+        Past windows in the input.
+    n_inputs : int
+        Features per window.
+    mode : str
+        The mode it is streamed in (the force is never used).
+    """
 
     uses_force = False
 
@@ -499,9 +537,7 @@ class _TransferStream:
         self._lags = lags
         self._n = n_inputs
         self._x = np.empty(n_inputs * (lags + 1))
-        self._layers = [[(np.ascontiguousarray(W.T), b.copy(), np.empty(b.size))
-                         for W, b in zip(net.coefs, net.intercepts, strict=True)]
-                        for net in networks]
+        self._forwards = [MLPForward(net) for net in networks]
         self._started = False
 
     def reset(self) -> None:
@@ -519,14 +555,6 @@ class _TransferStream:
             x[n:] = x[:-n].copy() if self._lags else x[n:]
             x[:n] = u
         total = 0.0
-        for layers in self._layers:
-            h = x
-            last = len(layers) - 1
-            for i, (Wt, b, out) in enumerate(layers):
-                Wt.dot(h, out=out)
-                out += b
-                if i < last:
-                    expit(out, out=out)
-                h = out
-            total += float(h[0])
-        return total / len(self._layers)
+        for forward in self._forwards:
+            total += forward(x)
+        return total / len(self._forwards)

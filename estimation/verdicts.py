@@ -1,6 +1,6 @@
 """What a reproduction's numbers say: the recommendation, and virtual against real people.
 
-An estimator that learns from virtual subjects (``register_estimator(sim_trained=True)``:
+An estimator that learns from virtual subjects (``EstimatorKind(sim_trained=True)``:
 pretraining on a corpus, settings chosen on virtual subjects) looks best on the population
 it learned from. ``griploop reproduce`` therefore also scores every estimator on
 subjects of a population none of them was trained on (``out_of_population`` in the JSON
@@ -25,7 +25,8 @@ from estimation.recommendation import recommend
 from estimation.registry import deployable_estimators, estimator_info, estimator_label
 
 
-def _fmt(value: float | None, width: int = 8, digits: int = 4) -> str:
+def cell(value: float | None, width: int = 8, digits: int = 4) -> str:
+    """A table cell: ``value`` in ``width`` characters, ``digits`` decimals (None: ``n/a``)."""
     return f"{'n/a':>{width}}" if value is None else f"{value:>{width}.{digits}f}"
 
 
@@ -122,12 +123,12 @@ def format_transfer(result: dict) -> str:
     for r in tr["rows"]:
         real, vm = r["real_mean"], r["virtual_mean"]
         diff = None if real is None or vm is None else vm - real
-        line = (f"  {r['estimator']:13s}{_fmt(vm, 13, 3)}{_fmt(r['virtual_min'], 9, 2)}"
-                f"{_fmt(real, 11, 3)}{_fmt(r['real_min'], 9, 2)}"
+        line = (f"  {r['estimator']:13s}{cell(vm, 13, 3)}{cell(r['virtual_min'], 9, 2)}"
+                f"{cell(real, 11, 3)}{cell(r['real_min'], 9, 2)}"
                 f"{'' if diff is None else f'{diff:+12.3f}'}")
         if r.get("sim_trained"):
-            line += (f"   (out of population; in population {_fmt(r['in_population_mean'], 0, 3)}"
-                     f", worst {_fmt(r['in_population_min'], 0, 2)}"
+            line += (f"   (out of population; in population {cell(r['in_population_mean'], 0, 3)}"
+                     f", worst {cell(r['in_population_min'], 0, 2)}"
                      f"{'' if real is not None else '; no real figure yet'})")
         lines.append(line)
     a = tr["agreement"]
@@ -162,8 +163,8 @@ def format_out_of_population(result: dict) -> str:
         e, p = judged[n], est.get(n, {}).get("free_run", {})
         tag = "  learns from virtual subjects: population figure is in-population" \
             if sim_trained(n) else ""
-        lines.append(f"  {n:13s}{_fmt(e['r2_mean'], 12, 3)}{_fmt(e['r2_min'], 9, 2)}"
-                     f"{_fmt(p.get('r2_mean'), 12, 3)}{_fmt(p.get('r2_min'), 9, 2)}{tag}")
+        lines.append(f"  {n:13s}{cell(e['r2_mean'], 12, 3)}{cell(e['r2_min'], 9, 2)}"
+                     f"{cell(p.get('r2_mean'), 12, 3)}{cell(p.get('r2_min'), 9, 2)}{tag}")
     return "\n".join(lines)
 
 
@@ -195,19 +196,19 @@ def format_deployable(result: dict) -> str:
     for n in names:
         e, t = est[n]["free_run"], timing[n]
         tag = " *" if n in deployable else ""
-        line = (f"  {estimator_label(n) + tag:12s} R2 {_fmt(e['r2_mean'], 7)} +/- "
-                f"{_fmt(e['r2_sd'], 6)}  min {_fmt(e.get('r2_min'), 7)}  "
+        line = (f"  {estimator_label(n) + tag:12s} R2 {cell(e['r2_mean'], 7)} +/- "
+                f"{cell(e['r2_sd'], 6)}  min {cell(e.get('r2_min'), 7)}  "
                 f"n_ok {e['n_ok']}/{len(e['per_subject'])}  train "
-                f"{_fmt(t['train_ms_median'], 8, 1)} ms  step "
-                f"{_fmt(t['step_us_median'], 6, 1)} us")
+                f"{cell(t['train_ms_median'], 8, 1)} ms  step "
+                f"{cell(t['step_us_median'], 6, 1)} us")
         if sim_trained(n):
             line += "  (in population: learns from virtual subjects)"
         lines.append(line)
     for n in ("ss_kf", "persistence", "narx"):
         if n in est and "one_step" in est[n]:
             e = est[n]["one_step"]
-            lines.append(f"  reference {estimator_label(n):9s} one_step R2 {_fmt(e['r2_mean'], 7)} "
-                         f"(min {_fmt(e.get('r2_min'), 6, 3)}; needs the measured force)")
+            lines.append(f"  reference {estimator_label(n):9s} one_step R2 {cell(e['r2_mean'], 7)} "
+                         f"(min {cell(e.get('r2_min'), 6, 3)}; needs the measured force)")
     lines.append("  (* built for deployment: all settings chosen on a validation split of the "
                  "identification half or on virtual subjects)")
     rec = result.get("recommendation") or recommendation(result)

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from scenarios.rows import ROW_TYPES
-from scenarios.store import _META_COLUMNS, EXPORT_FORMATS, ResultStore, StoreError
+from scenarios.store import EXPORT_FORMATS, META_COLUMNS, ResultStore, StoreError
 
 
 def export_store(
@@ -72,13 +72,13 @@ def flat_columns(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
 
     flat = []
     for row in rows:
-        record = {k: row[k] for k in _META_COLUMNS}
+        record = {k: row[k] for k in META_COLUMNS}
         if row.get("sweep") is not None:
             record.update(sweep=row["sweep"], idx=row["idx"])
         record.update(_flatten(row["config"], "config."))
         record.update({f"result.{k}": v for k, v in _in_field_order(row).items()})
         flat.append(record)
-    names: dict[str, None] = dict.fromkeys(_META_COLUMNS)
+    names: dict[str, None] = dict.fromkeys(META_COLUMNS)
     for record in flat:
         names.update(dict.fromkeys(record))
     return {name: _column([r.get(name) for r in flat], pa) for name in names}

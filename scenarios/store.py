@@ -106,7 +106,8 @@ ON CONFLICT (hash) DO UPDATE SET
 WHERE results.status = 'failed'
 """
 
-_META_COLUMNS = (
+#: The columns every result row carries besides its config and result (export and rows).
+META_COLUMNS = (
     "hash", "kind", "task", "version", "status", "error",
     "started_at", "finished_at", "duration_s", "worker", "attempts",
 )  # fmt: skip
@@ -552,7 +553,7 @@ class ResultStore:
         if sweep is not None and sweep not in self.sweeps():
             found = ", ".join(self.sweeps()) or "none"
             raise StoreError(f"{self.path}: no sweep named {sweep!r} (found: {found})")
-        cols = ", ".join(f"r.{c}" for c in (*_META_COLUMNS, "config", "result", "traceback"))
+        cols = ", ".join(f"r.{c}" for c in (*META_COLUMNS, "config", "result", "traceback"))
         if sweep is None:
             sql = f"SELECT {cols}, NULL, NULL, NULL FROM results r WHERE 1"
             args: list[Any] = []
@@ -566,7 +567,7 @@ class ResultStore:
             sql += " AND r.status = ?"
             args.append(status)
         sql += " ORDER BY " + ("m.idx, r.hash" if sweep is not None else "r.recorded_at, r.hash")
-        names = (*_META_COLUMNS, "config", "result", "traceback", "sweep", "idx", "overrides")
+        names = (*META_COLUMNS, "config", "result", "traceback", "sweep", "idx", "overrides")
         out = []
         for values in self._conn.execute(sql, args):
             row = dict(zip(names, values, strict=True))

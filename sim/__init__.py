@@ -45,7 +45,8 @@ from sim.lazy import lazy_exports  # noqa: E402
 _LAZY = {
     "Recording": "sim.recording", "RecordingError": "sim.recording",
     "load_recording": "sim.recording",
-    "IntentProfile": "sim.user.intent", "grasp_lift_hold": "sim.user.intent",
+    "GraspLiftTiming": "sim.user.intent", "IntentProfile": "sim.user.intent",
+    "grasp_lift_hold": "sim.user.intent",
     "paper_protocol": "sim.user.intent", "ramp_profile": "sim.user.intent",
     "GENERATORS": "sim.user.subjects", "VirtualSubject": "sim.user.subjects",
     "make_population": "sim.user.subjects",

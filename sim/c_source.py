@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from sim.errors import GriploopError
+from sim.registry import Registry
 
 #: The header every exported file includes: the real type, the math it uses, the version.
 TYPES_HEADER = "griploop_types.h"
@@ -34,19 +35,43 @@ class ExportError(GriploopError, ValueError):
     """A model or controller cannot be exported to C (kind, coefficients or stability)."""
 
 
-def check_exportable_name(registry: Any, name: str, what: str,
-                          error: type[Exception]) -> None:
-    """Refuse ``name`` unless ``registry`` (a :class:`sim.registry.Registry` of emitters) has it.
+class EmitterRegistry(Registry):
+    """The C emitters of one family (estimators or controllers), by the name they export.
 
-    Raises
-    ------
-    error
-        One line naming what can be exported: ``estimator 'narx' cannot be exported to C;
-        exportable estimators: ss_kf, ...``.
+    Each exporter (:mod:`estimation.export_c`, :mod:`controllers.export_c`) keeps one and
+    refuses a name without an emitter through :meth:`check`, before anything is fitted
+    or designed.
+
+    Parameters
+    ----------
+    family : str
+        What is exported, singular (``"estimator"``), for messages.
+    error : type of Exception
+        Raised for a name without an emitter (the family's ``...NotExportableError``).
     """
-    if name not in registry:
-        raise error(f"{what} {name!r} cannot be exported to C; exportable {what}s: "
-                    f"{', '.join(registry.names())}")
+
+    def __init__(self, family: str, error: type[Exception]) -> None:
+        super().__init__(f"C export of {family}", error)
+        self.family = family
+
+    def check(self, name: str) -> None:
+        """Refuse ``name`` unless it has an emitter.
+
+        Raises
+        ------
+        error
+            One line naming what can be exported: ``estimator 'narx' cannot be exported
+            to C; exportable estimators: ss_kf, ...``.
+        """
+        if name not in self:
+            raise self.unknown_error(
+                f"{self.family} {name!r} cannot be exported to C; exportable "
+                f"{self.family}s: {', '.join(self.names())}")
+
+    def emitter(self, name: str) -> Any:
+        """The emitter registered for ``name`` (imported on first use), checked first."""
+        self.check(name)
+        return self.get(name)
 
 
 def griploop_version() -> str:

@@ -5,6 +5,9 @@ Every disk cache (plant families, controller designs, pretrained estimators) liv
 ``GRIPLOOP_CACHE_DIR=off`` disables them all. Caches hold arrays (NPZ) and JSON.
 Writes are atomic (:func:`write_atomic`); :func:`build_lock` lets one process build an entry
 while the others that want the same one wait and then read it, instead of building it too.
+:func:`cached` is that read, lock, read again, build and write, for every cache. A cache
+directory that cannot be written is not an error: the command goes on uncached, and a
+:class:`CacheNotWritableWarning` says so once per directory and process.
 """
 
 from __future__ import annotations
@@ -15,11 +18,26 @@ import importlib.util
 import os
 import sys
 import tempfile
-from collections.abc import Iterable, Iterator
+import warnings
+from collections.abc import Callable, Iterable, Iterator
 from importlib import metadata
 from pathlib import Path
+from typing import TypeVar
+
+from sim.errors import GriploopError
 
 _OFF = ("off", "0", "none")
+_T = TypeVar("_T")
+
+
+class CacheNotWritableWarning(GriploopError, UserWarning):
+    """A cache directory cannot be written: what was built is returned, not stored.
+
+    Issued once per directory and process (:func:`warn_not_writable`).
+    """
+
+
+_WARNED: set[str] = set()
 
 
 def cache_root() -> Path | None:
@@ -127,3 +145,61 @@ def build_lock(path: Path) -> Iterator[bool]:
         yield True
     finally:
         os.close(fd)  # closing the descriptor releases the lock
+
+
+def warn_not_writable(directory: Path, exc: OSError) -> None:
+    """Warn (:class:`CacheNotWritableWarning`) that ``directory`` cannot be written.
+
+    Once per directory and process: the next entries of an unwritable cache say nothing.
+    """
+    if str(directory) in _WARNED:
+        return
+    _WARNED.add(str(directory))
+    warnings.warn(f"cache directory {directory} cannot be written ({exc}); going on "
+                  "without caching there", CacheNotWritableWarning, stacklevel=3)
+
+
+def cached(path: Path | None, read: Callable[[Path], _T | None], build: Callable[[], _T],
+           write: Callable[[Path, _T], str | None]) -> tuple[_T, str]:
+    """The entry at ``path`` from the cache, or ``build()`` it and store it there.
+
+    Reads ``path``; on a miss, takes :func:`build_lock` and reads again (another process
+    may have built the entry meanwhile), then builds and writes it. A directory that
+    cannot be written is warned about (:func:`warn_not_writable`) and the built value
+    returned all the same.
+
+    Parameters
+    ----------
+    path : Path or None
+        Where the entry lives; None when caching is off (``build()`` only).
+    read : callable
+        ``read(path) -> value``, or None for a miss (missing, corrupted, stale, foreign).
+    build : callable
+        ``build() -> value``, called at most once.
+    write : callable
+        ``write(path, value)``, raising ``OSError`` when it cannot write; it may return a
+        status in place of ``"built"`` (e.g. why the value was not stored).
+
+    Returns
+    -------
+    value : object
+    source : str
+        ``"disk"``, ``"built"``, ``"built (cache off)"``, ``"built (cache not writable)"``
+        or the status ``write`` returned.
+    """
+    if path is None:
+        return build(), "built (cache off)"
+    found = read(path)
+    if found is not None:
+        return found, "disk"
+    with build_lock(path):  # another process building it: wait, then read its entry
+        found = read(path)
+        if found is not None:
+            return found, "disk"
+        value = build()
+        try:
+            status = write(path, value)
+        except OSError as exc:
+            warn_not_writable(path.parent, exc)
+            return value, "built (cache not writable)"
+    return value, status or "built"

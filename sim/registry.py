@@ -10,6 +10,10 @@ the main families a typed record of the capabilities the family declares
 (:class:`Capabilities`: controllers' ``ControllerKind``, estimators'
 ``EstimatorKind``, scenario kinds' ``ScenarioKind``).
 
+The module that owns a registry writes its own ``register_<thing>`` (whose docstring says
+what the registered object must be); :meth:`Registry.functions` makes the rest of its
+public functions, ``unregister_<thing>`` and ``<thing>_names``, in one line.
+
 The registries of griploop: sEMG generators (:mod:`sim.user.generators`),
 objects (:mod:`sim.hand.objects`), estimators (:mod:`estimation.registry`),
 controllers (:mod:`controllers.registry`), scenario kinds
@@ -20,10 +24,10 @@ controllers (:mod:`controllers.registry`), scenario kinds
 from __future__ import annotations
 
 import importlib
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field, fields
 from types import MappingProxyType
-from typing import Any
+from typing import Any, NamedTuple
 
 from sim.errors import GriploopError
 
@@ -182,6 +186,40 @@ class Registry:
         RegistrationError
             Empty name, malformed reference, or ``name`` taken and ``replace`` false.
         """
+        self._check_new(name, target, replace)
+        if self.capabilities is None:
+            return self._add(name, target, MappingProxyType(dict(info)))
+        unknown = sorted(set(info) - set(self.capabilities._names()))
+        if unknown:
+            raise RegistrationError(
+                f"{self.what} {name}: no capabilities {unknown} (a {self.what} declares "
+                f"{', '.join(self.capabilities._names())})")
+        return self._add(name, target, self.capabilities(**info))
+
+    def register_record(self, name: str, target: Any, record: Capabilities, *,
+                        replace: bool = False) -> Entry:
+        """Register ``target`` as ``name`` with its capabilities given as one record.
+
+        Parameters
+        ----------
+        name, target, replace
+            As for :meth:`register`.
+        record : Capabilities
+            An instance of this registry's ``capabilities`` class.
+
+        Raises
+        ------
+        RegistrationError
+            As :meth:`register`, or ``record`` is not this registry's capability record.
+        """
+        self._check_new(name, target, replace)
+        if self.capabilities is None or not isinstance(record, self.capabilities):
+            expected = self.capabilities.__name__ if self.capabilities else "no record"
+            raise RegistrationError(f"{self.what} {name}: expected {expected}, found "
+                                    f"{type(record).__name__}")
+        return self._add(name, target, record)
+
+    def _check_new(self, name: str, target: Any, replace: bool) -> None:
         if not isinstance(name, str) or not name:
             raise RegistrationError(f"{self.what} name: expected a non-empty string, "
                                     f"found {name!r}")
@@ -191,15 +229,8 @@ class Registry:
         if name in self._entries and not replace:
             raise RegistrationError(f"{self.what} {name!r} is already registered "
                                     f"({self._entries[name].target!r}); pass replace=True")
-        if self.capabilities is None:
-            record: Mapping[str, Any] = MappingProxyType(dict(info))
-        else:
-            unknown = sorted(set(info) - set(self.capabilities._names()))
-            if unknown:
-                raise RegistrationError(
-                    f"{self.what} {name}: no capabilities {unknown} (a {self.what} declares "
-                    f"{', '.join(self.capabilities._names())})")
-            record = self.capabilities(**info)
+
+    def _add(self, name: str, target: Any, record: Mapping[str, Any]) -> Entry:
         entry = Entry(name, target, record)
         self._entries[name] = entry
         Registry.registrations += 1
@@ -251,3 +282,53 @@ class Registry:
         """Names whose metadata has every given ``key=value``."""
         return tuple(n for n, e in self._entries.items()
                      if all(e.info.get(k) == v for k, v in info.items()))
+
+    def functions(self, module: str, noun: str) -> RegistryFunctions:
+        """``unregister_<noun>`` and ``<noun>_names``: public functions of the owning module.
+
+        Each is a plain function of ``module`` (its name, module and docstring set), so
+        the API reference lists it there and it pickles by reference::
+
+            unregister_generator, generator_names = _REGISTRY.functions(__name__, "generator")
+
+        Parameters
+        ----------
+        module : str
+            The owning module's ``__name__``.
+        noun : str
+            What the functions are named after (``"generator"``).
+
+        Returns
+        -------
+        RegistryFunctions
+        """
+        def unregister(name: str) -> None:
+            self.unregister(name)
+
+        def names() -> tuple[str, ...]:
+            return self.names()
+
+        unregister.__doc__ = (f"Remove the {self.what} ``name`` (no effect if it is not "
+                              "registered).\n\nParameters\n----------\nname : str\n"
+                              f"    A registered {self.what}.\n")
+        names.__doc__ = (f"Every registered {self.what}, in registration order.\n\n"
+                         "Returns\n-------\ntuple of str\n")
+        for function, name in ((unregister, f"unregister_{noun}"), (names, f"{noun}_names")):
+            function.__name__ = function.__qualname__ = name
+            function.__module__ = module
+        return RegistryFunctions(unregister, names)
+
+
+class RegistryFunctions(NamedTuple):
+    """The public functions :meth:`Registry.functions` makes for the module that owns it.
+
+    Attributes
+    ----------
+    unregister : callable
+        ``unregister_<noun>(name)``: remove a registration (no effect if absent).
+    names : callable
+        ``<noun>_names()``: the registered names, in registration order.
+    """
+
+    unregister: Callable[[str], None]
+    names: Callable[[], tuple[str, ...]]

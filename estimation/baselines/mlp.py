@@ -13,6 +13,7 @@ training loss. ``n_epochs_`` records the real count.
 from __future__ import annotations
 
 import warnings
+from typing import Any
 
 import numpy as np
 from scipy.special import expit
@@ -31,20 +32,6 @@ def seed_from(rng: np.random.Generator | int | None) -> int:
     return int(np.random.default_rng(rng).integers(0, 2**31 - 1))
 
 
-def make_mlp(hidden: int, *, max_epochs: int, learning_rate: float, rho: float, tol: float,
-             n_iter_no_change: int, rng: np.random.Generator | int | None,
-             validation_fraction: float = 0.2, alpha: float = 1e-4,
-             batch_size: int = 1) -> MLPRegressor:
-    """The paper's network as an unfitted :class:`~sklearn.neural_network.MLPRegressor`."""
-    return MLPRegressor(
-        hidden_layer_sizes=(hidden,), activation="logistic", solver="adam",
-        beta_1=0.0, beta_2=rho, learning_rate_init=learning_rate, batch_size=batch_size,
-        max_iter=max_epochs, tol=tol, n_iter_no_change=n_iter_no_change, shuffle=True,
-        early_stopping=True, validation_fraction=validation_fraction, alpha=alpha,
-        random_state=seed_from(rng),
-    )
-
-
 def fit_quietly(net: MLPRegressor, X: np.ndarray, y: np.ndarray) -> bool:
     """Fit ``net``; return True if it stopped on the loss criterion before ``max_iter``."""
     with warnings.catch_warnings():
@@ -54,24 +41,39 @@ def fit_quietly(net: MLPRegressor, X: np.ndarray, y: np.ndarray) -> bool:
 
 
 class MLPForward:
-    """Allocation-free forward pass of a fitted one-hidden-layer logistic regressor."""
+    """Allocation-free forward pass of a logistic multilayer perceptron with a linear output.
 
-    def __init__(self, net: MLPRegressor) -> None:
-        self._W1 = np.ascontiguousarray(net.coefs_[0].T)  # (hidden, n_in)
-        self._b1 = net.intercepts_[0].copy()
-        self._w2 = net.coefs_[1][:, 0].copy()
-        self._b2 = float(net.intercepts_[1][0])
-        self._h = np.empty(self._b1.size)
-        self._mdot = self._W1.dot
-        self._odot = self._w2.dot
+    The one forward pass of every network griploop streams: the baselines' regressors
+    (``mlp``, ``narx``) and the pretrained ensembles (``transfer_mlp``, ``adaptive_mlp``).
+
+    Parameters
+    ----------
+    net : MLPRegressor or estimation.pretrained_store.Network
+        A fitted scikit-learn regressor (``coefs_``, ``intercepts_``) or stored weights
+        (``coefs``, ``intercepts``): per layer, weights (n_in, n_out) and biases (n_out,);
+        logistic hidden layers, one linear output.
+    """
+
+    def __init__(self, net: Any) -> None:
+        coefs = getattr(net, "coefs_", None)
+        coefs, intercepts = (net.coefs, net.intercepts) if coefs is None else (
+            coefs, net.intercepts_)
+        # per hidden layer: W^T (n_out, n_in), bias, output buffer
+        self._hidden = [(np.ascontiguousarray(W.T), np.array(b, dtype=float), np.empty(len(b)))
+                        for W, b in zip(coefs[:-1], intercepts[:-1], strict=True)]
+        self._w_out = np.array(coefs[-1][:, 0], dtype=float)
+        self._b_out = float(intercepts[-1][0])
+        self._odot = self._w_out.dot
 
     def __call__(self, x: np.ndarray) -> float:
         """Network output for one input vector ``x`` (n_in,)."""
-        h = self._h
-        self._mdot(x, h)
-        h += self._b1
-        expit(h, out=h)
-        return float(self._odot(h)) + self._b2
+        h = x
+        for Wt, b, out in self._hidden:
+            Wt.dot(h, out)
+            out += b
+            expit(out, out=out)
+            h = out
+        return float(self._odot(h)) + self._b_out
 
 
 class MLPBaseline(ForceEstimator):
@@ -134,15 +136,24 @@ class MLPBaseline(ForceEstimator):
         """Network training target (NARX subtracts its linear term)."""
         return y
 
+    def _network(self) -> MLPRegressor:
+        """The paper's network with these hyperparameters, unfitted: logistic hidden layer,
+        Adam with beta_1 = 0 (RMSProp's ``rho`` as beta_2), early stopping on a held-out
+        fraction."""
+        return MLPRegressor(
+            hidden_layer_sizes=(self.hidden,), activation="logistic", solver="adam",
+            beta_1=0.0, beta_2=self.rho, learning_rate_init=self.learning_rate,
+            batch_size=self.batch_size, max_iter=self.max_epochs, tol=self.tol,
+            n_iter_no_change=self.n_iter_no_change, shuffle=True, early_stopping=True,
+            validation_fraction=self.validation_fraction, alpha=self.alpha,
+            random_state=seed_from(self.random_state),
+        )
+
     def fit(self, U: np.ndarray, y: np.ndarray) -> MLPBaseline:
         """Train on normalized features ``U`` (n_samples, n_inputs) and force ``y``."""
         U = check_features(U)
         y = check_target(y, U.shape[0])
-        self.net_ = make_mlp(self.hidden, max_epochs=self.max_epochs,
-                             learning_rate=self.learning_rate, rho=self.rho, tol=self.tol,
-                             n_iter_no_change=self.n_iter_no_change, rng=self.random_state,
-                             validation_fraction=self.validation_fraction, alpha=self.alpha,
-                             batch_size=self.batch_size)
+        self.net_ = self._network()
         self.converged_ = fit_quietly(self.net_, self._regressors(U, y), self._target(y))
         self.n_epochs_ = int(self.net_.n_iter_)
         self.n_features_in_ = U.shape[1]

@@ -37,14 +37,13 @@ import numpy as np
 
 from sim.c_source import (
     CModel,
+    EmitterRegistry,
     ExportError,
-    check_exportable_name,
     check_finite,
     check_stable,
     model_digest,
     render,
 )
-from sim.registry import Registry
 
 
 class NotExportableError(ExportError, LookupError):
@@ -78,7 +77,7 @@ class EstimatorTables:
 
 Emitter = Callable[[Any, str], EstimatorTables]
 
-_EMITTERS = Registry("C export of estimator", NotExportableError)
+_EMITTERS = EmitterRegistry("estimator", NotExportableError)
 
 
 def register_c_export(name: str, emitter: Emitter | str, *, replace: bool = False) -> None:
@@ -208,7 +207,7 @@ def check_exportable(name: str) -> None:
     NotExportableError
         The message lists the estimators that have one.
     """
-    check_exportable_name(_EMITTERS, name, "estimator", NotExportableError)
+    _EMITTERS.check(name)
 
 
 def estimator_tables(pipeline: Any, name: str, mode: str) -> EstimatorTables:
@@ -221,8 +220,7 @@ def estimator_tables(pipeline: Any, name: str, mode: str) -> EstimatorTables:
     ExportError
         Non-finite coefficients, or a state matrix with spectral radius >= 1.
     """
-    check_exportable(name)
-    out = _EMITTERS.get(name)(pipeline, mode)
+    out = _EMITTERS.emitter(name)(pipeline, mode)
     who = f"estimator {name} ({mode})"
     check_finite(who, out.tables)
     check_finite(who, {k: np.asarray(v, float) for k, v in out.constants.items()

@@ -187,7 +187,7 @@ def _run_arm(args: argparse.Namespace, kind: str, settings: Mapping[str, Any],
              feedback: list[str], grid: Mapping[str, list[Any]] | None, feedback_grid: bool,
              db: Path) -> tuple[Any, list[dict[str, Any]], list[dict[str, Any]], float]:
     """One sweep of the library design with ``settings``; its spec, ok and failed rows."""
-    from scenarios.execution.sweep import run_sweep
+    from scenarios.execution.sweep import SweepExecution, run_sweep
     from scenarios.schema import iter_expanded, parse_sweep
     from scenarios.store import ResultStore
 
@@ -205,9 +205,9 @@ def _run_arm(args: argparse.Namespace, kind: str, settings: Mapping[str, Any],
     data["name"] = f"{kind}-{digest}"
     spec = parse_sweep(data, source=f"griploop {args.command} options")
     with ResultStore(db) as store:
-        summary = run_sweep(list(_planned(spec, iter_expanded)), store, workers=args.workers,
-                            sweep_name=spec.name, time_limit_s=spec.time_limit_s,
-                            progress=not args.no_progress)
+        summary = run_sweep(list(_planned(spec, iter_expanded)), store,
+                            SweepExecution(workers=args.workers, time_limit_s=spec.time_limit_s),
+                            sweep_name=spec.name, progress=not args.no_progress)
         rows = store.rows(sweep=spec.name)
     ok = [r["result"] for r in rows if r["status"] == "ok"]
     failed = [r for r in rows if r["status"] == "failed"]

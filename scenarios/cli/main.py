@@ -32,8 +32,9 @@ import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from scenarios.checks import load_recorded
 from scenarios.execution.interrupt import exit_status, raise_on_stop
-from scenarios.plugins import PluginError, load_plugins
+from scenarios.plugins import PluginError
 from sim.errors import GriploopError
 
 #: What a user can cause: griploop's own errors (bad files, options, infeasible designs)
@@ -46,6 +47,8 @@ USER_ERRORS = (GriploopError, OSError)
 COMMANDS: dict[str, tuple[str, str]] = {
     "calibrate": ("scenarios.cli.commands.calibrate",
                   "record the paper's calibration session from a live sEMG stream (LSL)"),
+    "check": ("scenarios.cli.commands.check",
+              "check what a plugin registered: controllers, estimators, objects, scenario kinds"),
     "compare-references": ("scenarios.cli.commands.compare_references",
                            "grasp one object with references from several estimators and the "
                            "oracle"),
@@ -180,7 +183,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     os.environ.setdefault("MPLBACKEND", "Agg")
     argv = sys.argv[1:] if argv is None else list(argv)
     try:  # before the parser is built: its choices list what the plugins register
-        load_plugins(_plugins(argv))
+        load_recorded(_plugins(argv))  # what each added: ``griploop check`` checks it
     except PluginError as exc:
         print(f"griploop: error: {exc}", file=sys.stderr)
         return 2

@@ -40,7 +40,13 @@ from scenarios.live.arm import LIFT_HEIGHT_M
 from scenarios.live.recorded import RecordedPerson, ReplaySpec, check_layout
 from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
 from scenarios.runners.semg_reference import HandReference
-from scenarios.runners.trial_loop import DEFAULT_HAND, HandSettings, TrialLoop
+from scenarios.runners.trial_loop import (
+    DEFAULT_HAND,
+    HandSettings,
+    TrialHooks,
+    TrialLoop,
+    TrialTiming,
+)
 from sim.c_source import ExportError
 from sim.hand.objects import ObjectSpec
 from sim.recording import Recording
@@ -217,9 +223,9 @@ def hand_observations(design: Any, obj: ObjectSpec, recording: Recording, fitted
     limit_s = min(duration_s, recording.duration_s - start_s)
     spec = replace(spec, episode_s=limit_s)
     person = RecordedPerson(recording, fitted, spec, start_s=start_s)
-    loop = TrialLoop(obj, design, person, limit_s=limit_s, control_dt_s=dt,
-                     lift_height_m=spec.lift_height_m, seed=seed, keep_observations=True,
-                     hand=hand)
+    loop = TrialLoop(obj, design, person, TrialTiming(limit_s, dt),
+                     lift_height_m=spec.lift_height_m, seed=seed,
+                     hooks=TrialHooks(keep_observations=True), hand=hand)
     loop.run()
     rec = loop.recorder
     return list(rec.observations), np.asarray(rec.computed)

@@ -12,6 +12,7 @@ JSON contract of ``export-c --json`` (docs/FORMAT.md).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -31,30 +32,19 @@ from sim.recording import Recording
 CONTROLLER_CHECK_S = 6.0
 
 
-def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
-                   channels: Sequence[int | str] | None, mode: str = "free_run",
-                   controller: str | None = None, object_name: str | None = None,
-                   check_recording: Recording | None = None, target: str | None = None,
-                   seed: int = 0, control_dt_s: float = 0.01,
-                   hand: HandSettings = DEFAULT_HAND) -> tuple[CExport, dict[str, Any]]:
-    """Export (and check) an estimator fitted on ``calibration`` and a controller for an object.
+@dataclass(frozen=True)
+class ExportSpec:
+    """What ``export-c`` exports: an estimator, and a controller for an object.
 
-    Parameters
+    Attributes
     ----------
-    calibration : Recording
-        sEMG with the measured force (any recording ``evaluate`` reads).
     estimator : str
         A registered estimator with a C export.
-    out_dir : Path
     channels : sequence or None
         Channels the estimator uses (``None``: all).
     mode : {"free_run", "one_step"}
     controller, object_name : str, optional
         A controller kind and the object it is designed for (both or neither).
-    check_recording : Recording, optional
-        Replayed through C and Python (host build).
-    target : {"cortex-m4"}, optional
-        Also run the replay on the emulated board (needs ``check_recording``).
     seed : int
         Seeds the estimator's fit and the hand.
     control_dt_s : float
@@ -62,6 +52,34 @@ def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
     hand : HandSettings
         The paradigm the runtime shapes the reference by, the slip response the
         controller carries (``auto_grip``), and the drive of the checked hand.
+    """
+
+    estimator: str
+    channels: Sequence[int | str] | None
+    mode: str = "free_run"
+    controller: str | None = None
+    object_name: str | None = None
+    seed: int = 0
+    control_dt_s: float = 0.01
+    hand: HandSettings = DEFAULT_HAND
+
+
+def export_session(calibration: Recording, spec: ExportSpec, out_dir: Path, *,
+                   check_recording: Recording | None = None,
+                   target: str | None = None) -> tuple[CExport, dict[str, Any]]:
+    """Export (and check) an estimator fitted on ``calibration`` and a controller for an object.
+
+    Parameters
+    ----------
+    calibration : Recording
+        sEMG with the measured force (any recording ``evaluate`` reads).
+    spec : ExportSpec
+        The estimator (its channels, mode and seed) and the controller, object and hand.
+    out_dir : Path
+    check_recording : Recording, optional
+        Replayed through C and Python (host build).
+    target : {"cortex-m4"}, optional
+        Also run the replay on the emulated board (needs ``check_recording``).
 
     Returns
     -------
@@ -75,6 +93,8 @@ def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
     from scenarios.deploy.writer import check_paradigm_exportable
     from scenarios.live.recorded import fit_calibration
 
+    estimator, channels, mode, seed = spec.estimator, spec.channels, spec.mode, spec.seed
+    controller, hand = spec.controller, spec.hand
     check_exportable(estimator)  # refused before the fit and the design
     hand.check()
     check_paradigm_exportable(hand.paradigm)
@@ -87,8 +107,8 @@ def export_session(calibration: Recording, estimator: str, out_dir: Path, *,
         from controllers.design_cache import grasp_design
         from sim.hand.objects import make_object
 
-        obj = make_object(object_name)
-        design = grasp_design(obj, controller, control_dt_s, hand.controller_spec(None))
+        obj = make_object(spec.object_name)
+        design = grasp_design(obj, controller, spec.control_dt_s, hand.controller_spec(None))
     window = feature_window(calibration.fs_hz, calibration.n_channels, fitted.channel_index)
     export = export_c(cal.pipeline, estimator, mode, window, out_dir, design=design,
                       reference=HandReference.of_calibration(cal, HAND_FORCE_AT_MVC_N,

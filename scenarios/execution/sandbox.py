@@ -94,13 +94,15 @@ def _one_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
-def _lost(p: PlannedScenario, exc: BaseException) -> Outcome:
-    return _failed(p.hash, f"worker lost: {_one_line(exc)}", time.time(), 0.0, "",
+def lost_worker(p: PlannedScenario, exc: BaseException) -> Outcome:
+    """The failed outcome of a scenario whose worker was lost with ``exc``."""
+    return failed_outcome(p.hash, f"worker lost: {_one_line(exc)}", time.time(), 0.0, "",
                    trace_text="".join(traceback.format_exception(exc)))
 
 
-def _failed(hash_: str, error: str, started: float, duration: float, worker: str, *,
-            trace_text: str | None = None) -> Outcome:
+def failed_outcome(hash_: str, error: str, started: float, duration: float, worker: str, *,
+                   trace_text: str | None = None) -> Outcome:
+    """A failed scenario's outcome: ``error`` in one line, ``duration`` s from ``started``."""
     return Outcome(
         hash=hash_,
         status="failed",
@@ -115,7 +117,7 @@ def _failed(hash_: str, error: str, started: float, duration: float, worker: str
     )
 
 
-class _Crashed(Exception):
+class SandboxCrashed(Exception):
     """The sandbox's child process died while running a scenario."""
 
 
@@ -228,7 +230,7 @@ class Sandbox:
 
         Raises
         ------
-        _Crashed
+        SandboxCrashed
             The child died (killed by a signal, or exited) during the scenario.
         """
         try:
@@ -239,13 +241,13 @@ class Sandbox:
         code = self._kill()
         duration = time.perf_counter() - self._t0
         how = f"signal {-code} ({signal.Signals(-code).name})" if code < 0 else f"exit {code}"
-        raise _Crashed(f"its process died ({how}) after {duration:.1f} s")
+        raise SandboxCrashed(f"its process died ({how}) after {duration:.1f} s")
 
     def time_out(self, time_limit_s: float | None) -> Outcome:
         """Stop the child running an overdue scenario; its ``timeout`` failure."""
         self._conn.close()
         self._kill()
-        return _failed(
+        return failed_outcome(
             self._hash,
             f"timeout: still running after {time_limit_s:g} s (time_limit_s); stopped",
             self._started, time.perf_counter() - self._t0, self._worker,
@@ -257,7 +259,7 @@ class Sandbox:
 
         Raises
         ------
-        _Crashed
+        SandboxCrashed
             The child died (killed by a signal, or exited) during the scenario.
         """
         self.submit(task, scenario, hash_, time_limit_s)
@@ -344,13 +346,14 @@ def run_guarded(box: Sandbox, task: Task, scenario: Scenario, hash_: str,
     for _ in range(2):
         try:
             return box.run(task, scenario, hash_, time_limit_s)
-        except _Crashed as exc:
+        except SandboxCrashed as exc:
             reasons.append(str(exc))
-    return _killed_twice(hash_, reasons, started)
+    return killed_twice(hash_, reasons, started)
 
 
-def _killed_twice(hash_: str, reasons: list[str], started: float) -> Outcome:
-    return _failed(
+def killed_twice(hash_: str, reasons: list[str], started: float) -> Outcome:
+    """The failed outcome of a scenario that killed its process twice, with both reasons."""
+    return failed_outcome(
         hash_,
         f"killed: the scenario killed its process twice ({'; '.join(reasons)})",
         started, time.time() - started, f"{socket.gethostname()}:{os.getpid()}",

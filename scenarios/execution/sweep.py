@@ -50,9 +50,9 @@ from scenarios.execution.planning import (  # noqa: F401  (the sweep's public na
 from scenarios.execution.progress import Progress
 from scenarios.execution.sandbox import (  # noqa: F401  (the sweep's public names)
     Sandbox,
-    _failed,
     execute,
     execute_limited,
+    failed_outcome,
     split_result,
 )
 from scenarios.execution.workers import outcomes
@@ -89,6 +89,35 @@ class SweepSummary:
         """Scenarios run per minute of wall time."""
         ran = self.ok + self.failed
         return 60.0 * ran / self.elapsed_s if self.elapsed_s > 0 else math.nan
+
+
+@dataclass(frozen=True)
+class SweepExecution:
+    """How and where :func:`run_sweep` runs the scenarios.
+
+    Attributes
+    ----------
+    task : str or callable
+        ``task(scenario) -> ResultRow``; default :func:`scenarios.runners.dispatch.run_scenario`.
+    workers : int
+        Worker processes, forked from the driver after the task's modules are imported.
+    scheduler : str, optional
+        Address of an existing dask scheduler (``workers`` is then ignored).
+    time_limit_s : float or None
+        Wall-time limit of one scenario, s (``None``: none).
+    plugins : sequence of str
+        Plugin modules the scenarios need (:func:`scenarios.plugins.load_plugins`),
+        loaded by the driver before workers fork and by every dask worker.
+    poll_s : float
+        How often to look at scenarios another driver is running, s.
+    """
+
+    task: Task = DEFAULT_TASK
+    workers: int = 1
+    scheduler: str | None = None
+    time_limit_s: float | None = DEFAULT_TIME_LIMIT_S
+    plugins: Sequence[str] = ()
+    poll_s: float = 0.25
 
 
 def pending(
@@ -130,38 +159,30 @@ def _owner() -> str:
 def run_sweep(
     planned: Iterable[PlannedScenario],
     store: ResultStore,
+    execution: SweepExecution = SweepExecution(),
     *,
-    task: Task = DEFAULT_TASK,
-    workers: int = 1,
-    scheduler: str | None = None,
     sweep_name: str = "sweep",
     retry_failed: bool = False,
     progress: Progress | bool = True,
     version: str | None = None,
-    time_limit_s: float | None = DEFAULT_TIME_LIMIT_S,
     total: int | None = None,
-    poll_s: float = 0.25,
-    plugins: Sequence[str] = (),
 ) -> SweepSummary:
     """Run the unfinished scenarios of a planned sweep and record each outcome.
 
     Scenarios are registered, checked against the store and claimed chunk by
     chunk (see the module notes). Each runs in a child process
     (:class:`~scenarios.execution.sandbox.Sandbox`) on the driver or on a dask worker, and
-    is a ``timeout`` failure after ``time_limit_s``.
+    is a ``timeout`` failure after ``execution.time_limit_s``.
 
     Parameters
     ----------
     planned : iterable of PlannedScenario
-        From ``plan`` or ``iter_plan`` (:mod:`scenarios.execution.planning`), same ``task``.
+        From ``plan`` or ``iter_plan`` (:mod:`scenarios.execution.planning`), same task.
     store : ResultStore
         Where outcomes are recorded (by this process only).
-    task : str or callable
-        ``task(scenario) -> ResultRow``; default :func:`scenarios.runners.dispatch.run_scenario`.
-    workers : int
-        Worker processes, forked from this one after the task's modules are imported.
-    scheduler : str, optional
-        Address of an existing dask scheduler (``workers`` is then ignored).
+    execution : SweepExecution
+        The task, the workers or dask scheduler, the time limit, the plugins (default:
+        :func:`scenarios.runners.dispatch.run_scenario` on one local worker).
     sweep_name : str
         Name under which the scenarios are registered in the store.
     retry_failed : bool
@@ -170,15 +191,8 @@ def run_sweep(
         Progress bar (``True``: on stderr; ``False``: none).
     version : str, optional
         Package version recorded with each row (default: installed).
-    time_limit_s : float or None
-        Wall-time limit of one scenario, s (``None``: none).
     total : int, optional
         Scenarios in an iterator ``planned`` (for the bar); default ``len(planned)``.
-    poll_s : float
-        How often to look at scenarios another driver is running, s.
-    plugins : sequence of str
-        Plugin modules the scenarios need (:func:`scenarios.plugins.load_plugins`),
-        loaded here before workers fork and by every dask worker.
 
     Returns
     -------
@@ -195,11 +209,13 @@ def run_sweep(
     scenarios.runners.dispatch.RunnerUnavailableError
         The default task has no runner for a kind in the sweep.
     """
+    task, workers, scheduler = execution.task, execution.workers, execution.scheduler
+    time_limit_s = execution.time_limit_s
     if workers < 1:
         raise SweepError(f"workers must be >= 1 (found {workers})")
     if time_limit_s is not None and not time_limit_s > 0:
         raise SweepError(f"time_limit_s must be > 0 (found {time_limit_s})")
-    plugins = load_plugins(plugins)
+    plugins = load_plugins(execution.plugins)
     if total is None:
         total = len(planned) if isinstance(planned, Sequence) else 0
     bar = progress if isinstance(progress, Progress) else None
@@ -218,7 +234,7 @@ def run_sweep(
         try:
             execute_all(run.stream(planned))
             while run.busy:  # run by another driver: wait for its rows, or take over its claims
-                time.sleep(poll_s)
+                time.sleep(execution.poll_s)
                 execute_all(run.claimed(run.taken_over()))
         finally:
             store.release_claims(run.owner)
@@ -265,7 +281,7 @@ class _SweepRun:
             elif state == "busy":
                 self.busy.append(p)
             elif state == "orphaned":
-                self.record(p, _failed(p.hash, "killed: its driver process died twice while "
+                self.record(p, failed_outcome(p.hash, "killed: its driver process died twice while "
                                        "running it (not run again)", time.time(), 0.0, ""))
             else:
                 self.counts["skipped"] += 1

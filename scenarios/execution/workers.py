@@ -18,7 +18,13 @@ from contextlib import contextmanager
 from typing import Any
 
 from scenarios.execution.planning import PlannedScenario, SweepError, Task, resolve_task
-from scenarios.execution.sandbox import Sandbox, _Crashed, _killed_twice, _lost, execute_limited
+from scenarios.execution.sandbox import (
+    Sandbox,
+    SandboxCrashed,
+    execute_limited,
+    killed_twice,
+    lost_worker,
+)
 from scenarios.plugins import load_plugins
 from scenarios.schema import Scenario
 from scenarios.store import Outcome
@@ -120,12 +126,12 @@ def local_outcomes(
                 if box.connection in ready:
                     try:
                         outcome = box.collect()
-                    except _Crashed as exc:
+                    except SandboxCrashed as exc:
                         reasons.append(str(exc))
                         if len(reasons) < 2:
                             box.submit(task, p.scenario, p.hash, time_limit_s)
                             continue
-                        outcome = _killed_twice(p.hash, reasons, started)
+                        outcome = killed_twice(p.hash, reasons, started)
                 elif time.perf_counter() >= box.deadline:
                     outcome = box.time_out(time_limit_s)
                 else:
@@ -203,7 +209,7 @@ def dask_outcomes(
             try:
                 outcome = future.result()
             except Exception as exc:  # the worker died or the task could not be shipped
-                outcome = _lost(p, exc)
+                outcome = lost_worker(p, exc)
             future.release()
             yield p, outcome
             submit()

@@ -342,7 +342,25 @@ def _quiet(_: str) -> None:
     return None
 
 
-class PitchArm:
+class BoundArm:
+    """What every :class:`Arm` shares: the session's callbacks (silent until :meth:`bind`),
+    and a :meth:`reset` when made (a subclass sets its own attributes first)."""
+
+    def __init__(self) -> None:
+        self._emit: Callable[[str], None] = _quiet
+        self._notify: Callable[[str], None] = _quiet
+        self.reset()
+
+    def bind(self, emit: Callable[[str], None], notify: Callable[[str], None]) -> None:
+        """Where events (markers) and terminal lines go."""
+        self._emit, self._notify = emit, notify
+
+    def reset(self) -> None:
+        """Before a session (each arm says what it forgets)."""
+        raise NotImplementedError
+
+
+class PitchArm(BoundArm):
     """The wrist follows the forearm's pitch from the IMU stream (module notes).
 
     Parameters
@@ -378,13 +396,7 @@ class PitchArm:
         self.smooth_s, self.follow_s = float(smooth_s), float(follow_s)
         self.imu_fs_hz = float(imu_fs_hz)
         self.gap_s, self.reacquire_s = float(gap_s), float(reacquire_s)
-        self._emit: Callable[[str], None] = _quiet
-        self._notify: Callable[[str], None] = _quiet
-        self.reset()
-
-    def bind(self, emit: Callable[[str], None], notify: Callable[[str], None]) -> None:
-        """Where events (markers) and terminal lines go."""
-        self._emit, self._notify = emit, notify
+        super().__init__()
 
     def reset(self) -> None:
         """Before a session: nothing received, not following."""
@@ -529,7 +541,7 @@ class LineKeys:
         return new
 
 
-class KeyArm:
+class KeyArm(BoundArm):
     """Each key press lifts the wrist, or puts it down (module notes).
 
     Parameters
@@ -550,13 +562,7 @@ class KeyArm:
                  closed: Callable[[], str | None] | None = None) -> None:
         self._presses, self._closed = presses, closed
         self.lift_height_m, self.move_s = float(lift_height_m), float(move_s)
-        self._emit: Callable[[str], None] = _quiet
-        self._notify: Callable[[str], None] = _quiet
-        self.reset()
-
-    def bind(self, emit: Callable[[str], None], notify: Callable[[str], None]) -> None:
-        """Where events (markers) and terminal lines go."""
-        self._emit, self._notify = emit, notify
+        super().__init__()
 
     def reset(self) -> None:
         """Before a session: the wrist down, no press counted."""

@@ -134,21 +134,49 @@ def stream_unit(inlet: Any, integer: bool) -> str:
     return unit if unit in EMG_UNITS and unit != "int8" else "a.u."
 
 
-def record_calibration(emg_inlet: Any, force_inlet: Any | None, *, cues: Sequence[Cue],
-                       duration_s: float, say: Callable[[str], None] = print,
-                       mvc_n: float = DEFAULT_MVC_N, timeout_s: float = 5.0,
-                       source: str = "lsl", stream_name: str = "",
-                       force_name: str | None = None, imu_inlet: Any | None = None,
-                       imu_channels: Any = None, imu_name: str | None = None,
-                       stream_identity: dict[str, Any] | None = None) -> Recording:
-    """Record a calibration session from open inlets (and the arm poses, with an IMU).
+@dataclass(frozen=True)
+class CalibrationStreams:
+    """The open inlets a calibration session reads, and their names.
 
-    Parameters
+    Attributes
     ----------
     emg_inlet : pylsl.StreamInlet
         The sEMG, open, time stamps on this machine's clock.
     force_inlet : pylsl.StreamInlet or None
         A force stream in N (same clock), or ``None`` for cue labels.
+    stream_name : str
+        The sEMG stream's name (in errors and the metadata).
+    force_name : str, optional
+        The force stream's name.
+    imu_inlet : pylsl.StreamInlet, optional
+        The armband's orientation (same clock): recorded, and the arm poses asked for.
+    imu_channels : scenarios.live.arm.OrientationChannels, optional
+        Where its pitch is (required with ``imu_inlet``).
+    imu_name : str, optional
+        The orientation stream's name.
+    stream_identity : dict, optional
+        The sEMG stream's :func:`scenarios.live.lsl.identity`, kept in the metadata.
+    """
+
+    emg_inlet: Any
+    force_inlet: Any | None
+    stream_name: str = ""
+    force_name: str | None = None
+    imu_inlet: Any | None = None
+    imu_channels: Any = None
+    imu_name: str | None = None
+    stream_identity: dict[str, Any] | None = None
+
+
+def record_calibration(streams: CalibrationStreams, *, cues: Sequence[Cue], duration_s: float,
+                       say: Callable[[str], None] = print, mvc_n: float = DEFAULT_MVC_N,
+                       timeout_s: float = 5.0, source: str = "lsl") -> Recording:
+    """Record a calibration session from open inlets (and the arm poses, with an IMU).
+
+    Parameters
+    ----------
+    streams : CalibrationStreams
+        The sEMG inlet, the force and orientation inlets if any, and their names.
     cues, duration_s
         From :func:`cue_schedule`.
     say : callable
@@ -156,12 +184,8 @@ def record_calibration(emg_inlet: Any, force_inlet: Any | None, *, cues: Sequenc
     mvc_n, timeout_s : float
         Label of a 100 % squeeze without a force stream, N; no sEMG for this
         long stops the session with an error, s.
-    imu_inlet : pylsl.StreamInlet, optional
-        The armband's orientation (same clock): recorded, and the arm poses asked for.
-    imu_channels : scenarios.live.arm.OrientationChannels, optional
-        Where its pitch is (required with ``imu_inlet``).
-    stream_identity : dict, optional
-        The sEMG stream's :func:`scenarios.live.lsl.identity`, kept in the metadata.
+    source : str
+        The recording's ``source``.
 
     Returns
     -------
@@ -178,6 +202,9 @@ def record_calibration(emg_inlet: Any, force_inlet: Any | None, *, cues: Sequenc
     """
     from scenarios.live.lsl import pylsl_module
 
+    emg_inlet, force_inlet, imu_inlet = streams.emg_inlet, streams.force_inlet, streams.imu_inlet
+    stream_name, force_name, imu_name = streams.stream_name, streams.force_name, streams.imu_name
+    imu_channels, stream_identity = streams.imu_channels, streams.stream_identity
     lsl = pylsl_module()
     fs = emg_inlet.info(timeout=2.0).nominal_srate()
     if not fs > 0:

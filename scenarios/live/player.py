@@ -49,6 +49,41 @@ class Dropout:
     duration_s: float
 
 
+@dataclass(frozen=True)
+class Playback:
+    """How :func:`play` plays a recording: its pace, what it publishes, its faults.
+
+    Attributes
+    ----------
+    loop : bool
+        Start again at the end, for ever (stamps keep increasing).
+    speed : float
+        Play this many times faster than real time (tests, demos).
+    imu : bool
+        Publish the pitch as the orientation stream, when the recording has one.
+    wait_for_consumer : bool
+        Start playing only once an inlet has connected, so it gets the first sample.
+    lead_s : float
+        Delay between the start and the first sample, s.
+    dropouts : sequence of Dropout
+        Stretches when nothing is sent (the armband's link), stream time, s.
+    imu_dropouts : sequence of Dropout
+        Stretches when the orientation alone is not sent (its stream stalls), s.
+    stop_after_s : float, optional
+        Stop after this much stream time, s, and withdraw the outlets (a streamer
+        that goes away).
+    """
+
+    loop: bool = False
+    speed: float = 1.0
+    imu: bool = True
+    wait_for_consumer: bool = True
+    lead_s: float = 0.05
+    dropouts: Sequence[Dropout] = ()
+    imu_dropouts: Sequence[Dropout] = ()
+    stop_after_s: float | None = None
+
+
 def quaternion_of_pitch(pitch_rad: np.ndarray) -> np.ndarray:
     """Unit quaternions ``(w, x, y, z)`` of rotations by ``pitch_rad`` about the y axis.
 
@@ -99,17 +134,14 @@ def _skipped(dropouts: Sequence[Dropout], fs: float) -> list[tuple[int, int]]:
             for d in dropouts]
 
 
-def play(recording: Recording, name: str, *, loop: bool = False, speed: float = 1.0,
-         dropouts: Sequence[Dropout] = (), imu_dropouts: Sequence[Dropout] = (),
-         imu: bool = True, stop_after_s: float | None = None,
-         wait_for_consumer: bool = True, lead_s: float = 0.05,
+def play(recording: Recording, name: str, playback: Playback = Playback(), *,
          log: Callable[[str], None] = print, stop: Callable[[], bool] | None = None) -> int:
     """Play a recording as LSL outlets at its own rate: sEMG, force and orientation.
 
     The EMG outlet is named ``name`` (type ``EMG``; ``int8`` for MYO counts, else
     ``float32``; channel labels and unit in its description); the force, if the
     recording has one, goes to ``name.force`` (type ``Force``, N); the forearm pitch,
-    if it has one (and ``imu``), goes to ``name.imu`` as the armband's orientation
+    if it has one (and ``playback.imu``), goes to ``name.imu`` as the armband's orientation
     (type ``IMU``, the unit quaternion ``qw, qx, qy, qz`` of a rotation by the pitch
     about the y axis, float32, at :data:`scenarios.live.lsl.IMU_FS_HZ`: every ``round(fs / 50)``-th
     sample). Sample ``i`` is stamped ``t0 + i / (speed * fs_hz)`` on the LSL clock
@@ -121,23 +153,9 @@ def play(recording: Recording, name: str, *, loop: bool = False, speed: float = 
     recording : Recording
     name : str
         Stream name.
-    loop : bool
-        Start again at the end, for ever (stamps keep increasing).
-    speed : float
-        Play this many times faster than real time (tests, demos).
-    dropouts : sequence of Dropout
-        Stretches when nothing is sent (the armband's link), stream time, s.
-    imu_dropouts : sequence of Dropout
-        Stretches when the orientation alone is not sent (its stream stalls), s.
-    imu : bool
-        Publish the pitch as the orientation stream, when the recording has one.
-    stop_after_s : float, optional
-        Stop after this much stream time, s, and withdraw the outlets (a streamer
-        that goes away).
-    wait_for_consumer : bool
-        Start playing only once an inlet has connected, so it gets the first sample.
-    lead_s : float
-        Delay between the start and the first sample, s.
+    playback : Playback
+        Pace, outlets and faults (default: once, in real time, with the orientation,
+        after a consumer connects, no fault).
     log : callable
         Where progress lines go.
     stop : callable, optional
@@ -149,8 +167,9 @@ def play(recording: Recording, name: str, *, loop: bool = False, speed: float = 
         sEMG samples sent.
     """
     lsl = pylsl_module()
+    loop, speed, lead_s = playback.loop, playback.speed, playback.lead_s
     fs, n = recording.fs_hz, recording.n_samples
-    outlet, force_outlet, imu_outlet, every = _outlets(recording, name, imu)
+    outlet, force_outlet, imu_outlet, every = _outlets(recording, name, playback.imu)
     log(f"streaming {recording.source} as LSL {describe(outlet.info)}, source_id "
         f"{outlet.info.source_id()!r}"
         + (f"; its force as {name + FORCE_SUFFIX!r}" if force_outlet else "")
@@ -158,7 +177,7 @@ def play(recording: Recording, name: str, *, loop: bool = False, speed: float = 
            f"{fs / every:g} Hz, source_id {imu_outlet.info.source_id()!r})" if imu_outlet else "")
         + f"; {recording.duration_s:.1f} s" + (" looped" if loop else "")
         + (f" at {speed:g}x" if speed != 1 else ""))
-    if wait_for_consumer:
+    if playback.wait_for_consumer:
         log(f"waiting for a consumer of {name!r} ...")
         while not outlet.outlet.wait_for_consumers(0.25):
             if stop is not None and stop():
@@ -169,8 +188,8 @@ def play(recording: Recording, name: str, *, loop: bool = False, speed: float = 
     quats = (None if imu_outlet is None
              else quaternion_of_pitch(recording.pitch_rad).astype(np.float32).tolist())
     period = 1.0 / (fs * speed)
-    skip, imu_skip = _skipped(dropouts, fs), _skipped(imu_dropouts, fs)
-    last = math.inf if stop_after_s is None else stop_after_s * fs
+    skip, imu_skip = _skipped(playback.dropouts, fs), _skipped(playback.imu_dropouts, fs)
+    last = math.inf if playback.stop_after_s is None else playback.stop_after_s * fs
     clock, sleep = lsl.local_clock, time.sleep
     t0 = clock() + lead_s
     sent = i = 0

@@ -50,6 +50,7 @@ from scenarios.live.arm import (
     virtual_arm_poses,
 )
 from scenarios.live.errors import ArmPosesError, SessionError
+from scenarios.live.reference_windows import ReferenceWindows
 from scenarios.runners.calibration import Calibration, fit_on_features
 from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
 from scenarios.runners.episode_metrics import contact_peak_ratio, episode_metrics
@@ -61,7 +62,7 @@ from scenarios.schema import ORACLE
 from sim.hand.objects import ObjectSpec
 from sim.hand.wrist import min_jerk
 from sim.recording import Recording, RecordingError
-from sim.user.intent import grasp_lift_hold
+from sim.user.intent import GraspLiftTiming, grasp_lift_hold
 from sim.user.operator import Scene, WristMove
 from sim.user.scripted import ScriptedArm
 from sim.user.subjects import VirtualSubject
@@ -269,8 +270,9 @@ def grasp_session(subject: VirtualSubject, obj: ObjectSpec, *, mvc_cal_n: float,
     target_n = intended_grip_n(obj, script.safety_factor)
     hold_level = float(np.clip(target_n / script.hand_force_at_mvc_n * mvc_cal_n
                                / subject.mvc_n, 0.0, 1.0))
-    profile = grasp_lift_hold(g, fs_hz=fs_hz, hold_level=hold_level, rest_s=script.rest_s,
-                              ramp_s=RAMP_S, hold_s=duration_s, jitter=0.1)
+    timing = GraspLiftTiming(rest_s=script.rest_s, ramp_s=RAMP_S, hold_s=duration_s)
+    profile = grasp_lift_hold(g, fs_hz=fs_hz, hold_level=hold_level, timing=timing,
+                              jitter=0.1)
     recording = subject.record(profile, generator=script.generator, fs_hz=fs_hz, rng=g)
     recording = recording.slice(0, min(recording.n_samples,
                                        int(round((duration_s + script.tail_s) * fs_hz))))
@@ -299,7 +301,7 @@ class ReplaySpec:
     controller : str
         Controller family.
     controller_spec : mapping, optional
-        Keyword arguments of :func:`controllers.design.design_for_object`.
+        The flat design specification (:meth:`~controllers.design_spec.DesignSpec.from_mapping`).
     episode_s : float
         The trial's time limit, s (the recording must last that long).
     hold_s : float
@@ -485,6 +487,7 @@ def episode_on_recording(recording: Recording, cal: RecordedCalibration, obj: Ob
         Physics divergence.
     """
     from scenarios.runners.dispatch import DivergedError
+    from scenarios.runners.trial_loop import TrialHooks, TrialTiming
 
     check_layout(recording, cal)
     if recording.duration_s < spec.episode_s:
@@ -494,10 +497,10 @@ def episode_on_recording(recording: Recording, cal: RecordedCalibration, obj: Ob
         design = grasp_design(obj, spec.controller, spec.control_dt_s,
                               spec.hand.check().controller_spec(spec.controller_spec))
         person = RecordedPerson(recording, cal, spec, poses=poses)
-        loop = TrialLoop(obj, design, person, limit_s=spec.episode_s,
-                         control_dt_s=spec.control_dt_s, lift_height_m=spec.lift_height_m,
-                         seed=session_seed(spec.seed),
-                         frames=Frames() if record_frames else None, hand=spec.hand)
+        loop = TrialLoop(obj, design, person, TrialTiming(spec.episode_s, spec.control_dt_s),
+                         lift_height_m=spec.lift_height_m, seed=session_seed(spec.seed),
+                         hooks=TrialHooks(frames=Frames() if record_frames else None),
+                         hand=spec.hand)
         loop.run()
         person.samples_to(spec.episode_s)  # the windows of the whole episode, for the metrics
     if loop.failure is not None:
@@ -514,9 +517,7 @@ def episode_on_recording(recording: Recording, cal: RecordedCalibration, obj: Ob
     metrics = grasp_metrics(traces, loop.info, loop.referee, obj,
                             control_dt_s=spec.control_dt_s,
                             wrist_tremor_m=person.wrist_tremor_m,
-                            window_values_n=np.asarray(chain.window_values_n)[
-                                window_t <= spec.episode_s],
-                            window_dt_s=chain.hop / recording.fs_hz, oracle_n=oracle)
+                            windows=ReferenceWindows.of(chain, spec.episode_s), oracle_n=oracle)
     timings = {**chain.timings, "t_controller_s": loop.controller_s,
                "t_physics_s": loop.physics_s}
     return RecordedEpisode(metrics, traces, design, timings, loop.referee)
@@ -529,7 +530,7 @@ def session_seed(seed: int) -> int:
 
 def grasp_metrics(traces: Mapping[str, np.ndarray], info: Mapping[str, Any],
                   referee: TrialReferee, obj: ObjectSpec, *, control_dt_s: float,
-                  wrist_tremor_m: float, window_values_n: np.ndarray, window_dt_s: float,
+                  wrist_tremor_m: float, windows: ReferenceWindows,
                   oracle_n: np.ndarray | None = None) -> dict[str, Any]:
     """The metrics of a person's trial (replayed or live), judged as every trial is.
 
@@ -548,10 +549,9 @@ def grasp_metrics(traces: Mapping[str, np.ndarray], info: Mapping[str, Any],
         Control period, s.
     wrist_tremor_m : float
         How much the person's wrist moves when held still, m (the hold's end).
-    window_values_n : ndarray
-        The hand reference at each feature window, N (for the volatility).
-    window_dt_s : float
-        Window increment, s.
+    windows : ReferenceWindows
+        The hand reference at each feature window and their increment (for the
+        volatility).
     oracle_n : ndarray, optional
         The user's true force mapped to the hand; without it (a person) the
         estimation error is ``None``.
@@ -568,6 +568,7 @@ def grasp_metrics(traces: Mapping[str, np.ndarray], info: Mapping[str, Any],
         Values that do not exist are ``None``.
     """
     from scenarios.runners.episode_metrics import grasp_start_s
+    from scenarios.runners.reference import ReferenceStream
 
     t, ref, grip = traces["t_s"], traces["reference_n"], traces["grip_force_n"]
     if t.size == 0:
@@ -579,9 +580,8 @@ def grasp_metrics(traces: Mapping[str, np.ndarray], info: Mapping[str, Any],
                     wrist_tremor_m=wrist_tremor_m)
     start_s = grasp_start_s(t, ref)
     oracle = np.full(t.size, np.nan) if oracle_n is None else oracle_n
-    base = episode_metrics(t, ref, grip, oracle, start_s=start_s, lift_s=verdict.lift_start_s,
-                           hold=verdict.hold, window_values_n=np.asarray(window_values_n),
-                           window_dt_s=window_dt_s)
+    stream = ReferenceStream(start_s, np.asarray(windows.values_n), windows.dt_s, t, ref, oracle)
+    base = episode_metrics(stream, grip, lift_s=verdict.lift_start_s, hold=verdict.hold)
     ratio, _ = contact_peak_ratio(t, traces["tracked_reference_n"], grip, traces["both_sides"])
     held = verdict.hold
     out: dict[str, Any] = {

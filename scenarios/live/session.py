@@ -57,8 +57,7 @@ from __future__ import annotations
 
 import gc
 import math
-import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -66,12 +65,21 @@ import numpy as np
 
 from controllers.design_cache import grasp_design
 from scenarios.live.arm import LIFT_HEIGHT_M, Arm
+from scenarios.live.hooks import DEFAULT_HOOKS, SessionHooks
 from scenarios.live.recorded import RecordedCalibration, grasp_metrics, session_seed
+from scenarios.live.reference_windows import ReferenceWindows
 from scenarios.live.samples import SampleGuard
 from scenarios.live.timing import percentile, warnings_for
 from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
 from scenarios.runners.semg_reference import SemgReference
-from scenarios.runners.trial_loop import DEFAULT_HAND, Frames, HandSettings, TrialLoop
+from scenarios.runners.trial_loop import (
+    DEFAULT_HAND,
+    Frames,
+    HandSettings,
+    TrialHooks,
+    TrialLoop,
+    TrialTiming,
+)
 from sim.hand.objects import ObjectSpec
 from sim.recording import Recording
 from sim.user.feedback import FeedbackDevice
@@ -108,6 +116,8 @@ class SessionSettings:
         Seeds the environment's reset (as an offline episode with the same seed).
     hand : HandSettings
         The hand's drive, paradigm and own slip response.
+    feedback : str
+        The stimulator's mode (:attr:`sim.user.feedback.FeedbackDevice.MODES`; ``"none"``).
     """
 
     duration_s: float = 8.0
@@ -119,6 +129,7 @@ class SessionSettings:
     frame_dt_s: float | None = None
     seed: int = 0
     hand: HandSettings = DEFAULT_HAND
+    feedback: str = "none"
 
 
 class LiveGrasp:
@@ -135,20 +146,11 @@ class LiveGrasp:
     controller : str
         Controller family.
     controller_spec : mapping, optional
-        Keyword arguments of :func:`controllers.design.design_for_object`.
+        The flat design specification (:meth:`~controllers.design_spec.DesignSpec.from_mapping`).
     settings : SessionSettings
-    publish : callable, optional
-        ``publish(t_s, reference_n, grip_n, feedback)`` after every control step (the
-        outlets; ``feedback`` is the stimulator's intensity 0..1).
-    event : callable, optional
-        ``event(t_s, marker)`` for lift, slip, drop, crush, gap_start, gap_end,
-        source_changed, imu_gap_start, imu_gap_end ... (every marker is also kept in
-        :attr:`events`).
-    notify : callable, optional
-        ``notify(line)``: one line for the person at the terminal when a fault begins
-        or ends (a gap, a stall, a changed source).
-    clock : callable
-        Wall clock in seconds (``time.perf_counter``); arrival times use the same.
+    hooks : SessionHooks
+        Where the outlets' values, the markers and the terminal lines go, and the wall
+        clock (default: nowhere; ``time.perf_counter``).
     viewer : object, optional
         Something with ``sync()`` (:class:`scenarios.live.display.Viewer`), called every
         40 ms of session time.
@@ -170,12 +172,9 @@ class LiveGrasp:
     def __init__(self, cal: RecordedCalibration, obj: ObjectSpec, *, arm: Arm, controller: str,
                  controller_spec: Mapping[str, Any] | None = None,
                  settings: SessionSettings = SessionSettings(),
-                 publish: Callable[[float, float, float, float], None] | None = None,
-                 event: Callable[[float, str], None] | None = None,
-                 notify: Callable[[str], None] | None = None,
-                 clock: Callable[[], float] = time.perf_counter,
-                 viewer: Any = None, feedback: str = "none") -> None:
+                 hooks: SessionHooks = DEFAULT_HOOKS, viewer: Any = None) -> None:
         s = settings
+        publish, event, notify, clock = hooks.publish, hooks.event, hooks.notify, hooks.clock
         self.settings, self.cal, self.obj, self.controller = s, cal, obj, controller
         self.arm = arm
         self.wrist_tremor_m = float(arm.tremor_m)
@@ -185,17 +184,16 @@ class LiveGrasp:
                                    channel_index=cal.channel_index,
                                    hand_force_at_mvc_n=s.hand_force_at_mvc_n,
                                    integer=cal.integer)
-        self.trial = TrialLoop(obj, self.design, self, limit_s=s.duration_s,
-                               control_dt_s=s.control_dt_s, lift_height_m=LIFT_HEIGHT_M,
-                               seed=session_seed(s.seed),
-                               frames=None if s.frame_dt_s is None
-                               else Frames(s.frame_dt_s, "state"), hand=s.hand)
+        frames = None if s.frame_dt_s is None else Frames(s.frame_dt_s, "state")
+        self.trial = TrialLoop(obj, self.design, self, TrialTiming(s.duration_s, s.control_dt_s),
+                               lift_height_m=LIFT_HEIGHT_M, seed=session_seed(s.seed),
+                               hooks=TrialHooks(frames=frames), hand=s.hand)
         self.env = self.trial.env
         self.guard = SampleGuard(cal.integer)
         self.fs_hz = cal.fs_hz
         self.n_steps = self.trial.n_steps
         self._publish, self._event, self._clock = publish, event, clock
-        self.feedback = FeedbackDevice(feedback, force_range_n=s.hand_force_at_mvc_n)
+        self.feedback = FeedbackDevice(s.feedback, force_range_n=s.hand_force_at_mvc_n)
         self.viewer = viewer
         self.viewer_every = max(1, int(round(0.04 / s.control_dt_s)))
         n = self.n_steps
@@ -555,13 +553,9 @@ class LiveGrasp:
         processing = self.trial.physics_s + self.trial.controller_s
         t, referee = traces["t_s"], self.referee
         rising = np.flatnonzero(traces["wrist_height_m"] > 0.0)
-        chain = self.chain
-        window_t = np.asarray(chain.window_t_s)
         metrics = grasp_metrics(traces, info, referee, self.obj, control_dt_s=s.control_dt_s,
                                 wrist_tremor_m=self.wrist_tremor_m,
-                                window_values_n=np.asarray(chain.window_values_n)[
-                                    window_t <= s.duration_s],
-                                window_dt_s=chain.hop / self.fs_hz)
+                                windows=ReferenceWindows.of(self.chain, s.duration_s))
         out: dict[str, Any] = {
             "samples": {"received": int(self.received), "expected": int(expected),
                         "lost": int(max(expected - self.received, 0))},

@@ -20,7 +20,7 @@ May import: :mod:`scenarios.store`, :mod:`scenarios.schema`, :mod:`scenarios.sta
 only to re-analyse loops), matplotlib and Jinja2.
 """
 
-from scenarios.report.build import ReportResult, build_report
+from scenarios.report.build import ReportLimits, ReportResult, build_report
 from scenarios.report.data import ReportInputError
 
-__all__ = ["ReportInputError", "ReportResult", "build_report"]
+__all__ = ["ReportInputError", "ReportLimits", "ReportResult", "build_report"]

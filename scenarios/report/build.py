@@ -81,6 +81,22 @@ class ReportResult:
     elapsed_s: float
 
 
+@dataclass(frozen=True)
+class ReportLimits:
+    """How many of a sweep's loops and episodes the report draws.
+
+    Attributes
+    ----------
+    max_designs : int
+        Loop designs drawn in the Bode / Nyquist / pole figure (all are tabulated).
+    max_traces : int
+        Episodes drawn as force traces (one selectable chart per scenario).
+    """
+
+    max_designs: int = 6
+    max_traces: int = 120
+
+
 def build_report(
     results: str | Path,
     out_dir: str | Path,
@@ -88,8 +104,7 @@ def build_report(
     sweep: str | None = None,
     reproduction: str | Path | None = None,
     render_frame: bool = True,
-    max_designs: int = 6,
-    max_traces: int = 120,
+    limits: ReportLimits = ReportLimits(),
     recheck_margins: bool = False,
     created: _dt.datetime | None = None,
 ) -> ReportResult:
@@ -108,10 +123,8 @@ def build_report(
     render_frame : bool
         Render a MuJoCo frame of the grasp (a child process, about 2 s with EGL, run
         while the other sections are built).
-    max_designs : int
-        Loop designs drawn in the Bode / Nyquist / pole figure (all are tabulated).
-    max_traces : int
-        Episodes drawn as force traces (one selectable chart per scenario).
+    limits : ReportLimits
+        Loop designs and force traces drawn (default: 6 and 120).
     recheck_margins : bool
         Re-analyse every distinct loop with :func:`controllers.analysis.loop_margins`
         and mark where the stored margins differ (imports python-control; about 0.1 s
@@ -160,8 +173,8 @@ def build_report(
             members=members, sources=sources, factors=factors, designs=designs,
             reproduction=None if reproduction is None else Path(reproduction),
             json_config=json_config, created=created,
-            options={"render_frame": render_frame, "max_designs": max_designs,
-                     "max_traces": max_traces, "recheck_margins": recheck_margins,
+            options={"render_frame": render_frame, "max_designs": limits.max_designs,
+                     "max_traces": limits.max_traces, "recheck_margins": recheck_margins,
                      "frame": frame},
             reproduction_data=repro_data,
         )

@@ -63,15 +63,15 @@ def swept_factors(episodes: Sequence[Mapping[str, Any]]) -> list[str]:
     flat = [flatten_config(e.get("config") or {}) for e in episodes]
     paths = sorted(set().union(*flat)) if flat else []
     varying = [p for p in paths if p not in NOT_FACTORS
-               and len({_hashable(f.get(p)) for f in flat}) > 1]
+               and len({hashable_value(f.get(p)) for f in flat}) > 1]
     known = list(FACTOR_NAMES)
     ordered = sorted(varying, key=lambda p: (known.index(p) if p in known else len(known), p))
 
     def determined_by(path: str, other: str) -> bool:
         seen: dict[Any, Any] = {}
         for f in flat:
-            value = _hashable(f.get(path))
-            if seen.setdefault(_hashable(f.get(other)), value) != value:
+            value = hashable_value(f.get(path))
+            if seen.setdefault(hashable_value(f.get(other)), value) != value:
                 return False
         return True
 
@@ -81,7 +81,8 @@ def swept_factors(episodes: Sequence[Mapping[str, Any]]) -> list[str]:
             or not any(determined_by(p, q) for q in ordered if q in FACTOR_NAMES)]
 
 
-def _hashable(value: Any) -> Any:
+def hashable_value(value: Any) -> Any:
+    """A factor's value as a hashable key: a dict as its sorted JSON, anything else as is."""
     return json.dumps(value, sort_keys=True, default=str) if isinstance(value, dict) else value
 
 
@@ -102,7 +103,7 @@ def factor_value(row: Mapping[str, Any], path: str) -> Any:
 
 def level_key(row: Mapping[str, Any], path: str) -> Any:
     """The level of ``path`` for an episode row as :func:`levels` lists it (hashable)."""
-    return _hashable(factor_value(row, path))
+    return hashable_value(factor_value(row, path))
 
 
 def level_text(value: Any) -> str:
@@ -127,7 +128,7 @@ def _level_key(value: Any) -> tuple[int, Any]:
 
 def levels(episodes: Sequence[Mapping[str, Any]], path: str) -> list[Any]:
     """Distinct values of a factor over the episodes: numbers ascending, names in store order."""
-    values = list(dict.fromkeys(_hashable(factor_value(e, path)) for e in episodes))
+    values = list(dict.fromkeys(hashable_value(factor_value(e, path)) for e in episodes))
     if all(v is None or isinstance(v, (bool, int, float)) for v in values):
         return sorted(values, key=_level_key)
     return values
@@ -181,7 +182,7 @@ def faceted_grids(episodes: Sequence[Mapping[str, Any]],
     facets = [p for p in factors if p not in (rows_f, cols_f)]
     grids = outcome_grids(
         episodes,
-        key=lambda e: tuple(_hashable(factor_value(e, p)) for p in facets),
+        key=lambda e: tuple(hashable_value(factor_value(e, p)) for p in facets),
         rows=lambda e: factor_value(e, rows_f), cols=lambda e: factor_value(e, cols_f),
         label=lambda k: facet_label(facets, k))
     order = [{v: i for i, v in enumerate(levels(episodes, p))} for p in facets]

@@ -116,9 +116,7 @@ def register_section(name: str, builder: SectionBuilder | str, *, order: float |
     _REGISTRY.register(name, builder, replace=replace, order=float(order))
 
 
-def unregister_section(name: str) -> None:
-    """Remove a report section (no effect if absent)."""
-    _REGISTRY.unregister(name)
+unregister_section = _REGISTRY.functions(__name__, "section").unregister
 
 
 def section_names() -> tuple[str, ...]:

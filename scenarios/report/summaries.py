@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from scenarios.outcomes import OUTCOMES, row_outcome
-from scenarios.report.factors import CONTROLLER_FACTOR, _hashable, factor_value, levels
+from scenarios.report.factors import CONTROLLER_FACTOR, factor_value, hashable_value, levels
 from scenarios.stats import t_quantile, wilson_interval
 
 
@@ -67,7 +67,7 @@ def outcome_summary(episodes: Sequence[Mapping[str, Any]],
     """
     groups: dict[tuple, list[Mapping[str, Any]]] = {}
     for e in episodes:
-        key = tuple(_hashable(factor_value(e, p)) for p in factors)
+        key = tuple(hashable_value(factor_value(e, p)) for p in factors)
         groups.setdefault(key, []).append(e["result"])
     order = [{v: i for i, v in enumerate(levels(episodes, p))} for p in factors]
     out = []
@@ -163,7 +163,7 @@ def paired_differences(episodes: Sequence[Mapping[str, Any]], factors: Sequence[
     others = [p for p in factors if p != controller]
     by_controller: dict[Any, dict[tuple, Mapping[str, Any]]] = {}
     for e in episodes:
-        key = (*(_hashable(factor_value(e, p)) for p in others),
+        key = (*(hashable_value(factor_value(e, p)) for p in others),
                e["result"].get("seed", (e.get("config") or {}).get("seed")))
         by_controller.setdefault(factor_value(e, controller), {}).setdefault(key, e["result"])
     names = list(by_controller)

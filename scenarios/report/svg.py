@@ -13,11 +13,26 @@ from __future__ import annotations
 import html
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 #: Default curve colours (matplotlib's C0, C1 and grey, as the other figures).
 BLUE, ORANGE, GREY = "#1f77b4", "#ff7f0e", "#808080"
+
+
+@dataclass(frozen=True)
+class ChartSize:
+    """The size of a chart in CSS pixels (it scales down with the page).
+
+    Attributes
+    ----------
+    width_px, height_px : int
+        Width and height, CSS pixels.
+    """
+
+    width_px: int = 640
+    height_px: int = 210
 
 
 def nice_ticks(low: float, high: float, n: int = 5) -> list[float]:
@@ -88,7 +103,7 @@ def _path(px: np.ndarray, py: np.ndarray, tol: float) -> str:
 
 
 def line_chart(x: np.ndarray, series: Sequence[tuple[str, np.ndarray, str]], *,
-               x_label: str, y_label: str, width: int = 640, height: int = 210,
+               x_label: str, y_label: str, size: ChartSize = ChartSize(),
                label: str = "", tol_px: float = 0.35,
                bands: Sequence[tuple[float, float, str, str]] = ()) -> str:
     """An inline ``<svg>`` line chart: axes with round ticks, one path per series, a legend.
@@ -101,8 +116,8 @@ def line_chart(x: np.ndarray, series: Sequence[tuple[str, np.ndarray, str]], *,
         Legend label, ordinates (shape (n,)) and colour of each curve.
     x_label, y_label : str
         Axis labels (with units).
-    width, height : int
-        Size in CSS pixels (the chart scales down with the page).
+    size : ChartSize
+        Width and height in CSS pixels (default 640 x 210).
     label : str
         Accessible name of the chart (``aria-label``).
     tol_px : float
@@ -116,6 +131,7 @@ def line_chart(x: np.ndarray, series: Sequence[tuple[str, np.ndarray, str]], *,
     str
         The ``<svg>`` element (no XML namespace attribute: HTML5 inline SVG).
     """
+    width, height = size.width_px, size.height_px
     left, right, top, bottom = 50, 12, 26, 40
     pw, ph = width - left - right, height - top - bottom
     x = np.asarray(x, dtype=float)

@@ -148,38 +148,6 @@ def fit_on_features(features: FeatureSet, estimator: str, mode: str, *,
                        result["train_ms"] / 1e3, on_n, off_n)
 
 
-def calibrate(
-    subject: VirtualSubject,
-    estimator: str,
-    mode: str,
-    *,
-    rng: np.random.Generator,
-    generator: str = "noise",
-    order: int = PAPER_ORDER,
-    identification_fraction: float = 0.5,
-    calibration_s: float | None = None,
-    options: Mapping[str, Any] | None = None,
-    window_ms: float = 400.0,
-    step_ms: float = 125.0,
-) -> Calibration:
-    """Record a calibration session and fit ``estimator`` (with ``options``) on its first part.
-
-    ``rng`` is split in two: the session (protocol timing, levels, noise) and the
-    estimator's seeds. The features use ``window_ms`` windows every ``step_ms``.
-    Raises as :func:`fit_on_features`.
-    """
-    session_rng, estimator_rng = rng.spawn(2)
-    recording, features = calibration_session(subject, session_rng, generator=generator,
-                                              min_duration_s=calibration_s,
-                                              window_ms=window_ms, step_ms=step_ms)
-    mvc_cal_n = float(np.max(recording.force_n))
-    if estimator in NO_ESTIMATOR:  # the oracle, the intact hand: nothing to fit
-        return Calibration(estimator, mode, None, mvc_cal_n, None, 0.0)
-    return fit_on_features(features, estimator, mode, rng=estimator_rng, order=order,
-                           identification_fraction=identification_fraction,
-                           mvc_cal_n=mvc_cal_n, options=options)
-
-
 @dataclass(frozen=True)
 class CalibrationSettings:
     """How a calibration is recorded and fitted: everything but the subject and the seed.
@@ -214,11 +182,7 @@ class CalibrationSettings:
 
     def fit(self, subject: VirtualSubject, seed_seq: np.random.SeedSequence) -> Calibration:
         """:func:`shared_calibration` of ``subject`` with these settings."""
-        return shared_calibration(
-            subject, self.estimator, self.mode, seed_seq=seed_seq, generator=self.generator,
-            order=self.order, identification_fraction=self.identification_fraction,
-            calibration_s=self.calibration_s, options=self.options, window_ms=self.window_ms,
-            step_ms=self.step_ms)
+        return shared_calibration(subject, self, seed_seq=seed_seq)
 
     def key(self, seed_seq: np.random.SeedSequence) -> dict[str, Any]:
         """JSON-ready identity of the calibration these settings fit with ``seed_seq``."""
@@ -230,35 +194,69 @@ class CalibrationSettings:
                 "window_ms": float(self.window_ms), "step_ms": float(self.step_ms)}
 
 
+def calibrate(subject: VirtualSubject, settings: CalibrationSettings, *,
+              rng: np.random.Generator) -> Calibration:
+    """Record a calibration session and fit the estimator on its first part.
+
+    Parameters
+    ----------
+    subject : VirtualSubject
+        The user whose session is recorded.
+    settings : CalibrationSettings
+        The estimator, its mode and options, the session's sEMG generator and least
+        length, the identifying share and the feature window (``window_ms`` windows
+        every ``step_ms``).
+    rng : numpy.random.Generator
+        Split in two: the session (protocol timing, levels, noise) and the estimator's
+        seeds.
+
+    Returns
+    -------
+    Calibration
+        The fitted estimator (none for the oracle and the intact hand) and its scores.
+
+    Raises
+    ------
+    UnsupportedScenarioError, DivergedError
+        As :func:`fit_on_features`.
+    """
+    s = settings
+    session_rng, estimator_rng = rng.spawn(2)
+    recording, features = calibration_session(subject, session_rng, generator=s.generator,
+                                              min_duration_s=s.calibration_s,
+                                              window_ms=s.window_ms, step_ms=s.step_ms)
+    mvc_cal_n = float(np.max(recording.force_n))
+    if s.estimator in NO_ESTIMATOR:  # the oracle, the intact hand: nothing to fit
+        return Calibration(s.estimator, s.mode, None, mvc_cal_n, None, 0.0)
+    return fit_on_features(features, s.estimator, s.mode, rng=estimator_rng, order=s.order,
+                           identification_fraction=s.identification_fraction,
+                           mvc_cal_n=mvc_cal_n, options=s.options)
+
+
 _CALIBRATIONS: dict[tuple, Calibration] = {}
 _MAX_CALIBRATIONS = 8
 
 
-def shared_calibration(subject: VirtualSubject, estimator: str, mode: str, *,
-                       seed_seq: np.random.SeedSequence, generator: str, order: int,
-                       identification_fraction: float, calibration_s: float | None,
-                       options: Mapping[str, Any] | None = None, window_ms: float = 400.0,
-                       step_ms: float = 125.0) -> Calibration:
+def shared_calibration(subject: VirtualSubject, settings: CalibrationSettings, *,
+                       seed_seq: np.random.SeedSequence) -> Calibration:
     """:func:`calibrate`, memoized in this process on everything it depends on.
 
     A sweep's scenarios that differ only in what happens after the calibration (the
     object, the controller, the feedback) calibrate the same subject with the same seed
     (``seed_by: [subject]``): a worker process fits the estimator once and the next
     scenarios reuse it, as the trials of one feedback task do. The fit is deterministic
-    given its seeds, so the figures are those of a fresh calibration; ``fit_s`` is the
-    time the one fit took. The last :data:`_MAX_CALIBRATIONS` are kept.
+    given its seeds (``seed_seq`` seeds :func:`calibrate`'s ``rng``), so the figures are
+    those of a fresh calibration; ``fit_s`` is the time the one fit took. The last
+    :data:`_MAX_CALIBRATIONS` are kept.
     """
-    key = (subject, estimator, mode, order, generator, identification_fraction, calibration_s,
-           tuple(seed_seq.generate_state(4)), tuple(sorted((options or {}).items())),
-           float(window_ms), float(step_ms))
+    s = settings
+    key = (subject, s.estimator, s.mode, s.order, s.generator, s.identification_fraction,
+           s.calibration_s, tuple(seed_seq.generate_state(4)),
+           tuple(sorted((s.options or {}).items())), float(s.window_ms), float(s.step_ms))
     if key not in _CALIBRATIONS:
         if len(_CALIBRATIONS) >= _MAX_CALIBRATIONS:
             _CALIBRATIONS.pop(next(iter(_CALIBRATIONS)))
-        _CALIBRATIONS[key] = calibrate(
-            subject, estimator, mode, rng=np.random.default_rng(seed_seq), generator=generator,
-            order=order, identification_fraction=identification_fraction,
-            calibration_s=calibration_s, options=options, window_ms=window_ms,
-            step_ms=step_ms)
+        _CALIBRATIONS[key] = calibrate(subject, settings, rng=np.random.default_rng(seed_seq))
     return _CALIBRATIONS[key]
 
 
@@ -267,11 +265,11 @@ def run_calibration_scenario(scenario: Scenario) -> dict[str, Any]:
     e, p = scenario.estimator, scenario.protocol
     subject = subject_for(scenario)
     with one_blas_thread():
-        cal = calibrate(subject, e.name, e.mode,
-                        rng=np.random.default_rng(np.random.SeedSequence(scenario.seed or 0)),
-                        generator=scenario.subject.generator,
-                        order=PAPER_ORDER if e.order is None else e.order,
-                        identification_fraction=p.identification_fraction,
-                        calibration_s=p.calibration_s, options=e.options)
+        # the paper's 400 ms windows every 125 ms (the kind ignores estimator.window_ms)
+        settings = CalibrationSettings(
+            e.name, e.mode, PAPER_ORDER if e.order is None else e.order,
+            scenario.subject.generator, p.identification_fraction, p.calibration_s, e.options)
+        cal = calibrate(subject, settings,
+                        rng=np.random.default_rng(np.random.SeedSequence(scenario.seed or 0)))
     return CalibrationRow.build(subject_id=subject.subject_id, estimator=e.name, mode=e.mode,
                                 r2=cal.r2, mvc_cal_n=cal.mvc_cal_n, fit_s=cal.fit_s).as_dict()

@@ -10,7 +10,8 @@ identified model that is unstable in free run) are counted, never dropped.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -19,7 +20,6 @@ from controllers.design import DEFAULT_SPECS
 from scenarios.outcomes import OUTCOMES
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.episode import EpisodeSpec, run_episode
-from scenarios.runners.trial_loop import DEFAULT_HAND, HandSettings
 from scenarios.schema import ORACLE, derive_seed
 from scenarios.stats import wilson_interval
 from sim.hand.objects import ObjectSpec
@@ -30,6 +30,8 @@ DEFAULT_REFERENCES = ("ss_kf", "mlp", "features_mav", ORACLE)
 COLUMNS = ("reference_volatility_n_per_s", "estimation_rmse_n", "tracking_rmse_n",
            "slip_events", "slip_distance_m", "dropped", "crushed", "peak_force_n",
            "user_corrections", "attempts", "time_to_lift_s", "safety_margin_pct")
+DEFAULT_EPISODE = EpisodeSpec()
+"""How :func:`compare_references` runs each episode unless told: ``EpisodeSpec()``."""
 
 
 def session_seed(seed: int, population_seed: int, subject_id: int, session: int = 0) -> int:
@@ -44,20 +46,13 @@ def session_seed(seed: int, population_seed: int, subject_id: int, session: int 
 
 def compare_references(
     obj: ObjectSpec,
+    spec: EpisodeSpec = DEFAULT_EPISODE,
     *,
     estimators: Sequence[str] = DEFAULT_REFERENCES,
-    mode: str = "free_run",
-    controller: str = "pid",
-    controller_spec: Mapping[str, Any] | None = None,
     subject_ids: Sequence[int] = (1, 2, 3),
     population_seed: int = 0,
     seed: int = 0,
     sessions: int = 1,
-    episode_s: float | None = None,
-    user: str = "reacting",
-    feedback: str = "none",
-    practice: int = 5,
-    hand: HandSettings = DEFAULT_HAND,
 ) -> dict[str, Any]:
     """Run one grasp per subject and estimator; summarize per estimator.
 
@@ -65,15 +60,15 @@ def compare_references(
     ----------
     obj : ObjectSpec
         The object, the same for every run.
+    spec : EpisodeSpec
+        How every episode runs (default :data:`DEFAULT_EPISODE`: free run, ``pid``, the
+        reacting user without feedback after 5 practice lifts, today's hand); its
+        ``mode`` is the estimators' (the oracle ignores it), its ``controller_spec``
+        defaults to ``controllers.design.DEFAULT_SPECS`` of its ``controller``, and its
+        ``episode_s`` is the trial's time limit (default: the user kind's). Its
+        ``estimator`` and ``seed`` are set for each run.
     estimators : sequence of str
         Reference sources (estimator names or ``"oracle"``).
-    mode : {"free_run", "one_step"}
-        Estimator mode (the oracle ignores it).
-    controller : {"pid", "lead_lag", "mpc"}
-    controller_spec : mapping, optional
-        Design specification (keyword arguments of
-        :func:`controllers.design.design_for_object`); default
-        ``controllers.design.DEFAULT_SPECS`` of ``controller``.
     subject_ids : sequence of int
         Virtual subjects of ``population_seed``.
     seed : int
@@ -82,14 +77,6 @@ def compare_references(
         is identical (paired).
     sessions : int
         Sessions per subject (independent calibrations, practice and trials).
-    episode_s : float, optional
-        The trial's time limit (default: the user kind's).
-    user, feedback : str
-        The user kind and feedback mode (:func:`scenarios.runners.episode.run_episode`).
-    practice : int
-        Practice lifts before each measured trial (0: the novice).
-    hand : HandSettings
-        The hand's drive, paradigm and own slip response.
 
     Returns
     -------
@@ -102,7 +89,9 @@ def compare_references(
         ``held_by_subject`` (min and max over subjects of their held fraction:
         the spread a verdict on few draws hides), ``n_ok`` and ``n_failed``.
     """
-    spec = dict(DEFAULT_SPECS.get(controller, {}) if controller_spec is None else controller_spec)
+    mode, controller = spec.mode, spec.controller
+    design_spec = dict(DEFAULT_SPECS.get(controller, {}) if spec.controller_spec is None
+                       else spec.controller_spec)
     rows: list[dict[str, Any]] = []
     for sid in subject_ids:
         subject = VirtualSubject.sample(population_seed, sid)
@@ -112,10 +101,8 @@ def compare_references(
                 base = {"subject_id": sid, "session": session, "seed": episode_seed,
                         "estimator": name, "mode": "oracle" if name == ORACLE else mode}
                 try:
-                    result = run_episode(subject, obj, EpisodeSpec(
-                        estimator=name, mode=mode, controller=controller, controller_spec=spec,
-                        seed=episode_seed, episode_s=episode_s, user=user, feedback=feedback,
-                        practice=practice, hand=hand))
+                    result = run_episode(subject, obj, replace(
+                        spec, estimator=name, controller_spec=design_spec, seed=episode_seed))
                 except (DivergedError, UnsupportedScenarioError) as exc:
                     rows.append({**base, "status": "failed", "error": str(exc)})
                     continue
@@ -127,8 +114,8 @@ def compare_references(
     return {"object": {"name": obj.name, "mass_kg": obj.mass_kg, "friction": obj.friction,
                        "break_force_n": obj.break_force_n},
             "controller": controller, "subjects": list(subject_ids), "seed": seed,
-            "sessions": sessions, "user": user, "feedback": feedback, "practice": practice,
-            **hand.fields(), "rows": rows, "summary": summary}
+            "sessions": sessions, "user": spec.user, "feedback": spec.feedback,
+            "practice": spec.practice, **spec.hand.fields(), "rows": rows, "summary": summary}
 
 
 def _summarize(rows: list[dict[str, Any]], name: str, mode: str,

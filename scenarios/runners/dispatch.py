@@ -27,7 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from sim.errors import GriploopError
 from sim.registry import (
@@ -38,13 +38,13 @@ from sim.registry import (
     import_reference,
 )
 
-if TYPE_CHECKING:
-    from scenarios.schema import Scenario
-
 ResultRow = Mapping[str, Any]
 """Flat mapping of result names to scalars, plus optional ``"traces"``."""
 
-Runner = Callable[["Scenario"], ResultRow]
+Runner = Callable[[Any], ResultRow]
+"""``runner(scenario) -> ResultRow`` for a :class:`scenarios.schema.Scenario` of its kind
+(typed ``Any`` here: the schema reads the kinds from this module, so this one does not
+import the schema)."""
 
 
 class RunnerUnavailableError(GriploopError, LookupError):
@@ -201,12 +201,12 @@ def require_runners(kinds: set[str] | frozenset[str] | tuple[str, ...]) -> None:
         get_runner(kind)
 
 
-def run_scenario(scenario: Scenario) -> ResultRow:
+def run_scenario(scenario: Any) -> ResultRow:
     """Run one scenario with the runner registered for its kind.
 
     Parameters
     ----------
-    scenario : Scenario
+    scenario : scenarios.schema.Scenario
         A validated scenario with its seed set.
 
     Returns

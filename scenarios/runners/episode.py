@@ -83,11 +83,10 @@ from scenarios.runners.trial import (
     HAND_FORCE_AT_MVC_N,
     TIMING_KEYS,
     Trial,
-    TrialHooks,
     TrialSetup,
     run_trial,
 )
-from scenarios.runners.trial_loop import DEFAULT_HAND, Frames, HandSettings
+from scenarios.runners.trial_loop import DEFAULT_HAND, Frames, HandSettings, TrialHooks
 from scenarios.runners.trial_outcome import judge
 from scenarios.schema import Scenario
 from sim.codec import state_space_matrices
@@ -129,7 +128,7 @@ class EpisodeSpec:
     controller : str
         Registered controller kind.
     controller_spec : mapping, optional
-        The keywords of :func:`controllers.design.design_for_object`.
+        The flat design specification (:meth:`~controllers.design_spec.DesignSpec.from_mapping`).
     seed : int
         Seeds the calibration, the practice, the trial's sEMG, the networks and the hand.
     generator : str
@@ -317,11 +316,8 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
     t = traces["t_s"]
     verdict = judge(traces, trial.referee, obj, control_dt_s=control_dt_s)
     hold = verdict.hold
-    metrics = episode_metrics(stream.t_s[:n_run], stream.reference_n[:n_run],
-                              traces["grip_force_n"], stream.oracle_n[:n_run],
-                              start_s=stream.start_s, lift_s=verdict.lift_start_s, hold=hold,
-                              window_values_n=stream.window_values_n,
-                              window_dt_s=stream.window_dt_s)
+    metrics = episode_metrics(stream.first(n_run), traces["grip_force_n"],
+                              lift_s=verdict.lift_start_s, hold=hold)
     ratio, both_s = contact_peak_ratio(t, traces["tracked_reference_n"],
                                        traces["grip_force_n"], traces["both_sides"])
     held_n, visited_n = operating_forces(traces, design, hold=hold, both_sides_s=both_s)
@@ -370,7 +366,8 @@ def _phase_trace(t_s: np.ndarray, phases: list[tuple[float, str]]) -> np.ndarray
 
 # ------------------------------------------------------------------------ runners
 def controller_spec(scenario: Scenario) -> dict[str, Any]:
-    """Keyword arguments of :func:`controllers.design.design_for_object` from a scenario."""
+    """The flat design specification of a scenario
+    (:meth:`~controllers.design_spec.DesignSpec.from_mapping`)."""
     c = scenario.controller
     spec: dict[str, Any] = {"phase_margin_deg": c.phase_margin_deg,
                             "crossover_rad_s": c.crossover_rad_s,

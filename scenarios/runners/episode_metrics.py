@@ -13,6 +13,7 @@ import numpy as np
 from controllers.base import controller_stats
 from controllers.design import ControllerDesign, OperatingAnalysis
 from estimation.metrics import total_variation_rate
+from scenarios.runners.reference import ReferenceStream
 
 SETTLE_BAND = 0.05  # settling band: 5 % of the hold reference (at least SETTLE_FLOOR_N)
 SETTLE_FLOOR_N = 0.2
@@ -54,28 +55,26 @@ def grasp_start_s(t_s: np.ndarray, reference_n: np.ndarray) -> float:
     return float(t_s[rising[0]]) if rising.size else float(t_s[0])
 
 
-def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray,
-                    oracle_n: np.ndarray, *, start_s: float | None, lift_s: float,
-                    hold: np.ndarray, window_values_n: np.ndarray,
-                    window_dt_s: float) -> dict[str, Any]:
+def episode_metrics(stream: ReferenceStream, grip_n: np.ndarray, *, lift_s: float,
+                    hold: np.ndarray) -> dict[str, Any]:
     """Tracking, estimation and transient figures of one episode.
 
     Parameters
     ----------
-    t_s, reference_n, grip_n, oracle_n : ndarray, shape (n_steps,)
-        Control-rate time, reference, measured grip force and the oracle reference.
-    start_s : float or None
-        Start of the grasp (the user's ramp onset), s; ``None`` when no cue is known
-        (a person): when the reference first reaches 0.5 N.
+    stream : ReferenceStream
+        The episode's reference: ``t_s``, ``reference_n`` and ``oracle_n``, shape
+        (n_steps,), the control-rate time, s, the reference and the oracle reference, N,
+        at the steps of ``grip_n``; ``start_s``, the start of the grasp (the user's ramp
+        onset), s, or ``None`` when no cue is known (a person: when the reference first
+        reaches 0.5 N); ``window_values_n``, shape (n_windows,), the reference at the
+        estimator's update rate, every ``window_dt_s`` s (for volatility).
+    grip_n : ndarray, shape (n_steps,)
+        Measured grip force, N.
     lift_s : float
         When the wrist first rose, s: the grasp phase is ``start_s..lift_s``.
     hold : ndarray of bool, shape (n_steps,)
         The in-air hold's steps (:func:`scenarios.runners.trial_outcome.hold_window`);
         the hold reference is the mean reference there.
-    window_values_n : ndarray, shape (n_windows,)
-        The reference at the estimator's update rate (for volatility).
-    window_dt_s : float
-        Estimator update period, s.
 
     Returns
     -------
@@ -91,6 +90,9 @@ def episode_metrics(t_s: np.ndarray, reference_n: np.ndarray, grip_n: np.ndarray
         if it never does), plus ``peak_force_n`` (whole episode) and
         ``reference_volatility_n_per_s``.
     """
+    t_s, reference_n, oracle_n = stream.t_s, stream.reference_n, stream.oracle_n
+    window_values_n, window_dt_s = stream.window_values_n, stream.window_dt_s
+    start_s = stream.start_s
     if start_s is None:
         start_s = grasp_start_s(t_s, reference_n)
     touching = np.flatnonzero(grip_n >= CONTACT_N)

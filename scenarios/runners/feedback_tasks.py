@@ -56,14 +56,8 @@ from scenarios.runners.episode import (
 from scenarios.runners.practice import Interface, practice_object_for, practise
 from scenarios.runners.reference import Task, force_task, grasp_task
 from scenarios.runners.subject import subject_for
-from scenarios.runners.trial import (
-    NO_HOOKS,
-    TIMING_KEYS,
-    Trial,
-    TrialHooks,
-    TrialSetup,
-    run_trial,
-)
+from scenarios.runners.trial import TIMING_KEYS, Trial, TrialSetup, run_trial
+from scenarios.runners.trial_loop import NO_HOOKS, TrialHooks
 from scenarios.schema import Scenario
 from sim.user.operators import make_operator
 

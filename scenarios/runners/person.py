@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from estimation.features import PAPER_CHANNELS
-from scenarios.runners.semg_reference import STEP_MS, WINDOW_MS, SemgReference
+from scenarios.runners.semg_reference import SemgReference
 from scenarios.schema.names import INTACT
 from sim.user.causal import CausalSession
 from sim.user.operator import Operator, Plan, Scene, WristMove
@@ -72,10 +72,12 @@ class VirtualPerson:
 
     Parameters
     ----------
-    subject : VirtualSubject
-        The user's body (muscles, armband, FSR).
-    calibration : scenarios.runners.calibration.Calibration
-        The fitted estimator (or the oracle) and the force mapping.
+    setup : scenarios.runners.trial.TrialSetup
+        The user's body (``subject``: muscles, armband, FSR), their fitted estimator or
+        the oracle (``calibration``), the sEMG ``generator`` (a causal one for a user who
+        reacts), the control period ``control_dt_s``, s, the hand reference at the
+        user's calibration MVC ``hand_force_at_mvc_n``, N, and the feature window
+        ``window_ms`` and its increment ``step_ms``, ms (the calibration's).
     operator : Operator
         The user's mind and arm (:mod:`sim.user.operators`), started here with ``plan``.
     plan : Plan
@@ -84,14 +86,6 @@ class VirtualPerson:
         The sEMG session's noise (drawn up front, as ``VirtualSubject.record`` draws it).
     operator_rng : numpy.random.Generator
         The operator's motor and perception noise.
-    control_dt_s : float
-        Control period, s.
-    hand_force_at_mvc_n : float
-        Hand reference at the user's calibration MVC, N.
-    generator : str
-        The sEMG generator (a causal one for a user who reacts).
-    window_ms, step_ms : float
-        The feature window and its increment, ms (the calibration's).
 
     Raises
     ------
@@ -103,11 +97,11 @@ class VirtualPerson:
 
     wrist_tremor_m = 0.0
 
-    def __init__(self, subject: VirtualSubject, calibration: Any, operator: Operator,
-                 plan: Plan, *, session_rng: np.random.Generator,
-                 operator_rng: np.random.Generator, control_dt_s: float,
-                 hand_force_at_mvc_n: float, generator: str = "noise",
-                 window_ms: float = WINDOW_MS, step_ms: float = STEP_MS) -> None:
+    def __init__(self, setup: Any, operator: Operator, plan: Plan, *,
+                 session_rng: np.random.Generator, operator_rng: np.random.Generator) -> None:
+        # setup: a TrialSetup (scenarios.runners.trial imports this module)
+        subject, calibration, generator = setup.subject, setup.calibration, setup.generator
+        control_dt_s = setup.control_dt_s
         self.fs_hz = float(plan.fs_hz)
         n = int(plan.intent.size)
         self.session = (CausalSession(subject, n, generator=generator, fs_hz=self.fs_hz,
@@ -120,8 +114,8 @@ class VirtualPerson:
         self.cal = calibration
         self.reference = SemgReference(
             calibration, fs_hz=self.fs_hz, channel_index=[c - 1 for c in PAPER_CHANNELS],
-            window_ms=window_ms, step_ms=step_ms, hand_force_at_mvc_n=hand_force_at_mvc_n,
-            forces=self.forces)
+            window_ms=setup.window_ms, step_ms=setup.step_ms,
+            hand_force_at_mvc_n=setup.hand_force_at_mvc_n, forces=self.forces)
         self.hop = self.reference.hop
         self.n_samples = n
         self.intent = np.zeros(n)

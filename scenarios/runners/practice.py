@@ -14,7 +14,8 @@ mode, order, session seed, identification fraction, window), the controller and 
 specification, the object class, the user kind, feedback and parameters, the number of
 lifts, the practice seed, the trial's limits and the digest of every source file the
 practice runs through. A file that does not parse, or whose key differs, is rebuilt and
-replaced, never trusted.
+replaced, never trusted; an unwritable cache directory is a warning
+(:class:`sim.cache.CacheNotWritableWarning`), and the user practises again next time.
 """
 
 from __future__ import annotations
@@ -61,7 +62,7 @@ class Interface:
     controller : str
         Controller kind.
     controller_spec : mapping
-        Its specification (:func:`controllers.design.design_for_object`'s keywords).
+        Its flat design specification (:meth:`~controllers.design_spec.DesignSpec.from_mapping`).
     practice_object : ObjectSpec
         The object practised with: the library object of the measured object's
         class (:func:`practice_object_for`).
@@ -130,21 +131,11 @@ def practised_belief(subject: VirtualSubject, cal: Calibration, interface: Inter
     key = _key(subject, interface, n_lifts, seed_seq, trial_s, interface.calibration.key(cal_seq))
     directory = sim_cache.cache_subdir("practice")
     path = None if directory is None else directory / f"{key[:24]}.json"
-    if path is None:
-        return _practise(subject, cal, interface, operator, n_lifts, seed_seq, trial_s)
-    found = _read(path, key)
-    if found is not None:
-        return found
-    with sim_cache.build_lock(path):
-        found = _read(path, key)
-        if found is not None:
-            return found
-        belief = _practise(subject, cal, interface, operator, n_lifts, seed_seq, trial_s)
-        try:
-            sim_cache.write_atomic(path, json.dumps(
-                {"format": FORMAT, "key": key, "belief": belief.to_dict()}).encode())
-        except OSError:  # an unwritable cache: practise again next time
-            pass
+    belief, _ = sim_cache.cached(
+        path, lambda p: _read(p, key),
+        lambda: _practise(subject, cal, interface, operator, n_lifts, seed_seq, trial_s),
+        lambda p, b: sim_cache.write_atomic(p, json.dumps(
+            {"format": FORMAT, "key": key, "belief": b.to_dict()}).encode()))
     return belief
 
 

@@ -1,5 +1,8 @@
 """Corpora of virtual subjects for pretrained estimators (:mod:`estimation.transfer`).
 
+:func:`virtual_corpus` is the pretraining corpus ``"virtual"``, registered in
+:mod:`estimation.corpora` when the :mod:`scenarios` package is imported.
+
 The ``"virtual"`` corpus records the paper's calibration session (one to three rounds of
 three squeezes, by the rig) from ``n_subjects`` subjects of
 ``make_population(n_subjects, seed, variant=population)`` with the noise generator,

@@ -12,7 +12,7 @@ user's true force) for the metrics. The force mapping is explained in
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -20,7 +20,7 @@ from controllers.bounds import slip_threshold_n
 from scenarios.runners.calibration import Calibration
 from sim.hand.objects import ObjectSpec
 from sim.hand.wrist import LIFT_HEIGHT_M
-from sim.user.intent import IntentProfile, grasp_lift_hold
+from sim.user.intent import GraspLiftTiming, IntentProfile, grasp_lift_hold
 from sim.user.operator import OperatorParams, Plan, grip_aim_n
 from sim.user.subjects import VirtualSubject
 
@@ -128,6 +128,12 @@ class ReferenceStream:
     reference_n: np.ndarray
     oracle_n: np.ndarray
 
+    def first(self, n_steps: int) -> ReferenceStream:
+        """The stream of the first ``n_steps`` control steps (a trial that ended early);
+        the windows are kept whole."""
+        return replace(self, t_s=self.t_s[:n_steps], reference_n=self.reference_n[:n_steps],
+                       oracle_n=self.oracle_n[:n_steps])
+
 
 def level_per_newton(cal: Calibration, subject: VirtualSubject,
                      hand_force_at_mvc_n: float) -> float:
@@ -145,8 +151,9 @@ def hold_level_for(target_n: float, cal: Calibration, subject: VirtualSubject,
 def episode_profile(rng: np.random.Generator, hold_level: float, episode_s: float
                     ) -> tuple[IntentProfile, float]:
     """The scripted grasp-lift-hold intent of an episode at 200 Hz, and its ramp onset, s."""
-    profile = grasp_lift_hold(rng, fs_hz=200.0, hold_level=hold_level, rest_s=REST_S,
-                              ramp_s=RAMP_S, hold_s=episode_s, jitter=0.1)
+    timing = GraspLiftTiming(rest_s=REST_S, ramp_s=RAMP_S, hold_s=episode_s)
+    profile = grasp_lift_hold(rng, fs_hz=200.0, hold_level=hold_level, timing=timing,
+                              jitter=0.1)
     return profile, next(t for kind, t in profile.cues if kind == "start")
 
 

@@ -23,16 +23,23 @@ recommendation and the virtual-real agreement use those figures
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from estimation.evaluation import split_index
-from estimation.features import PAPER_CHANNELS, FeatureSet
+from estimation.features import FeatureSet
 from estimation.paper import PAPER_ORDER
 from estimation.real_recordings import real_inner_outer
 from estimation.registry import estimator_info, estimator_names
-from estimation.reproduce import channel_label, parse_channels, population_result, score_recording
+from estimation.reproduce import (
+    ScoreSettings,
+    channel_label,
+    parse_channels,
+    population_result,
+    score_recording,
+)
 from estimation.threads import one_blas_thread
 from scenarios.rows import ReproductionRow
 from scenarios.runners.calibration import fit_one
@@ -60,19 +67,44 @@ def judge_generator(generator: str) -> str:
     return "motor_units" if generator == "noise" else "noise"
 
 
+@dataclass(frozen=True)
+class ReproductionAnalyses:
+    """What :func:`run_reproduction` studies beside the paper's Tables 2 and 3.
+
+    Attributes
+    ----------
+    orders : sequence of int
+        Candidate orders for the per-subject AIC curve (paper: 1..12).
+    judge : str or None
+        Population variant of the out-of-population subjects, scored when an estimator
+        that learns from virtual subjects is evaluated (``None``: never; the
+        recommendation then leaves such estimators out).
+    inner : bool
+        Also score the inner split of every identification half, for the
+        :data:`INNER_OUTER_ESTIMATORS` evaluated, and compare the choice it makes with the
+        real recordings' (``inner_outer`` in the result).
+    """
+
+    orders: Sequence[int] = tuple(range(1, 13))
+    judge: str | None = JUDGE_POPULATION
+    inner: bool = False
+
+
+DEFAULT_ANALYSES = ReproductionAnalyses()
+"""The AIC curve over orders 1..12 and the judge's population; no inner split."""
+PAPER_SETTINGS = ScoreSettings()
+"""The paper's inputs and order: MAV, RMS and WL of channels 6, 7, 8; order 4."""
+
+
 def run_reproduction(
     n_subjects: int = 10,
     seed: int = 0,
     *,
-    generator: str = "noise",
-    order: int = PAPER_ORDER,
     estimators: Sequence[str] | None = None,
-    orders: Sequence[int] = tuple(range(1, 13)),
-    nn_params: Mapping[str, object] | None = None,
-    channels: str | Sequence[int | str] | None = PAPER_CHANNELS,
+    settings: ScoreSettings = PAPER_SETTINGS,
+    generator: str = "noise",
+    analyses: ReproductionAnalyses = DEFAULT_ANALYSES,
     workers: int = 1,
-    judge: str | None = JUDGE_POPULATION,
-    inner: bool = False,
 ) -> dict:
     """Run the paper's protocol on ``n_subjects`` virtual subjects.
 
@@ -82,38 +114,30 @@ def run_reproduction(
         Population size (paper: 10).
     seed : int
         Seeds the population, each session and the networks' initialization.
-    generator : {"noise", "motor_units"}
-        Virtual subjects' sEMG model.
-    order : int
-        SS order used for the tables (paper: 4); NARX delays and hidden units follow it.
     estimators : sequence of str
         Registry names to evaluate (must include ``"ss_kf"`` for the ``model`` entry);
         ``None``: every registered estimator.
-    orders : sequence of int
-        Candidate orders for the per-subject AIC curve (paper: 1..12).
-    nn_params : mapping, optional
-        Overrides for the MLP/NARX hyperparameters (e.g. ``{"max_epochs": 50}``).
-    channels : "all", sequence of int (1-based) or str
-        sEMG channels whose MAV, RMS and WL are the inputs (paper: 6, 7, 8).
+    settings : ScoreSettings
+        The input channels (``"all"``, a sequence of 1-based numbers or names, or a
+        string as :func:`estimation.reproduce.parse_channels` reads it; paper: 6, 7, 8),
+        the SS order of the tables (paper: 4; NARX delays and hidden units follow it) and
+        the MLP/NARX hyperparameter overrides (e.g. ``{"max_epochs": 50}``).
+    generator : {"noise", "motor_units"}
+        Virtual subjects' sEMG model.
+    analyses : ReproductionAnalyses
+        The AIC curve's candidate orders, the judge's population and the inner split.
     workers : int
         Subjects evaluated at once, each in a process forked from this one (default 1:
         in this process). Every subject has its own seeds, so the figures do not depend
         on it; only the training times do, when the processes share cores.
-    judge : str or None
-        Population variant of the out-of-population subjects, scored when an estimator
-        that learns from virtual subjects is evaluated (``None``: never; the
-        recommendation then leaves such estimators out).
-    inner : bool
-        Also score the inner split of every identification half, for the
-        :data:`INNER_OUTER_ESTIMATORS` evaluated, and compare the choice it makes with the
-        real recordings' (``inner_outer`` in the result).
 
     Returns
     -------
     dict
         The JSON contract of :mod:`estimation.reproduce`; private keys dropped.
     """
-    channels = parse_channels(channels)
+    settings = replace(settings, channels=parse_channels(settings.channels))
+    order, judge = settings.order, analyses.judge
     estimators = estimator_names() if estimators is None else tuple(estimators)
     if int(workers) < 1:
         raise UnsupportedScenarioError(f"workers: expected at least 1, found {workers}")
@@ -122,15 +146,15 @@ def run_reproduction(
         population_description(judge)  # an unknown variant is refused before any work
     with one_blas_thread():
         # the inner split only for the estimators whose choice is compared with the real one
-        inner_names = tuple(n for n in INNER_OUTER_ESTIMATORS if n in estimators) if inner \
-            else ()
+        inner_names = tuple(n for n in INNER_OUTER_ESTIMATORS if n in estimators) \
+            if analyses.inner else ()
         jobs = _jobs(make_population(n=n_subjects, seed=seed), seed, generator, estimators,
-                     channels, order, nn_params, orders, inner_names)
+                     settings, analyses.orders, inner_names)
         scores = _map_subjects(jobs, int(workers))
         config = {"n_subjects": n_subjects, "seed": seed, "generator": generator,
-                  "order": order, "channels": channel_label(channels),
+                  "order": order, "channels": channel_label(settings.channels),
                   "identification_fraction": 0.5, "estimators": list(estimators),
-                  "nn_params": dict(nn_params or {}), "judge": judge}
+                  "nn_params": dict(settings.nn_params or {}), "judge": judge}
         judged, described = None, None
         if learners and judge is not None:
             judge_seed = int(seed) + JUDGE_SEED_OFFSET
@@ -138,21 +162,20 @@ def run_reproduction(
                          "generator": judge_generator(generator), "seed": judge_seed}
             judged = _map_subjects(_jobs(make_population(n_subjects, judge_seed, variant=judge),
                                          judge_seed, described["generator"], estimators,
-                                         channels, order, nn_params, None, ()),
+                                         settings, None, ()),
                                    int(workers))
         result = population_result(scores, config=config, order=order, judged=judged,
                                    judge=described)
-    if inner:
+    if analyses.inner:
         result["inner_outer"] = inner_outer_result(scores, result["estimators"])
     return result
 
 
 def _jobs(subjects: Sequence[Any], seed: int, generator: str, estimators: Sequence[str],
-          channels: Any, order: int, nn_params: Any, orders: Any,
-          inner: Sequence[str]) -> list[tuple]:
+          settings: ScoreSettings, orders: Any, inner: Sequence[str]) -> list[tuple]:
     """One job per subject for :func:`_score_subject`, seeded from ``[seed, SESSION_SALT]``."""
     children = np.random.SeedSequence([seed, SESSION_SALT]).spawn(len(subjects))
-    return [(subject, child, generator, estimators, channels, order, nn_params, orders, inner)
+    return [(subject, child, generator, estimators, settings, orders, inner)
             for subject, child in zip(subjects, children, strict=True)]
 
 
@@ -176,12 +199,12 @@ def inner_outer_result(scores: Sequence[Any], estimators: Mapping[str, Any]) -> 
 
 def _score_subject(job: tuple) -> Any:
     """One subject of :func:`run_reproduction`: its paper session, scored by every estimator."""
-    subject, child, generator, estimators, channels, order, nn_params, orders, inner = job
+    subject, child, generator, estimators, settings, orders, inner = job
     session_ss, est_ss = child.spawn(2)
     rec = subject.paper_session(rng=np.random.default_rng(session_ss), generator=generator)
     score, _ = score_recording(rec, estimators, rng=np.random.default_rng(est_ss),
-                               channels=channels, order=order, nn_params=nn_params,
-                               orders=orders, subject_id=subject.subject_id, inner=inner)
+                               settings=settings, orders=orders,
+                               subject_id=subject.subject_id, inner=inner)
     return score
 
 

@@ -12,7 +12,6 @@ Episodes, practice and every benchmark task run their trials here.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,9 +25,11 @@ from scenarios.runners.reference import ReferenceStream, Task, plan_for, referen
 from scenarios.runners.semg_reference import STEP_MS, WINDOW_MS
 from scenarios.runners.trial_loop import (
     DEFAULT_HAND,
-    Frames,
+    NO_HOOKS,
     HandSettings,
+    TrialHooks,
     TrialLoop,
+    TrialTiming,
     scene_from_info,
 )
 from scenarios.runners.trial_outcome import TrialReferee
@@ -81,29 +82,6 @@ class TrialSetup:
     window_ms: float = WINDOW_MS
     step_ms: float = STEP_MS
     hand: HandSettings = DEFAULT_HAND
-
-
-@dataclass(frozen=True)
-class TrialHooks:
-    """What a task adds to a trial.
-
-    Attributes
-    ----------
-    load : callable, optional
-        ``load(t_s, info) -> N``: a load hung on the object before each step.
-    until : callable, optional
-        ``until(t_s, info) -> bool``: the task has its answer after the step.
-    frames : Frames, optional
-        Keep RGB frames for a video (``traces["frames"]``).
-    """
-
-    load: Callable[[float, Mapping[str, Any]], float] | None = None
-    until: Callable[[float, Mapping[str, Any]], bool] | None = None
-    frames: Frames | None = None
-
-
-NO_HOOKS = TrialHooks()
-"""A trial the task adds nothing to."""
 
 
 @dataclass
@@ -188,18 +166,13 @@ def run_trial(setup: TrialSetup, operator: Operator, task: Task,
     plan, start_s = plan_for(task, limit_s, setup.subject, setup.calibration,
                              setup.hand_force_at_mvc_n, rng)
     try:
-        person = VirtualPerson(setup.subject, setup.calibration, operator, plan,
-                               session_rng=rng, operator_rng=np.random.default_rng(operator_seq),
-                               control_dt_s=setup.control_dt_s,
-                               hand_force_at_mvc_n=setup.hand_force_at_mvc_n,
-                               generator=setup.generator, window_ms=setup.window_ms,
-                               step_ms=setup.step_ms)
+        person = VirtualPerson(setup, operator, plan, session_rng=rng,
+                               operator_rng=np.random.default_rng(operator_seq))
     except (NotCausalError, OperatorError) as exc:
         raise UnsupportedScenarioError(f"user {operator.name}: {exc}") from None
-    loop = TrialLoop(setup.obj, setup.design, person, limit_s=limit_s,
-                     control_dt_s=setup.control_dt_s, lift_height_m=task.lift_height_m,
-                     seed=int(env_seq.generate_state(1)[0]), load=hooks.load,
-                     until=hooks.until, frames=hooks.frames, hand=setup.hand)
+    loop = TrialLoop(setup.obj, setup.design, person, TrialTiming(limit_s, setup.control_dt_s),
+                     lift_height_m=task.lift_height_m, seed=int(env_seq.generate_state(1)[0]),
+                     hooks=hooks, hand=setup.hand)
     loop.run()
     # the user goes on to the limit seeing the last scene, so the windows and the true
     # force cover the whole trial (its estimation metrics), as a scripted session does

@@ -44,7 +44,7 @@ from controllers.paradigms import make_paradigm
 from controllers.reflex import AUTO_GRIP
 from scenarios.runners.trial_outcome import TrialReferee
 from sim.hand.drive import make_drive
-from sim.hand.grasp_env import GraspEnv
+from sim.hand.grasp_env import GraspEnv, GraspTask, HandSpec
 from sim.hand.objects import ObjectSpec
 from sim.hand.wrist import LIFT_HEIGHT_M
 from sim.user.operator import Scene, WristMove
@@ -119,7 +119,7 @@ def given_reference_trial(obj: ObjectSpec, design: Any, reference_n: np.ndarray,
     on ``hand`` (default today's: :data:`DEFAULT_HAND`); the finished :class:`TrialLoop`
     (its ``traces()``, ``info``, ``failure``)."""
     loop = TrialLoop(obj, design, GivenReference(reference_n, lift_at_s=lift_at_s),
-                     limit_s=len(reference_n) * control_dt_s, control_dt_s=control_dt_s,
+                     TrialTiming(len(reference_n) * control_dt_s, control_dt_s),
                      lift_height_m=LIFT_HEIGHT_M, seed=seed, hand=hand or DEFAULT_HAND)
     loop.run()
     return loop
@@ -180,6 +180,52 @@ class Frames:
 
     every_s: float = 0.04
     kind: str = "rgb"
+
+
+@dataclass(frozen=True)
+class TrialHooks:
+    """What a task adds to a trial, and what a trial keeps beside its traces.
+
+    Attributes
+    ----------
+    load : callable, optional
+        ``load(t_s, info) -> N``: a load hung on the object before the step at ``t_s``
+        (:meth:`~sim.hand.grasp_env.GraspEnv.set_object_load`), from the readings after
+        the step before.
+    until : callable, optional
+        ``until(t_s, info) -> bool``: the task has its answer after the step at ``t_s``.
+    frames : Frames, optional
+        Keep frames for a video (``traces["frames"]`` for RGB frames).
+    keep_observations : bool
+        The recorder keeps the controller's observations and commands
+        (:attr:`TrialRecorder.observations`, :attr:`TrialRecorder.computed`).
+    """
+
+    load: Callable[[float, Mapping[str, Any]], float] | None = None
+    until: Callable[[float, Mapping[str, Any]], bool] | None = None
+    frames: Frames | None = None
+    keep_observations: bool = False
+
+
+NO_HOOKS = TrialHooks()
+"""A trial the task adds nothing to."""
+
+
+@dataclass(frozen=True)
+class TrialTiming:
+    """How long a trial may last and how often its controller acts.
+
+    Attributes
+    ----------
+    limit_s : float
+        The trial's time limit, s.
+    control_dt_s : float
+        Control period, s (a multiple of the 2 ms physics step); the trial has
+        ``round(limit_s / control_dt_s)`` steps at most.
+    """
+
+    limit_s: float
+    control_dt_s: float
 
 
 class TrialRecorder:
@@ -248,25 +294,16 @@ class TrialLoop:
         The designed controller (its runtime controller drives the hand).
     person : Person
         Who drives the trial.
-    limit_s : float
-        The trial's time limit, s.
-    control_dt_s : float
-        Control period, s.
+    timing : TrialTiming
+        The trial's time limit and control period.
     lift_height_m : float or None
         The lift the task asks for (the referee's secure lift), m; ``None``: held on
         the table.
     seed : int
         Seeds the environment's reset.
-    load : callable, optional
-        ``load(t_s, info) -> N``: a load hung on the object before the step at ``t_s``
-        (:meth:`~sim.hand.grasp_env.GraspEnv.set_object_load`), from the readings after
-        the step before.
-    until : callable, optional
-        ``until(t_s, info) -> bool``: the task has its answer after the step at ``t_s``.
-    frames : Frames, optional
-        Keep frames for a video.
-    keep_observations : bool
-        The recorder keeps the controller's observations and commands.
+    hooks : TrialHooks
+        The task's load on the object and its own ending rule, the frames for a video
+        and whether the recorder keeps the controller's observations (default: none).
     hand : HandSettings
         The hand's drive and paradigm (its slip response is in ``design``:
         :meth:`~scenarios.runners.trial_loop.HandSettings.controller_spec`).
@@ -283,12 +320,11 @@ class TrialLoop:
     recorder : TrialRecorder
     """
 
-    def __init__(self, obj: ObjectSpec, design: Any, person: Person, *, limit_s: float,
-                 control_dt_s: float, lift_height_m: float | None, seed: int,
-                 load: Callable[[float, Mapping[str, Any]], float] | None = None,
-                 until: Callable[[float, Mapping[str, Any]], bool] | None = None,
-                 frames: Frames | None = None, keep_observations: bool = False,
+    def __init__(self, obj: ObjectSpec, design: Any, person: Person, timing: TrialTiming, *,
+                 lift_height_m: float | None, seed: int, hooks: TrialHooks = NO_HOOKS,
                  hand: HandSettings = DEFAULT_HAND) -> None:
+        limit_s, control_dt_s = timing.limit_s, timing.control_dt_s
+        load, until, frames = hooks.load, hooks.until, hooks.frames
         self.design, self.person, self.seed = design, person, int(seed)
         self.hand = hand
         self.paradigm = make_paradigm(hand.paradigm)
@@ -296,14 +332,14 @@ class TrialLoop:
         self.n_steps = int(round(limit_s / control_dt_s))
         self.t_s = np.arange(self.n_steps) * self.dt
         rgb = frames is not None and frames.kind == "rgb"
-        self.env = GraspEnv(obj, 0.0, control_dt_s=control_dt_s, episode_s=limit_s,
-                            wrist="commanded", render_mode="rgb_array" if rgb else None,
-                            drive=hand.drive)
+        self.env = GraspEnv(obj, 0.0, control_dt_s=control_dt_s, wrist="commanded",
+                            hand=HandSpec(drive=hand.drive), task=GraspTask(episode_s=limit_s),
+                            render_mode="rgb_array" if rgb else None)
         self.hand_loop = HandLoop(self.env, design.controller)
         self.lift_height_m = lift_height_m
         self.referee = TrialReferee(lift_height_m)
         self.recorder = TrialRecorder(self.n_steps, with_load=load is not None,
-                                      keep_observations=keep_observations)
+                                      keep_observations=hooks.keep_observations)
         self.load, self.until, self.frames = load, until, frames
         self._frame_every = (None if frames is None
                              else max(1, int(round(frames.every_s / control_dt_s))))

@@ -21,9 +21,9 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from scenarios.schema.models import Scenario, ScenarioError, _set_path
+from scenarios.schema.models import Scenario, ScenarioError, with_value_at
 from scenarios.schema.sweep_file import SweepConfig
-from scenarios.schema.yaml_loading import _describe, _short
+from scenarios.schema.yaml_loading import describe_error, short_repr
 
 DEFAULT_MAX_SCENARIOS = 100_000
 """Default cap on the scenarios a sweep expands to (``griploop sweep --max-scenarios``)."""
@@ -199,12 +199,12 @@ def _expand(spec: SweepConfig, source: str) -> Iterator[ExpandedScenario]:
     for point in iter_design(spec):
         data = base
         for path, value in point.items():
-            data = _set_path(data, path, value)
+            data = with_value_at(data, path, value)
         try:
             scenario = Scenario.model_validate(data, strict=True)
         except ValidationError as exc:
-            reason = _describe(exc, Scenario)[1]
-            desc = ", ".join(f"{k}={_short(v, 30)}" for k, v in point.items())
+            reason = describe_error(exc, Scenario)[1]
+            desc = ", ".join(f"{k}={short_repr(v, 30)}" for k, v in point.items())
             raise ScenarioError(f"{source}: design point ({desc}): {reason}") from None
         for _ in range(spec.replicates):
             if scenario.seed is None:

@@ -41,7 +41,8 @@ from scenarios.schema.names import (  # noqa: F401  (re-exported: the schema's p
 from sim.errors import GriploopError
 
 SIZE_LENGTHS = {"sphere": 1, "cylinder": 2, "box": 3}
-_MAX_SEED = 2**63 - 1
+#: The largest seed a scenario or sweep may give (numpy's SeedSequence takes any int).
+MAX_SEED = 2**63 - 1
 DEFAULT_TIME_LIMIT_S = 120.0
 """Default per-scenario time limit, s: 100x a typical episode (1 s), 10x a slow one."""
 
@@ -83,11 +84,12 @@ def omit_added_defaults(model: BaseModel, data: dict[str, Any]) -> dict[str, Any
     return data
 
 
-class _Model(BaseModel):
+class StrictModel(BaseModel):
+    """Base of every scenario section: unknown fields, NaN and inf are refused."""
     model_config = ConfigDict(extra="forbid", validate_default=True, allow_inf_nan=False)
 
 
-class SubjectConfig(_Model):
+class SubjectConfig(StrictModel):
     """The virtual subject wearing the armband.
 
     Attributes
@@ -112,7 +114,7 @@ class SubjectConfig(_Model):
         rises twice as fast); ``sim.user.emg_noise`` convention.
     """
 
-    population_seed: int = Field(0, ge=0, le=_MAX_SEED)
+    population_seed: int = Field(0, ge=0, le=MAX_SEED)
     subject_id: int = Field(1, ge=1, le=9999)
     generator: str = "noise"
     extra_noise_lsb: float = Field(0.0, ge=0.0, le=30.0)
@@ -125,7 +127,7 @@ class SubjectConfig(_Model):
         return check_registered(value, generator_names())
 
 
-class ProtocolConfig(_Model):
+class ProtocolConfig(StrictModel):
     """What the subject does, and for how long.
 
     Attributes
@@ -188,7 +190,7 @@ class ProtocolConfig(_Model):
         return self
 
 
-class ObjectConfig(_Model):
+class ObjectConfig(StrictModel):
     """The object to grasp: a library object and optional overrides.
 
     Fields left at ``None`` keep the library object's value.
@@ -241,7 +243,7 @@ class ObjectConfig(_Model):
         return self
 
 
-class EstimatorConfig(_Model):
+class EstimatorConfig(StrictModel):
     """The grip-force estimator and how it is evaluated.
 
     Attributes
@@ -296,7 +298,7 @@ class EstimatorConfig(_Model):
         return check_declared_options(f"estimator {name}", value, estimator_own_options(name))
 
 
-class SlipReflexConfig(_Model):
+class SlipReflexConfig(StrictModel):
     """Slip reflex: raise the grip force when the object slips.
 
     Attributes
@@ -314,7 +316,7 @@ class SlipReflexConfig(_Model):
     gain: float = Field(0.3, ge=0.0, le=5.0)
 
 
-class ControllerConfig(_Model):
+class ControllerConfig(StrictModel):
     """The grip-force controller, designed from a specification.
 
     Attributes
@@ -420,7 +422,7 @@ def _operator_params_model() -> type[BaseModel]:
         kind = int if spec["integer"] else float
         make = added_field if spec["added"] else Field
         fields[name] = (kind, make(spec["default"], le=hi, **bound))
-    return create_model("OperatorParamsConfig", __base__=_Model,
+    return create_model("OperatorParamsConfig", __base__=StrictModel,
                         __doc__="The reacting user's parameters (sim.user.operator.OperatorParams)",
                         **fields)
 
@@ -428,7 +430,7 @@ def _operator_params_model() -> type[BaseModel]:
 OperatorParamsConfig = _operator_params_model()
 
 
-class UserConfig(_Model):
+class UserConfig(StrictModel):
     """The person in the loop: who drives the intent, and what they feel.
 
     Attributes
@@ -483,7 +485,7 @@ class UserConfig(_Model):
         return OperatorParams(**self.params.model_dump())
 
 
-class HandConfig(_Model):
+class HandConfig(StrictModel):
     """The prosthetic hand's mechanism.
 
     Attributes
@@ -502,7 +504,7 @@ class HandConfig(_Model):
         return check_registered(value, drive_names())
 
 
-class Scenario(_Model):
+class Scenario(StrictModel):
     """One experiment: subject, protocol, object, estimator, controller, user, seed.
 
     Attributes
@@ -532,7 +534,7 @@ class Scenario(_Model):
     estimator: EstimatorConfig = Field(default_factory=EstimatorConfig)
     controller: ControllerConfig = Field(default_factory=ControllerConfig)
     user: UserConfig = Field(default_factory=UserConfig)
-    seed: int | None = Field(None, ge=0, le=_MAX_SEED)
+    seed: int | None = Field(None, ge=0, le=MAX_SEED)
     hand: HandConfig = added_field(default_factory=HandConfig)
     paradigm: str = added_field("force")
     auto_grip: bool = added_field(False)
@@ -587,7 +589,8 @@ def field_paths(model: type[BaseModel] = Scenario, prefix: str = "") -> list[str
     return out
 
 
-def _set_path(data: dict[str, Any], path: str, value: Any) -> dict[str, Any]:
+def with_value_at(data: dict[str, Any], path: str, value: Any) -> dict[str, Any]:
+    """A deep copy of ``data`` with ``value`` at the dotted ``path`` (``"object.mass_kg"``)."""
     out = copy.deepcopy(data)
     node = out
     parts = path.split(".")

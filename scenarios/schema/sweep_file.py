@@ -7,10 +7,10 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from scenarios.schema.models import _MAX_SEED, DEFAULT_TIME_LIMIT_S, Scenario, _Model
+from scenarios.schema.models import DEFAULT_TIME_LIMIT_S, MAX_SEED, Scenario, StrictModel
 
 
-class Uniform(_Model):
+class Uniform(StrictModel):
     """Uniform on ``[low, high)``."""
 
     dist: Literal["uniform"]
@@ -31,7 +31,7 @@ class Uniform(_Model):
         return rng.uniform(self.low, self.high, n).tolist()
 
 
-class LogUniform(_Model):
+class LogUniform(StrictModel):
     """Log-uniform on ``[low, high)``, ``0 < low < high``."""
 
     dist: Literal["loguniform"]
@@ -48,7 +48,7 @@ class LogUniform(_Model):
         return np.exp(rng.uniform(np.log(self.low), np.log(self.high), n)).tolist()
 
 
-class Normal(_Model):
+class Normal(StrictModel):
     """Gaussian with mean ``mean`` and standard deviation ``sd``."""
 
     dist: Literal["normal"]
@@ -60,7 +60,7 @@ class Normal(_Model):
         return rng.normal(self.mean, self.sd, n).tolist()
 
 
-class Integers(_Model):
+class Integers(StrictModel):
     """Integers uniform on ``low..high`` inclusive."""
 
     dist: Literal["integers"]
@@ -78,7 +78,7 @@ class Integers(_Model):
         return rng.integers(self.low, self.high, n, endpoint=True).tolist()
 
 
-class Choice(_Model):
+class Choice(StrictModel):
     """One of ``values`` with equal probability."""
 
     dist: Literal["choice"]
@@ -94,7 +94,7 @@ Distribution = Annotated[
 ]
 
 
-class RandomDesign(_Model):
+class RandomDesign(StrictModel):
     """A seeded random design: ``n`` scenarios with fields drawn independently.
 
     Attributes
@@ -108,11 +108,11 @@ class RandomDesign(_Model):
     """
 
     n: int = Field(ge=1, le=1_000_000)
-    seed: int | None = Field(None, ge=0, le=_MAX_SEED)
+    seed: int | None = Field(None, ge=0, le=MAX_SEED)
     params: dict[str, Distribution] = Field(min_length=1)
 
 
-class SweepConfig(_Model):
+class SweepConfig(StrictModel):
     """A sweep file: a base scenario expanded over a grid or a random design.
 
     Attributes
@@ -151,7 +151,7 @@ class SweepConfig(_Model):
     description: str = ""
     plugins: list[Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z_][\w.]*$")]] = Field(
         default_factory=list)
-    seed: int = Field(0, ge=0, le=_MAX_SEED)
+    seed: int = Field(0, ge=0, le=MAX_SEED)
     replicates: int = Field(1, ge=1, le=10_000)
     time_limit_s: float = Field(DEFAULT_TIME_LIMIT_S, gt=0.0, le=86_400.0)
     seed_by: list[str] | None = Field(None, min_length=1)

@@ -20,7 +20,7 @@ from typing import Any
 import yaml
 from pydantic import BaseModel, ValidationError
 
-from scenarios.schema.models import Scenario, ScenarioError, _set_path, field_paths
+from scenarios.schema.models import Scenario, ScenarioError, field_paths, with_value_at
 from scenarios.schema.sweep_file import SweepConfig
 
 MAX_YAML_DEPTH = 32
@@ -205,7 +205,8 @@ def _dotted(loc: Sequence[Any]) -> str:
     return out
 
 
-def _short(value: Any, limit: int = 60) -> str:
+def short_repr(value: Any, limit: int = 60) -> str:
+    """``repr(value)``, cut to ``limit`` characters with ``...``."""
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
@@ -224,13 +225,13 @@ def _format_error(
     root: type[BaseModel] | None = None,
 ) -> str:
     """One line: ``SOURCE:LINE: field.path: reason (found VALUE)`` for the first error."""
-    loc, text = _describe(exc, root)
+    loc, text = describe_error(exc, root)
     line = _line_of(loc, lines) if lines else None
     where = f"{source}:{line}" if line is not None else source
     return f"{where}: {text}"
 
 
-def _describe(exc: ValidationError, root: type[BaseModel] | None) -> tuple[tuple, str]:
+def describe_error(exc: ValidationError, root: type[BaseModel] | None) -> tuple[tuple, str]:
     """Location and ``field.path: reason (found VALUE)`` of the first error."""
     err = exc.errors(include_url=False)[0]
     loc = tuple(p for p in err["loc"] if p not in _DIST_TAGS)
@@ -251,7 +252,7 @@ def _describe(exc: ValidationError, root: type[BaseModel] | None) -> tuple[tuple
         if err["type"] != "value_error" and not isinstance(err.get("input"), dict):
             found = err.get("input")
             kind = f"{type(found).__name__} " if isinstance(found, (bool, str)) else ""
-            reason += f" (found {kind}{_short(found)})"
+            reason += f" (found {kind}{short_repr(found)})"
     more = len(exc.errors()) - 1
     tail = f" [+{more} more error{'s' if more > 1 else ''}]" if more else ""
     return loc, f"{field}: {reason}{tail}"
@@ -405,11 +406,11 @@ def _check_design(spec: SweepConfig, source: str, lines: Mapping[tuple, int]) ->
         field_loc = tuple(path.split("."))
         for i, value in enumerate(values):
             try:
-                Scenario.model_validate(_set_path(base, path, value), strict=True)
+                Scenario.model_validate(with_value_at(base, path, value), strict=True)
             except ValidationError as exc:
                 if not any(tuple(e["loc"])[: len(field_loc)] == field_loc for e in exc.errors()):
                     continue
-                reason = _describe(exc, Scenario)[1]
+                reason = describe_error(exc, Scenario)[1]
                 line = _line_of(("grid", path, i), lines)
                 where = f"{source}:{line}" if line else source
                 raise ScenarioError(f"{where}: grid.{path}[{i}]: {reason}") from None

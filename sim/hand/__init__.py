@@ -4,7 +4,8 @@
 :mod:`sim.hand.objects` the graspable objects (a registry), :mod:`sim.hand.contact` reads
 grip force, slip, drop and crush from MuJoCo's contacts,
 :mod:`sim.hand.grasp_env` is the Gymnasium environment
-(``griploop/GraspLift-v0``, registered by :mod:`sim.hand.registration`) and
+(``griploop/GraspLift-v0``, registered by :mod:`sim.hand.registration`; its hand and
+task are :mod:`sim.hand.env_spec` specs) and
 :mod:`sim.hand.linearize` linearizes a held grasp for controller design.
 
 May import: numpy, mujoco, gymnasium, :mod:`sim.references`, :mod:`sim.registry`.

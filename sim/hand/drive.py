@@ -139,9 +139,7 @@ def register_drive(spec: DriveSpec, *, replace: bool = False) -> None:
     _DRIVES.register(spec.name, spec, replace=replace)
 
 
-def drive_names() -> tuple[str, ...]:
-    """Registered drives, in registration order."""
-    return _DRIVES.names()
+unregister_drive, drive_names = _DRIVES.functions(__name__, "drive")
 
 
 def make_drive(drive: str | DriveSpec) -> DriveSpec:

@@ -5,7 +5,10 @@ commands the motor (normalized armature voltage, -1..1) every control period
 to track a grip-force reference. The wrist follows a :class:`WristSchedule`
 (lift once the grip is established, hold, optionally shake and place) or, with
 ``wrist="commanded"``, its user's own moves (:meth:`GraspEnv.move_wrist`,
-:mod:`sim.hand.wrist`): the person in the loop lifts when they choose.
+:mod:`sim.hand.wrist`): the person in the loop lifts when they choose. The hand
+(:class:`~sim.hand.env_spec.HandSpec`: drive, motor, pads, physics timestep) and
+the task (:class:`~sim.hand.env_spec.GraspTask`: duration, reward, ending, reset)
+are given as specs.
 
 Observation (float32, ``GraspEnv.OBS_NAMES``)::
 
@@ -23,7 +26,6 @@ on the object during an episode (:meth:`GraspEnv.set_object_load`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
@@ -32,32 +34,18 @@ import numpy as np
 from gymnasium import spaces
 
 from sim.hand.contact import ContactReading, OutcomeTracker, read_contacts
-from sim.hand.drive import DigitLock, DriveSpec, make_drive, motor_for
+from sim.hand.drive import DigitLock, make_drive, motor_for
+from sim.hand.env_spec import GraspTask, HandSpec, RewardWeights
 from sim.hand.errors import GraspFailedError, HandSpecError
-from sim.hand.model import HandIds, MotorSpec, PadSpec, build_model
+from sim.hand.model import HandIds, build_model
 from sim.hand.objects import ObjectSpec, as_object_spec
 from sim.hand.wrist import CommandedWrist, WristSchedule, min_jerk
 from sim.references import Reference, StreamReference, as_reference
 
-__all__ = ["G_M_S2", "GraspEnv", "RewardWeights", "WristSchedule", "CommandedWrist"]
+__all__ = ["G_M_S2", "GraspEnv", "GraspTask", "HandSpec", "RewardWeights", "WristSchedule",
+           "CommandedWrist"]
 
 G_M_S2 = 9.81
-
-
-@dataclass(frozen=True)
-class RewardWeights:
-    """Weights of the reward terms (all terms are <= 0).
-
-    ``tracking = -tracking * |reference - grip| / force_scale_n``;
-    ``slip = -slip * slip_speed / 0.01 m/s`` while grasped;
-    ``drop = -drop`` and ``crush = -crush`` on the step where they happen.
-    """
-
-    tracking: float = 1.0
-    force_scale_n: float = 10.0
-    slip: float = 0.1
-    drop: float = 100.0
-    crush: float = 100.0
 
 
 class GraspEnv(gym.Env):
@@ -72,36 +60,17 @@ class GraspEnv(gym.Env):
         ``control_dt_s``.
     control_dt_s : float
         Control period in seconds (default 10 ms, 100 Hz); a whole multiple of
-        ``physics_dt_s``.
-    physics_dt_s : float
-        MuJoCo timestep in seconds (1-2 ms).
-    episode_s : float
-        Episode duration; ``truncated`` is set when it is reached.
-    schedule : WristSchedule
-        Wrist trajectory of ``wrist="scheduled"``.
-    wrist : {"scheduled", "commanded"}
-        ``"scheduled"`` follows ``schedule``; ``"commanded"`` stays at the approach
-        pose until :meth:`move_wrist` moves it (the user's own arm).
-    terminate_on_drop : bool
-        End the episode (``terminated``) when the object is dropped. A user
-        who lifts by themselves and tries again after the object stayed behind
-        needs the episode to go on; the crush always ends it.
-    motor : MotorSpec
-        Motor and gearbox parameters (of the backdrivable hand; a self-locking drive sizes
-        the motor for the same rated grip and speed, :func:`sim.hand.drive.motor_for`).
-    drive : str or DriveSpec
-        The transmission (:mod:`sim.hand.drive`): ``backdrivable`` (default) or
-        ``self_locking``, whose digits move only under motor torque and stay where they
-        are without it.
-    pads : PadSpec
-        Compliant fingertip pads (default ``PadSpec()``).
-    reward_weights : RewardWeights
-        Reward composition.
-    slip_threshold_m_s, drop_distance_m : float
-        See :class:`sim.hand.contact.OutcomeTracker`.
-    position_jitter_m : float
-        Half-width of a uniform random offset of the object in x and y at
-        reset, drawn from ``self.np_random`` (0 = none).
+        ``hand.physics_dt_s``.
+    wrist : WristSchedule or {"scheduled", "commanded"}
+        A :class:`WristSchedule` the wrist follows (``"scheduled"``: the default
+        ``WristSchedule()``); ``"commanded"`` stays at the approach pose until
+        :meth:`move_wrist` moves it (the user's own arm).
+    hand : HandSpec, optional
+        The simulated hand: drive, motor, pads and physics timestep (default
+        ``HandSpec()``: the backdrivable hand at 2 ms).
+    task : GraspTask, optional
+        The episode: duration, reward weights, whether a drop ends it, slip and
+        drop thresholds, placement jitter (default ``GraspTask()``: 4 s).
     render_mode : {None, "rgb_array"}
         ``"rgb_array"`` renders headless with ``mujoco.Renderer``.
     render_size : tuple of int
@@ -113,14 +82,14 @@ class GraspEnv(gym.Env):
                  "motor_current_a")
 
     def __init__(self, object: ObjectSpec | str | dict = "ball", reference: Any = 10.0, *,
-                 control_dt_s: float = 0.01, physics_dt_s: float = 0.002,
-                 episode_s: float = 4.0, schedule: WristSchedule | None = None,
-                 motor: MotorSpec | None = None, reward_weights: RewardWeights | None = None,
-                 slip_threshold_m_s: float = 0.005, drop_distance_m: float = 0.03,
-                 position_jitter_m: float = 0.0, render_mode: str | None = None,
-                 render_size: tuple[int, int] = (480, 640), pads: PadSpec | None = None,
-                 wrist: str = "scheduled", terminate_on_drop: bool = True,
-                 drive: str | DriveSpec = "backdrivable") -> None:
+                 control_dt_s: float = 0.01, wrist: WristSchedule | str = "scheduled",
+                 hand: HandSpec | None = None, task: GraspTask | None = None,
+                 render_mode: str | None = None,
+                 render_size: tuple[int, int] = (480, 640)) -> None:
+        hand = HandSpec() if hand is None else hand
+        task = GraspTask() if task is None else task
+        physics_dt_s, episode_s = hand.physics_dt_s, task.episode_s
+        position_jitter_m = task.position_jitter_m
         if not 0.001 <= physics_dt_s <= 0.002 + 1e-12:
             raise HandSpecError(f"physics_dt_s: expected 0.001..0.002 s, found {physics_dt_s!r}")
         n_sub = round(control_dt_s / physics_dt_s)
@@ -131,32 +100,38 @@ class GraspEnv(gym.Env):
             )
         if not episode_s > 0:
             raise HandSpecError(f"episode_s: expected a positive duration, found {episode_s!r}")
-        if wrist not in ("scheduled", "commanded"):
-            raise HandSpecError(f"wrist: expected 'scheduled' or 'commanded', found {wrist!r}")
+        if isinstance(wrist, WristSchedule):
+            schedule, wrist = wrist, "scheduled"
+        elif wrist in ("scheduled", "commanded"):
+            schedule = WristSchedule()
+        else:
+            raise HandSpecError(f"wrist: expected a WristSchedule, 'scheduled' or 'commanded', "
+                                f"found {wrist!r}")
         if render_mode not in (None, "rgb_array"):
             raise HandSpecError(f"render_mode: expected None or 'rgb_array', found {render_mode!r}")
         if not 0 <= position_jitter_m <= 0.01:
             raise HandSpecError(
                 f"position_jitter_m: expected 0..0.01 m, found {position_jitter_m!r}"
             )
+        self.hand, self.task = hand, task
         self.control_dt_s = float(control_dt_s)
         self.physics_dt_s = float(physics_dt_s)
         self.n_substeps = int(n_sub)
         self.episode_s = float(episode_s)
         self.max_steps = int(round(episode_s / control_dt_s))
-        self.schedule = schedule or WristSchedule()
+        self.schedule = schedule
         self.commanded: CommandedWrist | None = CommandedWrist() if wrist == "commanded" else None
-        self.terminate_on_drop = bool(terminate_on_drop)
-        self.drive = make_drive(drive)
-        self.motor = motor_for(self.drive, motor or MotorSpec())
-        self.pads = pads or PadSpec()
-        self.weights = reward_weights or RewardWeights()
+        self.terminate_on_drop = bool(task.terminate_on_drop)
+        self.drive = make_drive(hand.drive)
+        self.motor = motor_for(self.drive, hand.motor)
+        self.pads = hand.pads
+        self.weights = task.reward_weights
         self.position_jitter_m = float(position_jitter_m)
         self.render_mode = render_mode
         self.render_size = render_size
         self.metadata = {**self.metadata, "render_fps": int(round(1.0 / control_dt_s))}
         self.reference: Reference = as_reference(reference, self.control_dt_s)
-        self.tracker = OutcomeTracker(slip_threshold_m_s, drop_distance_m)
+        self.tracker = OutcomeTracker(task.slip_threshold_m_s, task.drop_distance_m)
         self._renderer: mujoco.Renderer | None = None
         self._load_object(as_object_spec(object))
 

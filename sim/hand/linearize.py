@@ -39,10 +39,31 @@ import numpy as np
 import scipy.linalg as sla
 
 from sim.hand.contact import read_contacts
+from sim.hand.env_spec import GraspTask, HandSpec
 from sim.hand.grasp_env import GraspEnv, WristSchedule
 
 if TYPE_CHECKING:
     import control
+
+
+@dataclass(frozen=True)
+class LinearizationSettings:
+    """How :func:`linearize_grasp` settles the grasp, differentiates and reduces.
+
+    Attributes
+    ----------
+    settle_s : float
+        Settling time of each grip correction before linearizing, s
+        (:meth:`~sim.hand.grasp_env.GraspEnv.hold_grip`).
+    eps : float
+        Finite-difference step for ``mjd_transitionFD`` and the output gradient.
+    hsv_rtol : float
+        Relative Hankel singular value threshold of the truncation.
+    """
+
+    settle_s: float = 0.5
+    eps: float = 1e-6
+    hsv_rtol: float = 1e-4
 
 
 @dataclass
@@ -242,9 +263,8 @@ def _minimal_marginal(A: np.ndarray, B: np.ndarray, C: np.ndarray, atol: float
 
 
 def linearize_grasp(object: Any = "ball", grip_force_n: float = 10.0, *,
-                    lifted: bool = False, control_dt_s: float = 0.01,
-                    physics_dt_s: float = 0.002, eps: float = 1e-6,
-                    hsv_rtol: float = 1e-4, settle_s: float = 0.5, weightless: bool = False,
+                    lifted: bool = False, control_dt_s: float = 0.01, weightless: bool = False,
+                    settings: LinearizationSettings | None = None, hand: HandSpec | None = None,
                     env_kwargs: dict[str, Any] | None = None) -> LinearGrasp:
     """Linear discrete model from motor command to grip force around a steady grasp.
 
@@ -256,22 +276,22 @@ def linearize_grasp(object: Any = "ball", grip_force_n: float = 10.0, *,
         Operating grip force, N.
     lifted : bool
         Linearize in the air (after the lift) instead of on the table.
-    control_dt_s, physics_dt_s : float
-        Control period and physics timestep, s.
-    eps : float
-        Finite-difference step for ``mjd_transitionFD`` and the output gradient.
-    hsv_rtol : float
-        Relative Hankel singular value threshold of the truncation.
-    settle_s : float
-        Settling time of each grip correction before linearizing, s
-        (:meth:`~sim.hand.grasp_env.GraspEnv.hold_grip`).
+    control_dt_s : float
+        Control period, s.
     weightless : bool
         Cancel gravity on the object (MuJoCo's ``body_gravcomp``). A grip below
         the slip threshold cannot hold the object in the air, so there is no
         steady lifted grasp to linearize; the squeeze dynamics (pads, digits,
         drive) are those of the held object without its weight.
+    settings : LinearizationSettings, optional
+        Settling time, finite-difference step and truncation threshold (default
+        ``LinearizationSettings()``).
+    hand : HandSpec, optional
+        The simulated hand, with its physics timestep (default ``HandSpec()``).
     env_kwargs : dict, optional
-        Further :class:`~sim.hand.grasp_env.GraspEnv` arguments.
+        Further :class:`~sim.hand.grasp_env.GraspEnv` arguments (default: the wrist
+        lifts only when asked, ``wrist=WristSchedule(lift_after_s=inf)``, and a
+        ``task`` of 1e4 s).
 
     Returns
     -------
@@ -279,25 +299,25 @@ def linearize_grasp(object: Any = "ball", grip_force_n: float = 10.0, *,
         ``sys`` maps ``u - u0`` to ``grip - y0`` with ``dt = control_dt_s``.
     """
     import control
-    kwargs = {"schedule": WristSchedule(lift_after_s=np.inf), "episode_s": 1e4,
+    st = LinearizationSettings() if settings is None else settings
+    kwargs = {"wrist": WristSchedule(lift_after_s=np.inf), "task": GraspTask(episode_s=1e4),
               **(env_kwargs or {})}
-    env = GraspEnv(object, grip_force_n, control_dt_s=control_dt_s,
-                   physics_dt_s=physics_dt_s, **kwargs)
+    env = GraspEnv(object, grip_force_n, control_dt_s=control_dt_s, hand=hand, **kwargs)
     env.reset(seed=0)
     if weightless:
         env.model.body_gravcomp[env.ids.object_body] = 1.0
-    u0 = env.steady_grasp(grip_force_n, lifted=lifted, settle_s=settle_s)
+    u0 = env.steady_grasp(grip_force_n, lifted=lifted, settle_s=st.settle_s)
     m, d = env.model, env.data
     y0 = read_contacts(m, d, env.ids).grip_force_n
 
     nx = 2 * m.nv + m.na
     A = np.zeros((nx, nx))
     B = np.zeros((nx, m.nu))
-    mujoco.mjd_transitionFD(m, d, eps, True, A, B, None, None)
+    mujoco.mjd_transitionFD(m, d, st.eps, True, A, B, None, None)
     B = B[:, [env.ids.motor]]
-    C, D = grip_force_gradient(m, d, env, eps)
+    C, D = grip_force_gradient(m, d, env, st.eps)
     Ad, Bd, Cd, Dd = lift_to_period(A, B, C, np.array([[D]]), env.n_substeps)
-    Ar, Br, Cr, Dr, hsv = reduce_model(Ad, Bd, Cd, Dd, hsv_rtol=hsv_rtol)
+    Ar, Br, Cr, Dr, hsv = reduce_model(Ad, Bd, Cd, Dd, hsv_rtol=st.hsv_rtol)
     sys = control.ss(Ar, Br, Cr, Dr, control_dt_s, inputs=["motor_command"],
                      outputs=["grip_force_n"])
     return LinearGrasp(sys=sys, u0=u0, y0_n=y0, hankel_sv=hsv, n_full=nx,

@@ -182,14 +182,7 @@ def register_object(name: str, factory: Callable[[], ObjectSpec] | str, *,
     _REGISTRY.register(name, factory, replace=replace)
 
 
-def unregister_object(name: str) -> None:
-    """Remove a library object (no effect if absent)."""
-    _REGISTRY.unregister(name)
-
-
-def object_names() -> tuple[str, ...]:
-    """Every registered object name, in registration order."""
-    return _REGISTRY.names()
+unregister_object, object_names = _REGISTRY.functions(__name__, "object")
 
 
 def library() -> dict[str, ObjectSpec]:

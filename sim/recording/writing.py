@@ -16,15 +16,38 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from sim.recording.checks import OPTIONAL_COLUMNS
 from sim.recording.errors import RecordingError
 
-if TYPE_CHECKING:
-    from sim.recording.core import Recording
+
+class RecordingFields(Protocol):
+    """What writing reads of a :class:`sim.recording.core.Recording` (its fields, by name).
+
+    Writing depends on these fields only, so that the recording's class can call the
+    writers without the two modules importing each other.
+    """
+
+    emg: np.ndarray
+    fs_hz: float
+    force_n: np.ndarray | None
+    channel_names: list[str]
+    emg_unit: str
+    intent: np.ndarray | None
+    intent_force_n: np.ndarray | None
+    pitch_rad: np.ndarray | None
+    metadata: dict[str, Any]
+
+    @property
+    def n_channels(self) -> int:
+        """Number of sEMG channels."""
+
+    @property
+    def t_s(self) -> np.ndarray:
+        """Sample times, s, shape (n_samples,)."""
 
 
 def sidecar_path(csv_path: str | Path) -> Path:
@@ -33,7 +56,7 @@ def sidecar_path(csv_path: str | Path) -> Path:
     return csv_path.with_name(csv_path.name + ".json")
 
 
-def save(rec: Recording, path: str | Path) -> Path:
+def save(rec: RecordingFields, path: str | Path) -> Path:
     """Save ``rec`` as ``.npz`` or ``.csv`` according to the file suffix; returns the path."""
     path = Path(path)
     if path.suffix == ".npz":
@@ -43,7 +66,7 @@ def save(rec: Recording, path: str | Path) -> Path:
     raise RecordingError(f"{path}: unknown recording format; expected .npz or .csv")
 
 
-def save_npz(rec: Recording, path: str | Path) -> Path:
+def save_npz(rec: RecordingFields, path: str | Path) -> Path:
     """Save ``rec`` losslessly (dtypes kept) as a compressed NPZ file; returns the path."""
     path = Path(path)
     arrays: dict[str, Any] = {
@@ -61,7 +84,7 @@ def save_npz(rec: Recording, path: str | Path) -> Path:
     return path
 
 
-def save_csv(rec: Recording, path: str | Path) -> Path:
+def save_csv(rec: RecordingFields, path: str | Path) -> Path:
     """Save ``rec`` as griploop's CSV plus its JSON sidecar; returns the CSV's path.
 
     See the module docstring for the layout; the sidecar holds the sampling

@@ -62,14 +62,7 @@ def register_generator(name: str, factory: Callable[..., EmgGenerator] | str, *,
     _REGISTRY.register(name, factory, replace=replace)
 
 
-def unregister_generator(name: str) -> None:
-    """Remove a generator (no effect if absent)."""
-    _REGISTRY.unregister(name)
-
-
-def generator_names() -> tuple[str, ...]:
-    """Every registered generator name, in registration order."""
-    return _REGISTRY.names()
+unregister_generator, generator_names = _REGISTRY.functions(__name__, "generator")
 
 
 def make_generator(generator: str | EmgGenerator, **settings: Any) -> EmgGenerator:

@@ -10,7 +10,8 @@ same machinery:
   with rests between (timing, levels and reaction times jittered per session);
 * :func:`ramp_profile`: slow trapezoidal ramps (force tracking);
 * :func:`grasp_lift_hold`: rest, ramp to a hold level, hold, release (the
-  intent of a closed-loop grasp-and-lift episode).
+  intent of a closed-loop grasp-and-lift episode; durations in a
+  :class:`GraspLiftTiming`).
 """
 
 from __future__ import annotations
@@ -263,26 +264,63 @@ def ramp_profile(
     return from_segments(segments, fs_hz=fs_hz, cues=cues, levels=peaks, name="ramp_profile")
 
 
+@dataclass(frozen=True)
+class GraspLiftTiming:
+    """Nominal phase durations of :func:`grasp_lift_hold`, s (each jittered per profile).
+
+    Attributes
+    ----------
+    rest_s : float
+        Rest before the ramp.
+    ramp_s : float
+        Ramp from rest to the hold level.
+    hold_s : float
+        Hold at the hold level.
+    release_s : float
+        Release from the hold level to rest.
+    final_rest_s : float
+        Rest after the release.
+    """
+
+    rest_s: float = 1.0
+    ramp_s: float = 0.5
+    hold_s: float = 4.0
+    release_s: float = 0.5
+    final_rest_s: float = 1.0
+
+
 def grasp_lift_hold(
     rng: np.random.Generator | int | None = None,
     *,
     fs_hz: float = 200.0,
     hold_level: float = 0.3,
-    rest_s: float = 1.0,
-    ramp_s: float = 0.5,
-    hold_s: float = 4.0,
-    release_s: float = 0.5,
-    final_rest_s: float = 1.0,
+    timing: GraspLiftTiming | None = None,
     jitter: float = 0.1,
 ) -> IntentProfile:
     """Rest, ramp to ``hold_level``, hold, release, rest: one grasp-and-lift.
 
-    Durations are scaled by ``1 + U(-jitter, jitter)``; cues: ``start`` at the
-    ramp onset, ``end`` at the release onset.
+    Parameters
+    ----------
+    rng : numpy.random.Generator, int or None
+        Draws the duration jitter.
+    fs_hz : float
+        Sampling rate of the profile, Hz.
+    hold_level : float
+        Intent during the hold, fraction of MVC (0..1).
+    timing : GraspLiftTiming, optional
+        Nominal phase durations, s (default ``GraspLiftTiming()``).
+    jitter : float
+        Each duration is scaled by ``1 + U(-jitter, jitter)``.
+
+    Returns
+    -------
+    IntentProfile
+        Cues: ``start`` at the ramp onset, ``end`` at the release onset.
     """
     g = as_rng(rng)
+    tm = GraspLiftTiming() if timing is None else timing
     d = [v * (1.0 + g.uniform(-jitter, jitter))
-         for v in (rest_s, ramp_s, hold_s, release_s, final_rest_s)]
+         for v in (tm.rest_s, tm.ramp_s, tm.hold_s, tm.release_s, tm.final_rest_s)]
     segments = [(d[0], 0.0), (d[1], hold_level), (d[2], hold_level), (d[3], 0.0), (d[4], 0.0)]
     cues = [("start", d[0]), ("end", d[0] + d[1] + d[2])]
     return from_segments(segments, fs_hz=fs_hz, cues=cues, levels=(hold_level,),

@@ -241,6 +241,7 @@ class MotorUnitEmgGenerator:
         anatomy = np.random.default_rng(muscles.anatomy_seed)
         sos = front_end.sos(self.internal_fs_hz)
         freq_factor, amp_factor = fatigue_profile(n, fs_hz, muscles.fatigue_per_min)
+        slowest = freq_factor.min()
         widths = muscles.array("muap_width_ms") * 1e-3
         gamma = muscles.array("muap_exponent")
         f_max = self._pool_force(np.float64(self.max_excitation))
@@ -251,10 +252,9 @@ class MotorUnitEmgGenerator:
             unit, t_spk, isi = self._discharges(e[:, m] * self.max_excitation, fs_hz, rng)
             spikes.append(int(t_spk.size))
             force[:, m] = self._twitch_sum(unit, t_spk, isi, n, fs_hz) / f_max
-            raw[:, m] = self._muap_train(
-                unit, t_spk, n_int, fs_hz, widths[m], gamma[m], freq_factor, amp_factor,
-                sos, anatomy,
-            )
+            pool = self._pool_muaps(widths[m], gamma[m], sos, anatomy, slowest)
+            raw[:, m] = self._muap_train(pool, unit, t_spk, n_int, fs_hz, freq_factor,
+                                         amp_factor)
         emg = scipy.signal.sosfilt(sos, raw, axis=0)[::q]
         force = fractional_delay(force, muscles.array("emd_s"), fs_hz)
         return MuscleSignals(emg=emg, force=force, info={"spikes_per_muscle": spikes})
@@ -329,20 +329,24 @@ class MotorUnitEmgGenerator:
             out += scipy.signal.lfilter([1.0], [1.0, -r], b[i])
         return out
 
-    def _muap_train(
-        self,
-        unit: np.ndarray,
-        t_spk: np.ndarray,
-        n_int: int,
-        fs_hz: float,
-        width_s: float,
-        gamma: float,
-        freq_factor: np.ndarray,
-        amp_factor: np.ndarray,
-        sos: np.ndarray,
-        anatomy: np.random.Generator,
-    ) -> np.ndarray:
-        """Raw (pre-front-end) sEMG of one pool at the internal rate, shape (n_int,)."""
+    def _pool_muaps(self, width_s: float, gamma: float, sos: np.ndarray,
+                    anatomy: np.random.Generator, slowest_factor: float) -> _PoolMuaps:
+        """One pool's MUAPs (its anatomy) on the basis widths, normalized.
+
+        Parameters
+        ----------
+        width_s : float
+            The muscle's MUAP width, s.
+        gamma : float
+            Exponent of MUAP amplitude on twitch force.
+        sos : ndarray, shape (n_sections, 6)
+            The front end's filter at ``internal_fs_hz``.
+        anatomy : numpy.random.Generator
+            Draws the units' widths, shapes, polarities and depths.
+        slowest_factor : float
+            Smallest MUAP frequency factor of the session (fatigue widens MUAPs by its
+            inverse): the basis reaches the widest unit at that factor.
+        """
         import scipy.signal
         nu = self.n_units
         fs = self.internal_fs_hz
@@ -354,7 +358,7 @@ class MotorUnitEmgGenerator:
         )
         coef = np.stack([np.cos(mix), np.sin(mix)], axis=1) * (polarity * amp)[:, None]
         lo_w = unit_width.min()
-        hi_w = unit_width.max() / freq_factor.min()
+        hi_w = unit_width.max() / slowest_factor
         basis_w = np.geomspace(lo_w, hi_w * (1 + 1e-9), _N_BASIS_WIDTHS)
         half = int(np.ceil(6.0 * basis_w[-1] * fs))
         tk = np.arange(-half, half + 1) / fs
@@ -381,11 +385,27 @@ class MotorUnitEmgGenerator:
         unit_energy = np.einsum("ij,jk,ik->i", unit_vec, gram, unit_vec)
         full_rate = self.rates_hz(np.float64(self.max_excitation))
         scale = 1.0 / np.sqrt(np.sum(full_rate / fs * unit_energy))
+        return _PoolMuaps(unit_width, coef, basis_w, kernels, scale)
+
+    def _muap_train(
+        self,
+        pool: _PoolMuaps,
+        unit: np.ndarray,
+        t_spk: np.ndarray,
+        n_int: int,
+        fs_hz: float,
+        freq_factor: np.ndarray,
+        amp_factor: np.ndarray,
+    ) -> np.ndarray:
+        """Raw (pre-front-end) sEMG of one pool at the internal rate, shape (n_int,)."""
+        import scipy.signal
+        fs = self.internal_fs_hz
+        basis_w, kernels = pool.basis_width_s, pool.kernels
         # Per-spike coefficients (fatigue widens MUAPs and raises amplitude).
         k_adc = np.minimum((t_spk * fs_hz).astype(int), freq_factor.size - 1)
-        spk_w = unit_width[unit] / freq_factor[k_adc]
+        spk_w = pool.unit_width_s[unit] / freq_factor[k_adc]
         s_lo, s_hi, s_i = _width_weights(spk_w, basis_w)
-        spk_c = coef[unit] * (amp_factor[k_adc] * scale)[:, None]
+        spk_c = pool.coef[unit] * (amp_factor[k_adc] * pool.scale)[:, None]
         n_idx = np.minimum((t_spk * fs).astype(int), n_int - 1)
         trains = np.zeros(2 * _N_BASIS_WIDTHS * n_int)
         for o in range(2):
@@ -398,6 +418,31 @@ class MotorUnitEmgGenerator:
         conv = scipy.signal.fftconvolve(trains, kernels.reshape(2 * _N_BASIS_WIDTHS, -1),
                                   mode="same", axes=1)
         return conv.sum(axis=0)
+
+
+@dataclass(frozen=True)
+class _PoolMuaps:
+    """One pool's MUAPs, as :meth:`MotorUnitEmgGenerator._muap_train` sums them.
+
+    Attributes
+    ----------
+    unit_width_s : ndarray, shape (n_units,)
+        Each unit's MUAP width, s.
+    coef : ndarray, shape (n_units, 2)
+        Each unit's weights of the first and second Gaussian derivative.
+    basis_width_s : ndarray, shape (n_basis,)
+        Basis widths the units' widths are interpolated between, s.
+    kernels : ndarray, shape (2, n_basis, n_taps)
+        Unit-energy kernels of both orders at the basis widths.
+    scale : float
+        Normalization to RMS about 1 at full drive.
+    """
+
+    unit_width_s: np.ndarray
+    coef: np.ndarray
+    basis_width_s: np.ndarray
+    kernels: np.ndarray
+    scale: float
 
 
 def _width_weights(

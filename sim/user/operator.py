@@ -62,17 +62,6 @@ def grip_aim_n(need_n: float, safety_factor: float, break_n: float | None = None
     return float(aim)
 
 
-def __getattr__(attr: str) -> Any:
-    # the two models live in their own modules, which import this one
-    if attr == "ScriptedOperator":
-        from sim.user.scripted import ScriptedOperator
-        return ScriptedOperator
-    if attr == "ReactingOperator":
-        from sim.user.reacting import ReactingOperator
-        return ReactingOperator
-    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
-
-
 @dataclass(slots=True)
 class Scene:
     """The hand and the object at one control step, as plain numbers (what there is to perceive).

@@ -82,24 +82,8 @@ def register_feedback(name: str, factory: Callable[..., Any] | str, *,
     _FEEDBACK.register(name, factory, replace=replace)
 
 
-def unregister_operator(name: str) -> None:
-    """Remove a user kind (no effect if absent)."""
-    _OPERATORS.unregister(name)
-
-
-def unregister_feedback(name: str) -> None:
-    """Remove a feedback mode (no effect if absent)."""
-    _FEEDBACK.unregister(name)
-
-
-def operator_names() -> tuple[str, ...]:
-    """Registered user kinds, in registration order."""
-    return _OPERATORS.names()
-
-
-def feedback_names() -> tuple[str, ...]:
-    """Registered feedback modes, in registration order."""
-    return _FEEDBACK.names()
+unregister_operator, operator_names = _OPERATORS.functions(__name__, "operator")
+unregister_feedback, feedback_names = _FEEDBACK.functions(__name__, "feedback")
 
 
 def takes_feedback(name: str) -> bool:

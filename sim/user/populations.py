@@ -3,8 +3,8 @@
 An estimator that learns from virtual subjects (pretraining on a corpus, settings chosen on
 virtual subjects) must be judged on people it was not trained on (issue 28): real people
 differ from any population in ways no statistic we share captures, so a population drawn
-from the same ranges as the corpus flatters it. :func:`population` draws ``n`` subjects of
-a named *variant*:
+from the same ranges as the corpus flatters it. ``make_population(n, seed, variant=...)``
+(:func:`apply_variant`) draws ``n`` subjects of a named *variant*:
 
 =========  ===============================================================================
 variant    subjects
@@ -50,7 +50,7 @@ def register_population(name: str, transform: Transform | str, *, description: s
     Parameters
     ----------
     name : str
-        Name used by :func:`population` and ``make_population(variant=...)``.
+        Name used by ``make_population(variant=...)`` (:func:`apply_variant`).
     transform : callable or str
         ``transform(subject, rng) -> VirtualSubject`` applied to every default subject
         (``rng`` its own generator), or its ``"package.module:attribute"`` reference.
@@ -62,9 +62,7 @@ def register_population(name: str, transform: Transform | str, *, description: s
     _REGISTRY.register(name, transform, replace=replace, description=description)
 
 
-def population_names() -> tuple[str, ...]:
-    """Every registered variant, in registration order."""
-    return _REGISTRY.names()
+unregister_population, population_names = _REGISTRY.functions(__name__, "population")
 
 
 def population_description(name: str) -> str:
@@ -78,24 +76,21 @@ def population_description(name: str) -> str:
     return str(_REGISTRY.info(name)["description"])
 
 
-def population(n: int, seed: int, variant: str = "default") -> list:
-    """``n`` virtual subjects of ``variant``, numbered 1..n, reproducible from ``seed``.
+def apply_variant(subjects: list, seed: int, variant: str) -> list:
+    """The default population's ``subjects`` (numbered 1..n) as ``variant`` draws them.
+
+    Subject ``i`` is transformed with its own generator, spawned from ``seed`` and ``i``, so
+    that a subject's variant does not depend on the population's size.
+    :func:`sim.user.subjects.make_population` calls this; it is the one way to a variant.
 
     Raises
     ------
     UnknownPopulationError
         ``variant`` is not registered.
-    ValueError
-        ``n < 1``.
     """
-    from sim.user.subjects import VirtualSubject
-
     transform = _REGISTRY.get(variant)
-    if int(n) < 1:
-        raise ValueError(f"population size must be at least 1, found {n}")
     out = []
-    for i in range(1, int(n) + 1):
-        subject = VirtualSubject.sample(int(seed), i)
+    for i, subject in enumerate(subjects, start=1):
         rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(i, 2)))
         out.append(transform(subject, rng))
     return out

@@ -47,6 +47,7 @@ from sim.user.muscles import (
     drive_targets,
     slow_fluctuation,
 )
+from sim.user.populations import apply_variant
 
 # Per-role uniform ranges of the sampled muscle parameters: (low, high).
 _SYNERGY = {"flexor": (0.80, 1.00), "extensor": (0.50, 0.78), "other": (0.10, 0.30)}
@@ -411,13 +412,10 @@ def make_population(n: int = 10, seed: int = 0, *,
     sim.user.populations.UnknownPopulationError
         An unregistered ``variant``.
     """
-    if variant != "default":
-        from sim.user.populations import population
-
-        return population(n, seed, variant)
     if int(n) < 1:
         raise ValueError(f"population size must be at least 1, found {n}")
-    return [VirtualSubject.sample(int(seed), i) for i in range(1, int(n) + 1)]
+    subjects = [VirtualSubject.sample(int(seed), i) for i in range(1, int(n) + 1)]
+    return subjects if variant == "default" else apply_variant(subjects, int(seed), variant)
 
 
 def __getattr__(attr: str) -> Any:

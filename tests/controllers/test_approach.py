@@ -2,7 +2,7 @@ import control
 import numpy as np
 import pytest
 
-from controllers import ContactGate, design_lead_lag, design_mpc, design_pid
+from controllers import ContactGate, GateSpec, design_lead_lag, design_mpc, design_pid
 from controllers.base import Observation
 
 K_N = 80.0  # feedforward: N per unit command
@@ -82,7 +82,7 @@ def test_closing_approach_then_bumpless_hand_over(plant, design):
 
 def test_reference_rises_at_the_force_rate_after_the_hand_over():
     spy = Spy()
-    gate = ContactGate(spy, feedforward=_ff, force_rate_n_s=20.0, dt_s=0.01)
+    gate = ContactGate(spy, feedforward=_ff, dt_s=0.01, spec=GateSpec(force_rate_n_s=20.0))
     gate.act(_obs(5.0, ref=10.0))  # hand-over at 5 N
     assert spy.calls[-2][0] == "handover"
     assert spy.calls[-2][1] == pytest.approx(_ff(10.0))
@@ -101,7 +101,7 @@ def test_reference_rises_at_the_force_rate_after_the_hand_over():
 
 def test_losing_both_sides_returns_to_the_approach():
     spy = Spy()
-    gate = ContactGate(spy, feedforward=_ff, lost_contact_s=0.05, dt_s=0.01)
+    gate = ContactGate(spy, feedforward=_ff, dt_s=0.01, spec=GateSpec(lost_contact_s=0.05))
     gate.act(_obs(5.0, ref=6.0))
     assert gate.in_contact
     for _ in range(4):
@@ -123,5 +123,7 @@ def test_loop_is_the_wrapped_controllers(plant):
 @pytest.mark.parametrize("kwargs", [{"closing_command": 0.0}, {"force_rate_n_s": 0.0},
                                     {"handover_fraction": 1.5}, {"approach_gain": -1.0}])
 def test_bad_parameters_say_expected_and_found(kwargs):
+    closing = {k: v for k, v in kwargs.items() if k == "closing_command"}
+    spec = GateSpec(**{k: v for k, v in kwargs.items() if k != "closing_command"})
     with pytest.raises(ValueError, match="expected"):
-        ContactGate(Spy(), **kwargs)
+        ContactGate(Spy(), **closing, spec=spec)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controllers import SlipReflex
+from controllers import DesignSpec, ReflexSpec, SlipReflex
 from controllers.design import (
     cached_design_plant,
     cached_plant_family,
@@ -25,7 +25,7 @@ def test_bandwidth_specification_is_met_at_each_design_force(kind: str) -> None:
     # on the soft pads and one bottomed out, test what the twenty would (at a tenth of
     # the cost)
     forces = (5.0, 15.0)
-    design = design_for_object(CAN, kind, bandwidth_rad_s=80.0, forces_n=forces)
+    design = design_for_object(CAN, kind, DesignSpec(bandwidth_rad_s=80.0, forces_n=forces))
     assert design.design_forces_n == list(forces)
     for force in forces:
         m = design.analyse(force).margins
@@ -35,7 +35,7 @@ def test_bandwidth_specification_is_met_at_each_design_force(kind: str) -> None:
 
 def test_unreachable_bandwidth_names_the_reachable_range() -> None:
     with pytest.raises(SpecificationError, match="reachable"):
-        design_for_object(CAN, "pid", bandwidth_rad_s=2000.0)
+        design_for_object(CAN, "pid", DesignSpec(bandwidth_rad_s=2000.0))
 
 
 def test_design_plant_is_cached_per_object_and_period() -> None:
@@ -45,8 +45,8 @@ def test_design_plant_is_cached_per_object_and_period() -> None:
 
 
 def test_mpc_bound_is_sensed_and_the_reflex_stops_below_the_user_limit() -> None:
-    design = design_for_object(CAN, "mpc", safety_factor=2.0, force_max_n=12.0,
-                               slip_reflex={"latency_s": 0.05, "gain": 0.3})
+    design = design_for_object(CAN, "mpc", DesignSpec(
+        safety_factor=2.0, force_max_n=12.0, slip_reflex=ReflexSpec(latency_s=0.05, gain=0.3)))
     assert design.spec["slip_bound"].startswith("sensed")
     assert design.spec["force_max_n"] == 12.0
     mpc = design.core.designs[0]
@@ -66,8 +66,10 @@ def test_design_meeting_the_margin_but_unstable_is_refused_at_that_force() -> No
     # phase crosses -180 deg: the phase margin is met at 100 rad/s, the loop is unstable
     block = make_object("block", mass_kg=0.3)
     with pytest.raises(SpecificationError, match=r"unstable closed loop \(gain margin -"):
-        design_for_object(block, "lead_lag", phase_margin_deg=60.0, crossover_rad_s=100.0)
-    ok = design_for_object(block, "lead_lag", phase_margin_deg=60.0, crossover_rad_s=60.0)
+            design_for_object(block, "lead_lag", DesignSpec(phase_margin_deg=60.0,
+                                                        crossover_rad_s=100.0))
+    ok = design_for_object(block, "lead_lag", DesignSpec(phase_margin_deg=60.0,
+                                                         crossover_rad_s=60.0))
     assert not ok.notes and all(a.margins.stable for a in ok.analyse_grid() if a.ok)
 
 
@@ -94,7 +96,7 @@ def test_default_designs_keep_45_deg_over_the_whole_range(kind: str) -> None:
 
 def test_a_fixed_design_is_analysed_honestly_away_from_its_force() -> None:
     can = make_object("can", mass_kg=0.2, friction=1.0)
-    fixed = design_for_object(can, "pid", scheduled=False, operating_force_n=10.0)
+    fixed = design_for_object(can, "pid", DesignSpec(scheduled=False, operating_force_n=10.0))
     scheduled = design_for_object(can, "pid")
     assert fixed.design_forces_n == [10.0]
     # at its design force the fixed PI meets the specification ...

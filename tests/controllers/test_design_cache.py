@@ -1,11 +1,15 @@
 """The on-disk design cache gives what a fresh design gives and trusts no broken file."""
 
+import warnings
+
 import numpy as np
 import pytest
 
 from controllers import design_cache
 from controllers.base import Observation
 from controllers.design import controller_map, design_for_object
+from controllers.design_spec import DesignSpec
+from sim.cache import CacheNotWritableWarning
 from sim.hand.objects import make_object
 
 CAN = make_object("can", mass_kg=0.3, friction=0.7)
@@ -14,7 +18,8 @@ SPEC = {"phase_margin_deg": 60.0, "crossover_rad_s": 30.0}
 
 
 def _build(obj=CAN, kind="pid", spec=SPEC, grid=GRID):
-    return lambda: design_for_object(obj, kind, control_dt_s=0.01, forces_n=grid, **spec)
+    spec = DesignSpec.from_mapping({**spec, "forces_n": grid})
+    return lambda: design_for_object(obj, kind, spec, control_dt_s=0.01)
 
 
 def _cached(obj=CAN, kind="pid", spec=SPEC, grid=GRID):
@@ -174,6 +179,20 @@ def test_cache_off(monkeypatch):
     assert source == "built (cache off)" and design.controller is not None
 
 
+def test_an_unwritable_cache_warns_once_and_the_design_is_still_made(tmp_path, monkeypatch):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(blocker))  # its "designs" cannot be made
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for _ in range(2):
+            design, source = _cached()
+            assert source == "built (cache not writable)" and design.controller is not None
+            design.analyse(6.0)  # written through: not stored either, and said no more
+    said = [str(w.message) for w in caught if issubclass(w.category, CacheNotWritableWarning)]
+    assert len([m for m in said if "designs" in m]) == 1, said
+
+
 def test_a_file_that_names_a_foreign_class_is_a_miss_and_builds_nothing(cache, monkeypatch):
     import io
     import json
@@ -197,7 +216,7 @@ def test_a_file_that_names_a_foreign_class_is_a_miss_and_builds_nothing(cache, m
 
 
 def test_the_key_follows_the_source_of_a_plugin_kinds_module(tmp_path, monkeypatch):
-    from controllers.registry import register_controller, unregister_controller
+    from controllers.registry import ControllerKind, register_controller, unregister_controller
 
     module = tmp_path / "my_keyed_plugin.py"
     source = ("from controllers.pid import design_pid\n\n\n"
@@ -206,7 +225,8 @@ def test_the_key_follows_the_source_of_a_plugin_kinds_module(tmp_path, monkeypat
     monkeypatch.syspath_prepend(str(tmp_path))
     import my_keyed_plugin
 
-    register_controller("my_keyed", my_keyed_plugin.design, fixed={"structure": "pi"})
+    register_controller("my_keyed", my_keyed_plugin.design,
+                        ControllerKind(fixed={"structure": "pi"}))
     try:
         design_cache.source_digest.cache_clear()
         before = design_cache.design_key(CAN, "my_keyed", 0.01, SPEC, GRID)

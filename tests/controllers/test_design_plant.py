@@ -4,15 +4,15 @@ import pytest
 from controllers import ContactGate, check_plant, design_controller
 from controllers.base import observation_from_info
 from controllers.design import DEFAULT_SPECS
-from controllers.design_plant import design_plant, object_force_bounds
-from sim.hand.grasp_env import GraspEnv
+from controllers.design_plant import design_plant, object_for, object_force_bounds
+from sim.hand.grasp_env import GraspEnv, GraspTask
 
 CAN = {"mass_kg": 0.4, "friction": 0.5}
 
 
 @pytest.fixture(scope="module")
 def linearized():
-    return design_plant("can", **CAN)
+    return design_plant(object_for("can", **CAN))
 
 
 def test_linearized_plant_is_a_strictly_proper_design_model(linearized):
@@ -28,7 +28,7 @@ def test_linearized_plant_is_a_strictly_proper_design_model(linearized):
 
 
 def test_identified_and_linearized_agree_in_the_control_band(linearized):
-    ident = design_plant("can", method="identified", **CAN)
+    ident = design_plant(object_for("can", **CAN), method="identified")
     assert ident.fit["fit_percent"] > 90.0
     w = np.array([5.0, 20.0, 50.0])
     z = np.exp(1j * w * 0.01)
@@ -41,7 +41,7 @@ def test_unknown_method_lists_valid_ones():
 
 
 def _run(controller, reference_n, episode_s=3.0, delay_samples=1):
-    env = GraspEnv({"name": "can", **CAN}, reference_n, episode_s=episode_s)
+    env = GraspEnv({"name": "can", **CAN}, reference_n, task=GraspTask(episode_s=episode_s))
     obs, info = env.reset(seed=0)
     controller.reset()
     pending = [0.0] * delay_samples

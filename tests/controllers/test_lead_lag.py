@@ -2,7 +2,13 @@ import control
 import numpy as np
 import pytest
 
-from controllers import LinearController, SpecificationError, design_lead_lag, sweep_margins
+from controllers import (
+    Implementation,
+    LinearController,
+    SpecificationError,
+    design_lead_lag,
+    sweep_margins,
+)
 
 DT_S = 0.01  # control period of the conftest plant
 
@@ -41,7 +47,7 @@ def test_unreachable_lead_names_the_limit(plant):
 
 def test_unsaturated_law_equals_transfer_function(plant):
     ctl = design_lead_lag(plant, phase_margin_deg=55.0, crossover_rad_s=40.0,
-                          u_limits=(-1e9, 1e9))
+                          implementation=Implementation(u_limits=(-1e9, 1e9)))
     rng = np.random.default_rng(3)
     e = rng.normal(0.0, 2.0, 80)
     u_law = np.array([ctl.step(ek, 0.0) for ek in e])
@@ -52,7 +58,7 @@ def test_unsaturated_law_equals_transfer_function(plant):
 
 def test_conditioning_anti_windup_tracks_the_applied_command(plant):
     ctl = design_lead_lag(plant, phase_margin_deg=55.0, crossover_rad_s=40.0,
-                          u_limits=(-0.1, 0.1))
+                          implementation=Implementation(u_limits=(-0.1, 0.1)))
     for _ in range(300):
         u = ctl.step(50.0, 0.0)  # unreachable: saturated throughout
     assert u == 0.1

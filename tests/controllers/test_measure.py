@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from controllers.design import design_for_object
+from controllers.design_spec import DesignSpec
 from controllers.measure import measure_loop, phasor
 from sim.hand.objects import make_object
 
@@ -41,7 +42,7 @@ def test_measured_loop_matches_the_prediction(design, force_n):
 
 
 def test_a_fixed_design_measured_on_the_soft_pads_shows_what_its_analysis_says():
-    fixed = design_for_object(CAN, "pid", scheduled=False, operating_force_n=10.0)
+    fixed = design_for_object(CAN, "pid", DesignSpec(scheduled=False, operating_force_n=10.0))
     predicted = fixed.analyse(4.0).margins
     m = measure_loop(fixed, 4.0)
     assert not m.reason

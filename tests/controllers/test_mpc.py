@@ -2,7 +2,15 @@ import control
 import numpy as np
 import pytest
 
-from controllers import MPC, SpecificationError, design_mpc, force_bounds, sweep_margins
+from controllers import (
+    MPC,
+    Implementation,
+    MPCTuning,
+    SpecificationError,
+    design_mpc,
+    force_bounds,
+    sweep_margins,
+)
 
 DT_S = 0.01  # control period of the conftest plant
 
@@ -39,7 +47,8 @@ def test_unconstrained_qp_equals_analytic_law(plant):
 
 
 def test_tracks_without_offset_and_respects_limits(plant):
-    mpc = MPC(plant, du_max=0.05, u_limits=(-0.3, 0.3))
+    mpc = MPC(plant, implementation=Implementation(u_limits=(-0.3, 0.3)),
+              tuning=MPCTuning(du_max=0.05))
     ref = np.r_[np.full(100, 10.0), np.full(100, 20.0)]
     y, u = _closed_loop(mpc, plant, ref)
     assert y[99] == pytest.approx(10.0, abs=0.05)

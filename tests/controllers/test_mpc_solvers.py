@@ -20,7 +20,7 @@ import control
 import numpy as np
 import pytest
 
-from controllers import MPC, force_bounds
+from controllers import MPC, Implementation, MPCTuning, force_bounds
 from controllers.qp import CasadiSolver, DaqpSolver
 from controllers.schedule import ScheduledController
 
@@ -115,7 +115,8 @@ def test_fast_path_refuses_a_violating_unconstrained_optimum(recorded):
 
 
 def test_infeasible_qp_is_a_failure_not_a_wrong_move(plant):
-    mpc = MPC(plant, u_limits=(-1.0, 1.0), du_max=0.25)
+    mpc = MPC(plant, implementation=Implementation(u_limits=(-1.0, 1.0)),
+              tuning=MPCTuning(du_max=0.25))
     mpc._build_qp()
     p = np.r_[np.zeros(mpc.A_.shape[0]), 2.0, 5.0]  # previous command 2 > 1 + du_max
     data = mpc.qp_.data(p, -np.inf, np.inf)
@@ -198,6 +199,7 @@ def test_bank_survives_a_copy(plant):
 def test_episode_with_daqp_matches_osqp():
     """A scheduled MPC grasp and lift on the MuJoCo hand: same outcome, grip traces close."""
     from controllers.design import design_for_object
+    from controllers.design_spec import DesignSpec
     from scenarios.runners.trial_loop import given_reference_trial
     from sim.hand.objects import make_object
 
@@ -207,7 +209,8 @@ def test_episode_with_daqp_matches_osqp():
     ref[t > 3.5] = 9.0
     results = {}
     for solver in ("daqp", "osqp"):
-        design = design_for_object(obj, "mpc", control_dt_s=DT_S, solver=solver)
+        design = design_for_object(obj, "mpc", DesignSpec(options={"solver": solver}),
+                                   control_dt_s=DT_S)
         loop = given_reference_trial(obj, design, ref, control_dt_s=DT_S, lift_at_s=2.5)
         traces, info = loop.traces(), loop.info
         assert loop.failure is None

@@ -2,7 +2,14 @@ import control
 import numpy as np
 import pytest
 
-from controllers import PID, PlantError, SpecificationError, design_pid, sweep_margins
+from controllers import (
+    PID,
+    Implementation,
+    PlantError,
+    SpecificationError,
+    design_pid,
+    sweep_margins,
+)
 from controllers.base import Observation
 
 DT_S = 0.01  # control period of the conftest plant
@@ -29,7 +36,8 @@ def test_design_meets_spec(plant, structure, pm, wc):
 def test_design_from_continuous_plant_needs_dt(plant_continuous):
     with pytest.raises(PlantError, match="dt_s"):
         design_pid(plant_continuous, crossover_rad_s=10.0)
-    pid = design_pid(plant_continuous, crossover_rad_s=10.0, dt_s=DT_S)
+    pid = design_pid(plant_continuous, crossover_rad_s=10.0,
+                     implementation=Implementation(dt_s=DT_S))
     assert pid.report_.margins.phase_margin_deg == pytest.approx(60.0, abs=1.0)
 
 
@@ -56,8 +64,9 @@ def test_unstable_plant_rejected_before_design():
 
 
 def _pid(**kw):
-    base = dict(kp=0.02, ki_per_s=0.3, kd_s=0.0005, dt_s=DT_S, derivative_filter_s=0.004,
-                u_limits=(-1e9, 1e9))
+    limits = kw.pop("u_limits", (-1e9, 1e9))
+    base = dict(kp=0.02, ki_per_s=0.3, kd_s=0.0005, derivative_filter_s=0.004,
+                implementation=Implementation(dt_s=DT_S, u_limits=limits))
     base.update(kw)
     return PID(**base)
 
@@ -100,8 +109,9 @@ def test_anti_windup_limits_overshoot(plant):
     designed = design_pid(plant, phase_margin_deg=60, crossover_rad_s=20)
     gains = {k: designed.report_.parameters[k] for k in ("kp", "ki_per_s", "kd_s")}
     limits = (-0.2, 0.2)  # 20 N of force at most: a 40 N request saturates
-    with_aw = PID(**gains, dt_s=DT_S, derivative_filter_s=0.0, u_limits=limits)
-    without = PID(**gains, dt_s=DT_S, derivative_filter_s=0.0, u_limits=limits,
+    implementation = Implementation(dt_s=DT_S, u_limits=limits)
+    with_aw = PID(**gains, derivative_filter_s=0.0, implementation=implementation)
+    without = PID(**gains, derivative_filter_s=0.0, implementation=implementation,
                   tracking_time_s=np.inf)
     # request 40 N for 1 s (unreachable), then 10 N
     for ctl in (with_aw, without):

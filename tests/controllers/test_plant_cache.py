@@ -1,10 +1,13 @@
 """The on-disk plant-family cache returns exactly what a fresh build gives."""
 
+import warnings
+
 import numpy as np
 import pytest
 
 from controllers import plant_cache
 from controllers.design_plant import plant_family
+from sim.cache import CacheNotWritableWarning
 from sim.hand.objects import make_object
 
 CAN = make_object("can", mass_kg=0.3, friction=0.7)
@@ -60,8 +63,13 @@ def test_cache_off_and_not_writable(tmp_path, monkeypatch):
     blocker = tmp_path / "a_file"
     blocker.write_text("x")
     monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(blocker))  # its "plants" cannot be made
-    family, source = plant_cache.cached_family(CAN, 0.01, GRID, _build())
-    assert source == "built (cache not writable)" and family.points[0].ok
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for grid in (GRID, (3.0,)):
+            family, source = plant_cache.cached_family(CAN, 0.01, grid, _build(grid=grid))
+            assert source == "built (cache not writable)" and family.points[0].ok
+    said = [w for w in caught if issubclass(w.category, CacheNotWritableWarning)]
+    assert len(said) == 1 and "plants" in str(said[0].message)  # once per directory
 
 
 def _race(cache_root: str, marks: str, go, out) -> None:

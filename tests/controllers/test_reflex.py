@@ -7,7 +7,7 @@ import pytest
 
 from controllers import SlipReflex
 from controllers.base import Observation
-from controllers.reflex import ReflexSpecError
+from controllers.reflex import ReflexSpec, ReflexSpecError
 
 DT = 0.01
 
@@ -40,10 +40,11 @@ def _obs(k, *, speed=0.0, ref=5.0, thumb=True, finger=True):
 
 
 def _reflex(**kw):
-    spec = {"dt_s": DT, "latency_s": 0.03, "gain": 0.4, "slip_speed_threshold_m_s": 0.02,
+    spec = {"latency_s": 0.03, "gain": 0.4, "slip_speed_threshold_m_s": 0.02,
             "arming_s": 0.2, "decay_s": 0.5, "max_boost": 1.0}
     spec.update(kw)
-    return SlipReflex(_Echo(), **spec)
+    max_force_n = spec.pop("max_force_n", math.inf)
+    return SlipReflex(_Echo(), ReflexSpec(**spec), dt_s=DT, max_force_n=max_force_n)
 
 
 def _arm(reflex, ref=5.0):
@@ -180,7 +181,7 @@ def test_pending_slip_in_the_latency_line_is_dropped_on_release():
 
 def test_reset_counters_interface_and_loop():
     inner = _Echo()
-    reflex = SlipReflex(inner, dt_s=DT, latency_s=0.0)
+    reflex = SlipReflex(inner, ReflexSpec(latency_s=0.0), dt_s=DT)
     assert reflex.name == "echo+reflex"
     k = _arm(reflex)
     reflex.act(_obs(k, speed=0.1))
@@ -199,7 +200,7 @@ def test_reset_counters_interface_and_loop():
 
 
 def test_act_accepts_a_mapping():
-    reflex = SlipReflex(_Echo(), dt_s=DT, arming_s=0.0, latency_s=0.0)
+    reflex = SlipReflex(_Echo(), ReflexSpec(arming_s=0.0, latency_s=0.0), dt_s=DT)
     obs = {"time_s": 0.0, "reference_n": 2.0, "grip_force_n": 2.0, "slip_speed_m_s": 0.5,
            "thumb_contact": True, "finger_contact": True}
     assert reflex.act(obs) == pytest.approx(2.6)
@@ -220,7 +221,9 @@ def test_act_accepts_a_mapping():
     ({"release_below_n": -0.5}, r"expected release_below_n >= 0 N, found -0.5"),
 ])
 def test_invalid_parameters_say_expected_and_found(kw, message):
-    spec = {"dt_s": DT, **kw}
+    context = {"dt_s": DT, "max_force_n": math.inf}
+    settings = {k: v for k, v in kw.items() if k not in context}
+    context.update({k: v for k, v in kw.items() if k in context})
     with pytest.raises(ReflexSpecError, match=message):
-        SlipReflex(_Echo(), **spec)
+        SlipReflex(_Echo(), ReflexSpec(**settings), **context)
     assert issubclass(ReflexSpecError, ValueError)

@@ -14,7 +14,8 @@ import pytest
 
 from controllers.base import observation_from_info
 from controllers.design import design_for_object
-from sim.hand.grasp_env import GraspEnv, WristSchedule
+from controllers.design_spec import DesignSpec
+from sim.hand.grasp_env import GraspEnv, GraspTask, WristSchedule
 from sim.hand.objects import make_object
 
 REFERENCE_N = 3.5
@@ -30,11 +31,12 @@ REFLEX = {"latency_s": 0.05, "gain": 0.5, "decay_s": 1.0, "max_boost": 1.0,
 def shake_episode(with_reflex: bool, *, episode_s: float = 3.5) -> dict:
     """Run the shake scenario; returns slip, peak force, outcomes and the reflex counters."""
     obj = make_object("can", mass_kg=0.3, friction=0.5, break_force_n=BREAK_N)
-    design = design_for_object(obj, "pid", phase_margin_deg=60.0, crossover_rad_s=10.0,
-                               control_dt_s=DT_S, force_max_n=BREAK_N,
-                               slip_reflex=REFLEX if with_reflex else None)
+    spec = DesignSpec(phase_margin_deg=60.0, crossover_rad_s=10.0, force_max_n=BREAK_N,
+                      slip_reflex=REFLEX if with_reflex else None)
+    design = design_for_object(obj, "pid", spec, control_dt_s=DT_S)
     ctl = design.controller
-    env = GraspEnv(obj, REFERENCE_N, control_dt_s=DT_S, episode_s=episode_s, schedule=SCHEDULE)
+    env = GraspEnv(obj, REFERENCE_N, control_dt_s=DT_S, wrist=SCHEDULE,
+                   task=GraspTask(episode_s=episode_s))
     ctl.reset()
     try:
         _, info = env.reset(seed=0)

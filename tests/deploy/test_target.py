@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from scenarios.deploy.session import export_session
+from scenarios.deploy.session import ExportSpec, export_session
 from scenarios.runners.trial_loop import HandSettings
 
 pytestmark = pytest.mark.target
@@ -14,10 +14,10 @@ pytestmark = pytest.mark.target
 def test_the_target_replay_equals_the_host_build(arm_tools, c_compiler, sessions, tmp_path,
                                                  estimator, controller, paradigm):
     fit, replay = sessions
-    export, report = export_session(fit, estimator, tmp_path, channels=[6, 7, 8],
-                                    controller=controller, object_name="can",
-                                    check_recording=replay, target="cortex-m4",
-                                    hand=HandSettings(paradigm=paradigm))
+    spec = ExportSpec(estimator, [6, 7, 8], controller=controller, object_name="can",
+                      hand=HandSettings(paradigm=paradigm))
+    export, report = export_session(fit, spec, tmp_path, check_recording=replay,
+                                    target="cortex-m4")
     t = report["target"]
     assert t["matches_host"], t["max_abs_difference_from_host"]
     # features, estimate and hand reference of every window, and every command

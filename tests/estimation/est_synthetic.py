@@ -103,6 +103,6 @@ SMALL_TRANSFER = {"corpus": "synthetic-test", "pretrain_subjects": 4, "pretrain_
 
 def register_synthetic_corpus() -> None:
     """Register :func:`synthetic_corpus` as ``"synthetic-test"`` (idempotent)."""
-    from estimation.transfer import register_corpus
+    from estimation.corpora import register_corpus
 
     register_corpus("synthetic-test", synthetic_corpus, replace=True)

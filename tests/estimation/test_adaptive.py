@@ -11,7 +11,7 @@ from est_synthetic import register_synthetic_corpus, synthetic_corpus
 from estimation.adaptive import AdaptationWarning, AdaptiveMLP
 from estimation.baselines.mlp import MLPBaseline
 from estimation.errors import EstimationInputError
-from estimation.transfer import clear_memory, pretrained
+from estimation.transfer import Pretraining, clear_memory, pretrained
 
 N_INPUTS = 6
 register_synthetic_corpus()
@@ -93,8 +93,8 @@ def test_networks_of_another_population_are_other_networks(tmp_path, monkeypatch
     monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(tmp_path))
     kw = {"corpus": "synthetic-test", "n_subjects": 4, "epochs": 5, "hidden": (4,),
           "n_networks": 1, "validation_subjects": 2}
-    a = pretrained(N_INPUTS, population="default", **kw)
-    b = pretrained(N_INPUTS, population="wide", **kw)
+    a = pretrained(N_INPUTS, Pretraining(population="default", **kw))
+    b = pretrained(N_INPUTS, Pretraining(population="wide", **kw))
     assert a.info["key"] != b.info["key"] and b.info["cache"] == "built"
     assert {p.stem for p in (tmp_path / "pretrained").glob("*.json")} == {
         f"transfer_mlp-{a.info['key']}", f"transfer_mlp-{b.info['key']}"}

@@ -29,7 +29,7 @@ from scenarios.runners.reproduction import (
 )
 from sim.user.subjects import make_population
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.verdict]
 N_SUBJECTS = 8
 #: The largest loss against the scratch model on one subject that still counts as "not much
 #: worse" (measured: -0.004 in population and -0.011 out of it, ten subjects each).

@@ -114,3 +114,25 @@ def test_latent_kalman_recovers_dynamics_and_tracks_force() -> None:
         P = (1 - K @ Hc[:, 0]) * Pp
         ref[k] = xh + est.x_mean_
     np.testing.assert_allclose(y_hat[200:], ref[200:], atol=1e-8)
+
+
+@pytest.mark.portable
+@pytest.mark.parametrize("hidden", [(4,), (8, 5)])
+def test_one_forward_pass_serves_a_regressor_and_stored_weights(hidden) -> None:
+    # MLPForward is the stream of mlp and narx (a fitted regressor) and of every network of
+    # transfer_mlp and adaptive_mlp (stored weights): both give scikit-learn's numbers
+    from portable import assert_close_across_paths
+    from sklearn.neural_network import MLPRegressor
+
+    from estimation.baselines.mlp import MLPForward, fit_quietly
+    from estimation.pretrained_store import Network
+
+    U, y = _static_data(7, n=200)
+    net = MLPRegressor(hidden_layer_sizes=hidden, activation="logistic", max_iter=30,
+                       random_state=0)
+    fit_quietly(net, U, y)
+    stored = Network(tuple(net.coefs_), tuple(net.intercepts_))
+    batch = net.predict(U)
+    for forward in (MLPForward(net), MLPForward(stored)):
+        assert_close_across_paths([forward(u) for u in U], batch)
+    assert_close_across_paths(stored.predict(U), batch)

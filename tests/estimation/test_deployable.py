@@ -122,10 +122,14 @@ def test_one_step_figures_measure_how_slowly_force_changes():
     # On make_population(10, seed=0) (noise generator): the paper's SS + KF one step
     # (channels 6-8) scores above every sEMG-only estimate and close to persistence
     # y(k-1), as on the real recordings (0.904 / 0.969 one step, best free run 0.898).
-    from scenarios.runners.reproduction import run_reproduction
+    from estimation.reproduce import ScoreSettings
+    from scenarios.runners.reproduction import ReproductionAnalyses, run_reproduction
 
-    paper = run_reproduction(10, 0, estimators=["ss_kf", "persistence", "narx"], orders=(4,))
-    ours = run_reproduction(10, 0, estimators=["ridge"], orders=(4,), channels="all")
+    aic_at_4 = ReproductionAnalyses(orders=(4,))
+    paper = run_reproduction(10, 0, estimators=["ss_kf", "persistence", "narx"],
+                             analyses=aic_at_4)
+    ours = run_reproduction(10, 0, estimators=["ridge"], settings=ScoreSettings(channels=None),
+                            analyses=aic_at_4)
     ss_one_step = paper["estimators"]["ss_kf"]["one_step"]["r2_mean"]
     ridge = ours["estimators"]["ridge"]["free_run"]
     assert ridge["n_ok"] == 10 and 0.8 <= ridge["r2_mean"] < ss_one_step

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from est_synthetic import toy_recording
 
-from estimation.errors import ConstantInputError, UnknownEstimatorError
+from estimation.errors import ConstantInputError
 from estimation.features import extract_features
 from estimation.pipeline import ForcePipeline
-from estimation.registry import ESTIMATOR_NAMES, make_estimator
+from estimation.registry import ESTIMATOR_NAMES, UnknownEstimatorError, make_estimator
 from estimation.state_space import SSEstimator
 
 FAST = {"mlp": {"max_epochs": 20, "random_state": 0},

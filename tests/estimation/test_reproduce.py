@@ -9,13 +9,16 @@ import pytest
 from portable import assert_nested_close_across_paths
 
 from estimation.registry import ESTIMATOR_NAMES
-from estimation.reproduce import format_report, write_csv
-from scenarios.runners.reproduction import run_reproduction
+from estimation.reproduce import ScoreSettings, format_report, write_csv
+from scenarios.runners.reproduction import ReproductionAnalyses, run_reproduction
+
+FIVE_EPOCHS = ScoreSettings(nn_params={"max_epochs": 5})
+FOUR_ORDERS = ReproductionAnalyses(orders=(1, 2, 3, 4))
 
 
 @pytest.fixture(scope="module")
 def result() -> dict:
-    return run_reproduction(2, 0, nn_params={"max_epochs": 5}, orders=(1, 2, 3, 4))
+    return run_reproduction(2, 0, settings=FIVE_EPOCHS, analyses=FOUR_ORDERS)
 
 
 def test_json_contract(result: dict) -> None:
@@ -58,8 +61,7 @@ def test_results_are_in_plausible_bands(result: dict) -> None:
 def test_same_seed_gives_the_same_results_on_any_number_of_workers(result: dict) -> None:
     # run again with the subjects on two forked processes (after this process ran the
     # gradient boosting's OpenMP threads above, which a forked child must not wait for)
-    again = run_reproduction(2, 0, nn_params={"max_epochs": 5}, orders=(1, 2, 3, 4),
-                             workers=2)
+    again = run_reproduction(2, 0, settings=FIVE_EPOCHS, analyses=FOUR_ORDERS, workers=2)
     # the same computations, on other processes and thread counts: equal to PATH_RTOL
     untimed = {k: v for k, v in result.items() if k != "timing"}
     assert_nested_close_across_paths({k: v for k, v in again.items() if k != "timing"},

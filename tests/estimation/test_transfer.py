@@ -9,11 +9,12 @@ import pytest
 from est_synthetic import SMALL_TRANSFER, register_synthetic_corpus, synthetic_corpus
 
 from estimation import transfer
+from estimation.corpora import UnknownCorpusError
 from estimation.errors import EstimationInputError, InsufficientDataError
 from estimation.transfer import (
     EPOCH_STAGE,
+    Pretraining,
     TransferMLP,
-    UnknownCorpusError,
     clear_memory,
     lagged,
     pretrained,
@@ -63,12 +64,12 @@ def test_same_seed_same_numbers_and_pretraining_is_deterministic(tmp_path, monke
     a = TransferMLP(**SMALL, random_state=3).fit(U[:n_id], y[:n_id]).predict(U)
     b = TransferMLP(**SMALL, random_state=3).fit(U[:n_id], y[:n_id]).predict(U)
     np.testing.assert_array_equal(a, b)
-    first = pretrained(N_INPUTS, corpus="synthetic-test", n_subjects=6, epochs=10, hidden=(8,),
-                       n_networks=2, validation_subjects=3)
+    small = Pretraining(corpus="synthetic-test", n_subjects=6, epochs=10, hidden=(8,),
+                        n_networks=2, validation_subjects=3)
+    first = pretrained(N_INPUTS, small)
     clear_memory()
     monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(tmp_path))  # nothing cached there: rebuilt
-    second = pretrained(N_INPUTS, corpus="synthetic-test", n_subjects=6, epochs=10, hidden=(8,),
-                        n_networks=2, validation_subjects=3)
+    second = pretrained(N_INPUTS, small)
     assert second.info["cache"] == "built"
     for n1, n2 in zip(first.networks, second.networks, strict=True):
         for w1, w2 in zip(n1.coefs, n2.coefs, strict=True):
@@ -79,11 +80,11 @@ def test_cache_is_read_back_and_a_corrupt_or_foreign_file_is_rebuilt(tmp_path, m
     monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(tmp_path))
     kw = {"corpus": "synthetic-test", "n_subjects": 6, "epochs": 10, "hidden": (8,),
           "n_networks": 2, "validation_subjects": 3}
-    built = pretrained(N_INPUTS, **kw)
+    built = pretrained(N_INPUTS, Pretraining(**kw))
     assert built.info["cache"] == "built"
-    assert pretrained(N_INPUTS, **kw) is built  # memory
+    assert pretrained(N_INPUTS, Pretraining(**kw)) is built  # memory
     clear_memory()
-    read = pretrained(N_INPUTS, **kw)
+    read = pretrained(N_INPUTS, Pretraining(**kw))
     assert read.info["cache"] == "disk" and read.epochs == built.epochs
     np.testing.assert_array_equal(read.networks[1].coefs[0], built.networks[1].coefs[0])
     files = sorted((tmp_path / "pretrained").iterdir())
@@ -92,25 +93,25 @@ def test_cache_is_read_back_and_a_corrupt_or_foreign_file_is_rebuilt(tmp_path, m
     # a corrupt array file
     npz.write_bytes(b"not an npz")
     clear_memory()
-    rebuilt = pretrained(N_INPUTS, **kw)
+    rebuilt = pretrained(N_INPUTS, Pretraining(**kw))
     assert rebuilt.info["cache"].startswith("rebuilt")
     np.testing.assert_array_equal(rebuilt.networks[0].coefs[0], built.networks[0].coefs[0])
     # a file from another format version
     data = json.loads(meta.read_text())
     meta.write_text(json.dumps(dict(data, format=data["format"] + 1)))
     clear_memory()
-    assert pretrained(N_INPUTS, **kw).info["cache"].startswith("rebuilt: ValueError")
+    assert pretrained(N_INPUTS, Pretraining(**kw)).info["cache"].startswith("rebuilt: ValueError")
     # weights with the wrong shape
     clear_memory()
     with np.load(npz) as z:
         arrays = {k: z[k] for k in z.files}
     arrays["net0_W0"] = arrays["net0_W0"][:, :3]
     np.savez(npz, **arrays)
-    assert pretrained(N_INPUTS, **kw).info["cache"].startswith("rebuilt: ValueError")
+    assert pretrained(N_INPUTS, Pretraining(**kw)).info["cache"].startswith("rebuilt: ValueError")
 
 
 def _pretrain_in_child(kw: dict, queue) -> None:
-    queue.put(pretrained(N_INPUTS, **kw).info["cache"])
+    queue.put(pretrained(N_INPUTS, Pretraining(**kw)).info["cache"])
 
 
 def test_processes_wanting_the_same_network_build_it_once(tmp_path, monkeypatch):
@@ -135,9 +136,30 @@ def test_processes_wanting_the_same_network_build_it_once(tmp_path, monkeypatch)
 
 def test_cache_can_be_switched_off(monkeypatch):
     monkeypatch.setenv("GRIPLOOP_CACHE_DIR", "off")
-    model = pretrained(N_INPUTS, corpus="synthetic-test", n_subjects=4, epochs=5, hidden=(4,),
-                       n_networks=1, validation_subjects=2)
+    model = pretrained(N_INPUTS, Pretraining(corpus="synthetic-test", n_subjects=4, epochs=5,
+                                             hidden=(4,), n_networks=1, validation_subjects=2))
     assert model.info["cache"] == "built"
+
+
+def test_an_unwritable_cache_warns_once_and_the_networks_are_still_built(tmp_path,
+                                                                         monkeypatch):
+    import warnings
+
+    from sim.cache import CacheNotWritableWarning
+
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(blocker))  # its "pretrained" cannot be made
+    small = Pretraining(corpus="synthetic-test", n_subjects=4, epochs=5, hidden=(4,),
+                        n_networks=1, validation_subjects=2)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for _ in range(2):
+            clear_memory()
+            model = pretrained(N_INPUTS, small)
+            assert model.info["cache"] == "built" and len(model.networks) == 1
+    said = [w for w in caught if issubclass(w.category, CacheNotWritableWarning)]
+    assert len(said) == 1 and "pretrained" in str(said[0].message)
 
 
 def test_bad_input_is_named():
@@ -172,7 +194,7 @@ def test_the_shipped_networks_are_those_this_code_builds(tmp_path, monkeypatch):
     assert set(transfer.SHIPPED_POPULATIONS) == {transfer.TRANSFER_POPULATION, ADAPT_POPULATION}
     for population in transfer.SHIPPED_POPULATIONS:
         for n_inputs in transfer.SHIPPED_LAYOUTS:
-            model = pretrained(n_inputs, population=population)
+            model = pretrained(n_inputs, Pretraining(population=population))
             assert model.info["cache"] == "shipped" and len(model.networks) == 3
             assert model.epochs % EPOCH_STAGE == 0
     assert not (tmp_path / "pretrained").exists()  # nothing copied into the cache
@@ -186,7 +208,7 @@ def test_shipped_networks_are_trusted_only_for_their_own_settings(tmp_path, monk
     kw = {"corpus": "synthetic-test", "n_subjects": 6, "epochs": 10, "hidden": (8,),
           "n_networks": 2, "validation_subjects": 3}
     monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(tmp_path / "cache"))
-    built = pretrained(N_INPUTS, **kw)
+    built = pretrained(N_INPUTS, Pretraining(**kw))
     shipped = tmp_path / "shipped"
     shipped.mkdir()
     (shipped / f"{store.PREFIX}stale.npz").write_bytes(b"old")
@@ -196,14 +218,14 @@ def test_shipped_networks_are_trusted_only_for_their_own_settings(tmp_path, monk
                                                          stem.name + ".npz"]  # stale removed
     clear_memory()
     monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(tmp_path / "empty"))
-    read = pretrained(N_INPUTS, **kw)
+    read = pretrained(N_INPUTS, Pretraining(**kw))
     assert read.info["cache"] == "shipped" and read.epochs == built.epochs
     np.testing.assert_array_equal(read.networks[1].coefs[0], built.networks[1].coefs[0])
-    assert pretrained(N_INPUTS, **dict(kw, epochs=5)).info["cache"] == "built"  # other key
+    assert pretrained(N_INPUTS, Pretraining(**dict(kw, epochs=5))).info["cache"] == "built"
     meta = stem.with_suffix(".json")
     meta.write_text(json.dumps(dict(json.loads(meta.read_text()), n_networks=3)))
     clear_memory()
-    again = pretrained(N_INPUTS, **kw)  # the mismatched shipped file is not used
+    again = pretrained(N_INPUTS, Pretraining(**kw))  # the mismatched shipped file is not used
     assert again.info["cache"].startswith("rebuilt: ValueError: settings differ")
     np.testing.assert_array_equal(again.networks[0].coefs[0], built.networks[0].coefs[0])
 
@@ -217,7 +239,7 @@ def test_the_source_digest_walks_every_package_that_makes_the_networks(monkeypat
                         lambda packages, *a, **kw: asked.extend(packages) or real(packages))
     transfer.source_digest.cache_clear()
     try:
-        transfer.source_digest()
+        transfer.source_digest("virtual")  # registered by scenarios (conftest.py)
     finally:
         transfer.source_digest.cache_clear()
     # the virtual subjects, the recording type, the features and the trainer

@@ -8,10 +8,11 @@ import pytest
 
 from controllers.design import DEFAULT_SPECS, design_for_object
 from controllers.design_plant import object_for
+from controllers.design_spec import DesignSpec
 from controllers.registry import CONTROLLER_NAMES
 from scenarios.cli.commands.episode import scenario_from_args
 from scenarios.cli.commands.margins import design_from_args
-from scenarios.runners.episode import controller_spec
+from scenarios.runners.episode import EpisodeSpec, controller_spec
 
 
 def _margins_args(controller: str) -> argparse.Namespace:
@@ -36,11 +37,11 @@ def test_every_controller_has_default_specs():
 @pytest.mark.parametrize("controller", sorted(DEFAULT_SPECS))
 def test_cli_and_library_designs_agree(controller):
     obj = object_for("can", mass_kg=0.4, friction=0.5)
-    library = design_for_object(obj, controller, **DEFAULT_SPECS[controller])
+    library = design_for_object(obj, controller, DesignSpec.from_mapping(DEFAULT_SPECS[controller]))
     plain = design_for_object(obj, controller)  # the function's own defaults
     margins_cli = design_from_args(_margins_args(controller))
-    episode_cli = design_for_object(
-        obj, controller, **controller_spec(scenario_from_args(_episode_args(controller))))
+    episode_cli = design_for_object(obj, controller, DesignSpec.from_mapping(
+        controller_spec(scenario_from_args(_episode_args(controller)))))
     for design in (plain, margins_cli, episode_cli):
         assert design.spec == library.spec  # includes lag_ratio, horizon, the design forces
 
@@ -56,6 +57,6 @@ def test_compare_references_defaults_to_the_library_specs(monkeypatch):
 
     monkeypatch.setattr(compare, "run_episode", fake_run_episode)
     obj = object_for("can", mass_kg=0.4, friction=0.5)
-    compare.compare_references(obj, estimators=["oracle"], controller="lead_lag",
-                               subject_ids=[1])
+    compare.compare_references(obj, EpisodeSpec(controller="lead_lag"),
+                               estimators=["oracle"], subject_ids=[1])
     assert seen == [DEFAULT_SPECS["lead_lag"]]

@@ -12,7 +12,7 @@ from scenarios.runners.compare import compare_references, format_comparison
 from scenarios.runners.dispatch import UnsupportedScenarioError, run_scenario
 from scenarios.runners.episode import EpisodeSpec, run_episode
 from scenarios.runners.episode_metrics import episode_metrics
-from scenarios.runners.reference import intended_grip_n, reference_from_windows
+from scenarios.runners.reference import ReferenceStream, intended_grip_n, reference_from_windows
 from scenarios.schema import parse_scenario
 from sim.hand.objects import make_object
 from sim.user.operator import FRAGILE_MARGIN, MIN_GRIP_N
@@ -31,8 +31,8 @@ def test_metrics_match_closed_forms() -> None:
     grip = np.where(t >= 1.2, 5.0 * (1 - np.exp(-(t - 1.2) / tau)), 0.0)
     oracle = reference + 0.5
     windows = np.array([0.0, 2.0, 5.0, 5.0, 4.0])
-    m = episode_metrics(t, reference, grip, oracle, start_s=start, lift_s=3.4, hold=t >= 4.0,
-                        window_values_n=windows, window_dt_s=0.125)
+    stream = ReferenceStream(start, windows, 0.125, t, reference, oracle)
+    m = episode_metrics(stream, grip, lift_s=3.4, hold=t >= 4.0)
     # first grip >= 0.5 N: 5 (1 - exp(-x / tau)) = 0.5  ->  x = tau ln(10 / 9)
     contact = 1.2 + tau * np.log(10 / 9)
     assert m["contact_time_s"] == pytest.approx(np.ceil(contact / dt) * dt, abs=1e-9)
@@ -46,12 +46,10 @@ def test_metrics_match_closed_forms() -> None:
     track = t >= m["contact_time_s"] + 0.5
     assert m["tracking_rmse_n"] == pytest.approx(np.sqrt(np.mean((5.0 - grip[track]) ** 2)))
     bumped = grip + np.where((t > 2.0) & (t < 2.1), 1.0, 0.0)
-    m2 = episode_metrics(t, reference, bumped, oracle, start_s=start, lift_s=3.4,
-                         hold=t >= 4.0, window_values_n=windows, window_dt_s=0.125)
+    m2 = episode_metrics(stream, bumped, lift_s=3.4, hold=t >= 4.0)
     assert m2["overshoot_pct"] == pytest.approx(100 * (max(bumped[t < 3.4]) - 5.0) / 5.0)
     assert m2["settling_time_s"] == pytest.approx(2.1 - start, abs=dt + 1e-9)
-    never = episode_metrics(t, reference, grip * 0.5, oracle, start_s=start, lift_s=3.4,
-                            hold=t >= 4.0, window_values_n=windows, window_dt_s=0.125)
+    never = episode_metrics(stream, grip * 0.5, lift_s=3.4, hold=t >= 4.0)
     assert never["settling_time_s"] is None
 
 
@@ -171,7 +169,7 @@ def test_episodes_of_one_subject_and_seed_share_one_calibration(monkeypatch):
     real = calibration.calibrate
     monkeypatch.setattr(calibration, "_CALIBRATIONS", {})
     monkeypatch.setattr(calibration, "calibrate",
-                        lambda *a, **k: fits.append(a[1]) or real(*a, **k))
+                        lambda *a, **k: fits.append(a[1].estimator) or real(*a, **k))
     subject = VirtualSubject.sample(0, 1)
     rows = [run_episode(subject, make_object("can"), EpisodeSpec(
         estimator="ridge", controller=kind, seed=5, episode_s=4.0, hold_s=1.0)).row

@@ -3,8 +3,9 @@
 This module registers a toy estimator, controller, sEMG generator, object,
 scenario kind and report section -- here, without editing any other file --
 and checks that the scenario schema, the CLI's choices, a sweep and the report
-pick them up. A fixture removes the registrations afterwards. The last tests
-check that every registered kind satisfies its protocol.
+pick them up. A fixture removes the registrations afterwards. The protocol tests
+run the checkers for plugin authors (:mod:`scenarios.checks`) on every registered
+piece and on the toys.
 """
 
 from __future__ import annotations
@@ -16,34 +17,35 @@ import control
 import numpy as np
 import pytest
 
-from controllers.base import Controller, as_observation
+from controllers.base import as_observation
 from controllers.bounds import slip_threshold_n
 from controllers.design import design_for_object
+from controllers.design_spec import DesignSpec
 from controllers.errors import SpecificationError
 from controllers.registry import (
+    ControllerKind,
     check_options,
     controller_names,
-    default_spec,
     design_controller,
     register_controller,
     unregister_controller,
 )
 from estimation.base import ForceEstimator
-from estimation.protocols import Estimator, Stream
 from estimation.registry import (
+    EstimatorKind,
     estimator_info,
-    estimator_names,
     make_estimator,
     register_estimator,
     unregister_estimator,
 )
+from scenarios.checks import CHECKERS, check_all, registered_names
 from scenarios.cli.main import build_parser
-from scenarios.execution.sweep import DEFAULT_TASK, plan, run_sweep
+from scenarios.execution.sweep import DEFAULT_TASK, SweepExecution, plan, run_sweep
 from scenarios.outcomes import OUTCOMES
 from scenarios.report import build_report
 from scenarios.report.html import Section
 from scenarios.report.sections import register_section, section_names, unregister_section
-from scenarios.runners.dispatch import register_kind, scenario_kinds, unregister_kind
+from scenarios.runners.dispatch import register_kind, unregister_kind
 from scenarios.runners.episode import (
     EpisodeSpec,
     controller_spec,
@@ -195,10 +197,11 @@ def toy_section(context) -> Section:
 @pytest.fixture
 def toys():
     """Register every toy, and remove the registrations afterwards."""
-    register_estimator("toy_mean", MeanForce, modes=("free_run",), params={"shrink": 0.5})
-    register_controller("toy_p", design_integral, options=("gain_scale",),
-                        defaults={"phase_margin_deg": 60.0, "crossover_rad_s": 20.0,
-                                  "gain_scale": 1.0})
+    register_estimator("toy_mean", MeanForce,
+                       EstimatorKind(modes=("free_run",), params={"shrink": 0.5}))
+    register_controller("toy_p", design_integral, ControllerKind(
+        options=("gain_scale",),
+        defaults={"phase_margin_deg": 60.0, "crossover_rad_s": 20.0, "gain_scale": 1.0}))
     register_generator("half_noise", HalfNoise)
     register_object("mug", mug)
     register_kind("toy_kind", toy_runner, protocols=("grasp_lift_hold",))
@@ -261,9 +264,10 @@ def test_registrations_are_checked():
     with pytest.raises(RegistrationError, match="'package.module:attribute'"):
         register_object("jar", "not-a-reference")
     with pytest.raises(RegistrationError, match="not among its options"):
-        register_controller("bad", design_integral, shaping=False, defaults={"gain": 1})
+        register_controller("bad", design_integral,
+                            ControllerKind(shaping=False, defaults={"gain": 1}))
     with pytest.raises(RegistrationError, match="expected blend"):
-        register_controller("bad", design_integral, blend="average")
+        register_controller("bad", design_integral, ControllerKind(blend="average"))
     assert "bad" not in controller_names() and "jar" not in object_names()
 
 
@@ -328,7 +332,8 @@ def test_a_sweep_runs_the_toys_and_the_report_shows_the_toy_section(toys, tmp_pa
     items = plan(expand_sweep(load_sweep(path)), DEFAULT_TASK)
     db = tmp_path / "r.sqlite"
     with ResultStore(db) as store:
-        summary = run_sweep(items, store, workers=1, sweep_name="toys", progress=False)
+        summary = run_sweep(items, store, SweepExecution(workers=1), sweep_name="toys",
+                            progress=False)
         rows = store.rows()
     assert (summary.ok, summary.failed) == (2, 0)
     results = sorted((r["result"] for r in rows), key=lambda r: r["mass_kg"])
@@ -345,37 +350,25 @@ def test_a_sweep_runs_the_toys_and_the_report_shows_the_toy_section(toys, tmp_pa
     assert [s.title for s in report.sections].index("Toy section") == len(report.sections) - 2
 
 
-# ------------------------------------------------------------------ protocols
+# ------------------------------------------------------------------ protocols (the checkers)
 
 
-def test_every_registered_estimator_satisfies_the_protocol():
-    rng = np.random.default_rng(0)
-    U, y = rng.normal(size=(60, 3)), 5.0 + np.cumsum(rng.normal(size=60)) * 0.1
-    for name in estimator_names():
-        est = make_estimator(name, normalize=False)
-        assert isinstance(est, Estimator), name
-        assert tuple(est.modes) == estimator_info(name)["modes"], name
-    pipeline = make_estimator("ridge", dt_s=0.125).fit(U, y)
-    assert isinstance(pipeline, Estimator)
-    assert isinstance(pipeline.streaming("free_run"), Stream)
+@pytest.mark.parametrize("family", list(CHECKERS))
+def test_every_registered_piece_passes_the_checker_of_its_family(family):
+    names = registered_names()[family]
+    assert names, family
+    assert [f.line() for f in check_all({family: names})] == []
 
 
-def test_every_registered_controller_satisfies_the_protocol():
-    plant = control.c2d(control.ss(control.tf([50.0], [0.05, 1.0])), 0.01)
-    for name in controller_names():
-        controller = design_controller(name, plant, **default_spec(name))
-        assert isinstance(controller, Controller), name
-        controller.reset()
-        u = controller.act({"time_s": 0.0, "reference_n": 5.0, "grip_force_n": 0.0})
-        assert -1.0 <= u <= 1.0, name
+def test_the_toys_pass_the_checkers(toys):
+    toys_by_family = {"controller": ("toy_p",), "estimator": ("toy_mean",),
+                      "object": ("mug",), "scenario kind": ("toy_kind",)}
+    assert [f.line() for f in check_all(toys_by_family)] == []
 
 
-def test_every_registered_generator_object_and_kind_satisfies_its_contract():
+def test_every_registered_generator_satisfies_its_protocol():
     for name in generator_names():
         assert isinstance(make_generator(name), EmgGenerator), name
-    for name in object_names():
-        assert make_object(name).name == name
-    assert set(scenario_kinds()) >= {"reproduction", "calibration", "episode"}
 
 
 # ------------------------------------------------------------------ end to end
@@ -401,7 +394,7 @@ def test_a_controller_with_only_reset_act_and_loop_holds_the_can(toys):
 
 
 def test_interpolated_scheduling_is_refused_for_a_controller_without_gains(toys):
-    register_controller("toy_interp", design_integral, blend="interpolate")
+    register_controller("toy_interp", design_integral, ControllerKind(blend="interpolate"))
     try:
         with pytest.raises(SpecificationError) as info:
             design_for_object(CAN, "toy_interp")
@@ -412,7 +405,8 @@ def test_interpolated_scheduling_is_refused_for_a_controller_without_gains(toys)
 
 
 def test_a_design_without_act_is_refused_in_one_line(toys):
-    register_controller("toy_broken", lambda plant, **spec: object(), shaping=False)
+    register_controller("toy_broken", lambda plant, **spec: object(),
+                        ControllerKind(shaping=False))
     try:
         with pytest.raises(SpecificationError, match=r"toy_broken: .* without reset, act, loop"):
             design_controller("toy_broken", control.c2d(control.tf([1.0], [0.1, 1.0]), 0.01))
@@ -438,8 +432,8 @@ def test_a_controller_option_reaches_the_design_from_yaml(toys, tmp_path):
     scenario = expand_sweep(load_sweep(path))[0].scenario
     spec = controller_spec(scenario)
     assert spec["gain_scale"] == 0.5
-    half = design_for_object(CAN, "toy_p", **spec)
-    full = design_for_object(CAN, "toy_p", **{**spec, "gain_scale": 1.0})
+    half = design_for_object(CAN, "toy_p", DesignSpec.from_mapping(spec))
+    full = design_for_object(CAN, "toy_p", DesignSpec.from_mapping({**spec, "gain_scale": 1.0}))
     ratio = half.core.designs[3].ki_per_s / full.core.designs[3].ki_per_s
     assert ratio == pytest.approx(0.5)
 
@@ -463,7 +457,7 @@ def test_an_undeclared_yaml_option_names_the_line_and_the_declared_options(toys,
 
 
 def test_an_estimator_option_reaches_the_fit_from_yaml(toys, tmp_path):
-    register_estimator("toy_mean_free", MeanForce, modes=("free_run",))
+    register_estimator("toy_mean_free", MeanForce, EstimatorKind(modes=("free_run",)))
     path = tmp_path / "opts.yaml"
     base = ("base:\n  kind: episode\n  seed: 4\n  protocol: {name: grasp_lift_hold, "
             "episode_s: 4.0, hold_s: 1.0}\n  controller: {kind: pid}\n"

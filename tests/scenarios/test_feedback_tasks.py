@@ -180,6 +180,7 @@ def slip_results(tmp_path_factory):
 
 
 @pytest.mark.slow
+@pytest.mark.verdict
 def test_slip_recovery_counts_ten_subjects(slip_results) -> None:
     for mode in ("none", "slip_vibration"):
         assert slip_results[mode]["n"] >= 5
@@ -190,6 +191,7 @@ def test_slip_recovery_counts_ten_subjects(slip_results) -> None:
                    "force-tracking hand follows and with contact chatter once the can slides, "
                    "not with how soon the slip is perceived: docs/results/person-in-the-loop.md, "
                    "'Slip recovery by feature window'")
+@pytest.mark.verdict
 def test_slip_vibration_recovers_at_least_95_percent_and_15_points_more(slip_results) -> None:
     vib, vision = slip_results["slip_vibration"], slip_results["none"]
     assert vib["recovered_rate"] >= 0.95
@@ -197,6 +199,7 @@ def test_slip_vibration_recovers_at_least_95_percent_and_15_points_more(slip_res
 
 
 @pytest.mark.slow
+@pytest.mark.verdict
 def test_eggs_success_rises_with_the_break_force_and_practised_users_still_break_some(
         tmp_path) -> None:
     eggs = "0.4,0.78,2.14,4.2,5.87,11.5"
@@ -215,6 +218,7 @@ def force_results(tmp_path_factory):
 
 
 @pytest.mark.slow
+@pytest.mark.verdict
 def test_force_vibration_lowers_the_absolute_error(force_results) -> None:
     vib, vision = (force_results[m]["targets"][0] for m in ("force_vibration", "none"))
     assert vib["abs_error_n"] < vision["abs_error_n"]
@@ -225,6 +229,7 @@ def test_force_vibration_lowers_the_absolute_error(force_results) -> None:
 @pytest.mark.xfail(strict=True, reason="the hand's CV includes the estimator's fluctuation: "
                    "docs/results/person-in-the-loop.md, 'Benchmarks that read like clinical "
                    "tests', force matching")
+@pytest.mark.verdict
 def test_force_matching_cv_at_the_middle_target_is_3_to_8_percent(force_results) -> None:
     assert 0.03 <= force_results["none"]["targets"][0]["cv"] <= 0.08
 

@@ -48,6 +48,7 @@ def test_contact_peak_ratio_and_outcome_closed_forms():
     assert outcome_of(lifted=True, dropped=False, crushed=False) == "held"
 
 
+@pytest.mark.verdict
 @pytest.mark.parametrize("kind", ["pid", "lead_lag", "mpc"])
 def test_library_with_the_oracle_is_held_without_a_slam(kind):
     subject = VirtualSubject.sample(0, 1)

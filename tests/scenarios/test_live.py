@@ -28,6 +28,7 @@ from scenarios.cli.main import main
 from scenarios.live.arm import LIFT_HEIGHT_M, OrientationChannels, PitchArm, virtual_arm_poses
 from scenarios.live.calibrate import cue_levels, cue_schedule
 from scenarios.live.display import render_states
+from scenarios.live.hooks import SessionHooks
 from scenarios.live.lsl import StreamQuery, local_host
 from scenarios.live.recorded import ReplaySpec, episode_on_recording, fit_calibration
 from scenarios.live.samples import SampleGuard
@@ -217,8 +218,8 @@ def test_a_gap_holds_the_grip_on_the_wall_clock_and_control_resumes(files, calib
     fs, now = rec.fs_hz, [0.0]
     events: list[tuple[float, str]] = []
     grasp = scripted_grasp(calibration, settings=SessionSettings(duration_s=SESSION_S),
-                           clock=lambda: now[0],
-                           event=lambda t, marker: events.append((t, marker)))
+                           hooks=SessionHooks(clock=lambda: now[0],
+                                              event=lambda t, marker: events.append((t, marker))))
     grasp.start()
     gap = (int(6.2 * fs), int(7.2 * fs))
     for i in range(rec.n_samples):

@@ -39,6 +39,7 @@ from scenarios.live.errors import (
     RemoteStreamError,
     StreamNotFoundError,
 )
+from scenarios.live.hooks import SessionHooks
 from scenarios.live.lsl import (
     StreamQuery,
     choose_stream,
@@ -251,7 +252,8 @@ def _run_core(files, calibration, arm, *, duration_s=8.0, imu_skip=(math.inf, ma
     fs, now = rec.fs_hz, [0.0]
     q = quaternion_of_pitch(rec.pitch_rad).astype(np.float32)
     grasp = LiveGrasp(calibration, CAN, arm=arm, controller=CONTROLLER,
-                      settings=SessionSettings(duration_s=duration_s), clock=lambda: now[0])
+                      settings=SessionSettings(duration_s=duration_s),
+                      hooks=SessionHooks(clock=lambda: now[0]))
     grasp.start()
     for i in range(rec.n_samples):
         for sub in (3, 2, 1):
@@ -358,7 +360,8 @@ def test_a_session_the_referee_ends_holds_the_grip_and_says_why(files, calibrati
     egg = make_object("egg")
     rec = load_recording(files["grasp"])
     grasp = LiveGrasp(calibration, egg, arm=_pitch_arm(), controller=CONTROLLER,
-                      settings=SessionSettings(duration_s=8.0), clock=lambda: 0.0)
+                      settings=SessionSettings(duration_s=8.0),
+                      hooks=SessionHooks(clock=lambda: 0.0))
     grasp.start()
     q = quaternion_of_pitch(rec.pitch_rad).astype(np.float32)
     for i in range(rec.n_samples):

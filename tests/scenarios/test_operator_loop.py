@@ -17,7 +17,7 @@ from portable import assert_close_across_paths, steps_with_equal_inputs
 from controllers.design_cache import grasp_design
 from scenarios.runners import episode as E
 from scenarios.runners import reference as R
-from scenarios.runners.calibration import calibrate
+from scenarios.runners.calibration import CalibrationSettings, calibrate
 from scenarios.runners.dispatch import UnsupportedScenarioError
 from scenarios.runners.trial import TrialSetup, run_trial
 from sim.hand.objects import make_object
@@ -37,7 +37,8 @@ class CausalScript(ScriptedOperator):
 def _both_paths(subject, obj, estimator, mode, seed):
     """The trial of a scripted user recorded ahead, and the same user's causal trial."""
     cal_seq, ep_seq, env_seq, op_seq = np.random.SeedSequence(seed).spawn(4)
-    cal = calibrate(subject, estimator, mode, rng=np.random.default_rng(cal_seq))
+    cal = calibrate(subject, CalibrationSettings(estimator, mode),
+                    rng=np.random.default_rng(cal_seq))
     setup = TrialSetup(subject, obj, cal, grasp_design(obj, "pid", DT, None), control_dt_s=DT)
     task = R.grasp_task(obj, hold_s=2.0, limit_s=6.0)
     return [run_trial(setup, operator, task, (ep_seq, env_seq, op_seq))

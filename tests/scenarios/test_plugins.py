@@ -15,7 +15,7 @@ import pytest
 
 from controllers.registry import controller_names, unregister_controller
 from scenarios.cli.main import main
-from scenarios.execution.sweep import DEFAULT_TASK, plan, run_sweep
+from scenarios.execution.sweep import DEFAULT_TASK, SweepExecution, plan, run_sweep
 from scenarios.plugins import PluginError, load_plugins
 from scenarios.runners.dispatch import scenario_kinds, unregister_kind
 from scenarios.schema import ScenarioError, expand_sweep, load_sweep
@@ -142,14 +142,16 @@ def test_a_sweep_files_plugins_register_in_the_driver_and_every_worker(plugin_di
     assert spec.plugins == ["my_kind_plugin"] and "my_where" in scenario_kinds()
     items = plan(expand_sweep(spec), DEFAULT_TASK)
     with ResultStore(plugin_dir / "local.sqlite") as store:  # forked workers
-        summary = run_sweep(items, store, workers=2, progress=False, plugins=spec.plugins)
+        summary = run_sweep(items, store, SweepExecution(workers=2, plugins=spec.plugins),
+                            progress=False)
         assert (summary.ok, summary.failed) == (3, 0)
     # dask workers are fresh interpreters: they load the plugin before their first scenario
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                       dashboard_address=":0") as cluster, \
             ResultStore(plugin_dir / "dask.sqlite") as store:
-        summary = run_sweep(items, store, scheduler=cluster.scheduler_address, progress=False,
-                            plugins=spec.plugins)
+        summary = run_sweep(items, store, SweepExecution(scheduler=cluster.scheduler_address,
+                                                         plugins=spec.plugins),
+                            progress=False)
         rows = store.rows()
         assert (summary.ok, summary.failed) == (3, 0), [r["error"] for r in rows]
         assert sorted(r["result"]["mass_kg"] for r in rows) == [0.2, 0.3, 0.4]

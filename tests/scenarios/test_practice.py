@@ -31,6 +31,24 @@ def _belief(seed: int = 3, **kw) -> ProsthesisBelief:
                               cal_seq=cal_seq, n_lifts=2, seed_seq=practice_seq, trial_s=15.0)
 
 
+def test_an_unwritable_cache_warns_once_and_the_user_still_practises(tmp_path, monkeypatch):
+    import warnings
+
+    from sim.cache import CacheNotWritableWarning
+
+    learnt = ProsthesisBelief.novice(OperatorParams())
+    practised = []
+    monkeypatch.setattr(P, "_practise", lambda *args: practised.append(args) or learnt)
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    monkeypatch.setenv("GRIPLOOP_CACHE_DIR", str(blocker))  # its "practice" cannot be made
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert _belief() is learnt and _belief(seed=4) is learnt
+    said = [w for w in caught if issubclass(w.category, CacheNotWritableWarning)]
+    assert len(said) == 1 and "practice" in str(said[0].message) and len(practised) == 2
+
+
 def test_practice_is_deterministic_cached_and_rebuilt_when_corrupt(tmp_path, monkeypatch):
     monkeypatch.setenv("GRIPLOOP_CACHE_DIR", "off")
     fresh = _belief()

@@ -92,13 +92,14 @@ def test_every_subject_draws_sessions_of_their_own() -> None:
     seeds = {session_seed(0, 0, sid) for sid in range(1, 11)}
     assert len(seeds) == 10 and session_seed(0, 0, 3) == session_seed(0, 0, 3)
     assert session_seed(0, 0, 3, 1) != session_seed(0, 0, 3) != session_seed(1, 0, 3)
-    out = compare_references(make_object("can"), estimators=["oracle"], subject_ids=[1, 2],
-                             sessions=2, episode_s=1.5, practice=0)
+    out = compare_references(make_object("can"), EpisodeSpec(episode_s=1.5, practice=0),
+                             estimators=["oracle"], subject_ids=[1, 2], sessions=2)
     assert len({r["seed"] for r in out["rows"]}) == 4
     assert out["summary"]["oracle"]["held_by_subject"] is not None
 
 
 @pytest.mark.slow
+@pytest.mark.verdict
 def test_practised_users_hold_rigid_everyday_objects() -> None:
     """At least 95 % held within a 15 s trial, every estimator whose real R2 is at least 0.8
     and every controller, on cans (0.2-1.0 kg, friction 0.3-1.0) and the block drawn at

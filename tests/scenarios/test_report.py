@@ -30,6 +30,7 @@ from controllers.analysis import loop_margins
 from controllers.bounds import slip_threshold_n
 from controllers.registry import design_controller
 from estimation.paper import TABLE2, TABLE2_SUMMARY
+from estimation.reproduce import ScoreSettings
 from scenarios.cli import main
 from scenarios.execution.sweep import plan, run_sweep
 from scenarios.outcomes import row_outcome
@@ -39,7 +40,7 @@ from scenarios.report import factors as FA
 from scenarios.report import loops as LP
 from scenarios.report import reproduction_data as RD
 from scenarios.report import summaries as SU
-from scenarios.runners.reproduction import run_reproduction
+from scenarios.runners.reproduction import ReproductionAnalyses, run_reproduction
 from scenarios.schema import Scenario, expand_sweep, load_sweep
 from scenarios.stats import wilson_interval
 from scenarios.store import Outcome, ResultStore, content_hash, encode_traces, package_version
@@ -185,7 +186,7 @@ def store_path(tmp_path_factory) -> Path:
 def reproduction_json(tmp_path_factory) -> Path:
     """The JSON of ``griploop reproduce --json`` for two subjects and three estimators."""
     result = run_reproduction(2, 0, estimators=("ss_kf", "features_mav", "persistence"),
-                              orders=(1, 2, 3, 4))
+                              analyses=ReproductionAnalyses(orders=(1, 2, 3, 4)))
     path = tmp_path_factory.mktemp("repro") / "repro.json"
     path.write_text(json.dumps(result))
     return path
@@ -737,7 +738,8 @@ def test_report_sets_virtual_next_to_real_and_says_the_reproduction_recommendati
     import html
 
     result = run_reproduction(2, 0, estimators=("ridge", "features_mav", "features_wl",
-                                                "ss_kf"), orders=(4,), channels="all")
+                                                "ss_kf"), settings=ScoreSettings(channels=None),
+                              analyses=ReproductionAnalyses(orders=(4,)))
     path = tmp_path / "all.json"
     path.write_text(json.dumps(result))
     out = build_report(store_path, tmp_path / "report", reproduction=path, created=CREATED)

@@ -6,7 +6,7 @@ import csv
 
 import pytest
 
-from scenarios.execution.sweep import plan, run_sweep
+from scenarios.execution.sweep import SweepExecution, plan, run_sweep
 from scenarios.export import export_store
 from scenarios.outcomes import OUTCOMES
 from scenarios.rows import (
@@ -76,7 +76,7 @@ def test_the_export_orders_result_columns_by_the_row_type(tmp_path):
                                  "estimator": {"name": "ridge"}},
                         "grid": {"subject.subject_id": [1, 2]}})
     with ResultStore(tmp_path / "r.sqlite") as store:
-        run_sweep(plan(expand_sweep(spec)), store, workers=1, progress=False)
+        run_sweep(plan(expand_sweep(spec)), store, SweepExecution(workers=1), progress=False)
         (path,) = export_store(store, tmp_path / "table", ["csv"])
     with path.open() as f:
         header = next(csv.reader(f))

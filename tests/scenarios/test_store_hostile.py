@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from test_cli_sweep import run_main, write
 
-from scenarios.execution.sweep import plan, run_sweep
+from scenarios.execution.sweep import SweepExecution, plan, run_sweep
 from scenarios.schema import expand_sweep, parse_sweep
 from scenarios.store import ResultStore, StoreError
 
@@ -28,7 +28,7 @@ def planned(n: int = 6):
 
 def make_store(path: Path, n: int = 6) -> Path:
     with ResultStore(path) as store:
-        run_sweep(planned(n), store, task="tasks:seeded", progress=False, sweep_name="s")
+        run_sweep(planned(n), store, SweepExecution("tasks:seeded"), progress=False, sweep_name="s")
     return path
 
 
@@ -82,7 +82,7 @@ def test_disk_full_is_one_store_error_and_keeps_finished_rows(tmp_path):
         (pages,) = store._conn.execute("PRAGMA page_count").fetchone()
         store._conn.execute(f"PRAGMA max_page_count = {pages + 3}")  # as a full disk does
         with pytest.raises(StoreError) as info:
-            run_sweep(items, store, task="tasks:seeded", progress=False, sweep_name="s")
+            run_sweep(items, store, SweepExecution("tasks:seeded"), progress=False, sweep_name="s")
     message = str(info.value)
     assert message.startswith(f"{db}: cannot ") and "full" in message and "\n" not in message
     with ResultStore(db, read_only=True) as store:
@@ -122,7 +122,7 @@ def read_only_dir(tmp_path):
                         "grid": {"object.mass_kg": [1.1, 1.2, 1.3, 1.4, 1.5, 1.6]}})
     with ResultStore(source) as store:  # failed rows: the report needs no episode fields
         run_sweep(plan(expand_sweep(spec), "tasks:heavy_fails"), store,
-                  task="tasks:heavy_fails", progress=False, sweep_name="s")
+                  SweepExecution("tasks:heavy_fails"), progress=False, sweep_name="s")
     media = tmp_path / "media"
     if _mount(media, "size=4m"):
         shutil.copy(source, media / "r.sqlite")

@@ -13,6 +13,7 @@ from scenarios.execution.sweep import (
     DEFAULT_TASK,
     Progress,
     SweepError,
+    SweepExecution,
     execute,
     pending,
     plan,
@@ -97,7 +98,8 @@ def test_execute_turns_an_exception_into_a_failed_outcome():
 def test_in_process_sweep_matches_an_independent_recomputation(tmp_path):
     items = planned()
     with ResultStore(tmp_path / "r.sqlite") as store:
-        summary = run_sweep(items, store, task="tasks:seeded", progress=False, sweep_name="s")
+        summary = run_sweep(items, store, SweepExecution("tasks:seeded"), progress=False,
+                            sweep_name="s")
         rows = by_hash(store)
         traces = store.traces(items[0].hash)
     assert (summary.total, summary.skipped, summary.ok, summary.failed) == (6, 0, 6, 0)
@@ -117,7 +119,7 @@ def test_in_process_sweep_matches_an_independent_recomputation(tmp_path):
 def test_failures_become_rows_and_the_sweep_goes_on(tmp_path):
     items = planned("tasks:heavy_fails")
     with ResultStore(tmp_path / "r.sqlite") as store:
-        summary = run_sweep(items, store, task="tasks:heavy_fails", progress=False)
+        summary = run_sweep(items, store, SweepExecution("tasks:heavy_fails"), progress=False)
         failed = store.rows(status="failed")
     assert (summary.ok, summary.failed) == (4, 2)
     assert {r["config"]["object"]["mass_kg"] for r in failed} == {1.5}
@@ -128,7 +130,7 @@ def test_failures_become_rows_and_the_sweep_goes_on(tmp_path):
 def test_invalid_result_row_is_a_failed_row(tmp_path):
     items = planned("tasks:returns_array", masses=(0.2,), kinds=("pid",))
     with ResultStore(tmp_path / "r.sqlite") as store:
-        run_sweep(items, store, task="tasks:returns_array", progress=False)
+        run_sweep(items, store, SweepExecution("tasks:returns_array"), progress=False)
         (row,) = store.rows()
     assert row["status"] == "failed" and row["error"].startswith("TypeError: result 'force_n'")
 
@@ -136,15 +138,15 @@ def test_invalid_result_row_is_a_failed_row(tmp_path):
 def test_rerun_skips_finished_rows_and_retry_reruns_failed(tmp_path):
     items = planned("tasks:heavy_fails")
     with ResultStore(tmp_path / "r.sqlite") as store:
-        first = run_sweep(items[:3], store, task="tasks:heavy_fails", progress=False)
+        first = run_sweep(items[:3], store, SweepExecution("tasks:heavy_fails"), progress=False)
         before = {r["hash"]: r["finished_at"] for r in store.rows()}
-        second = run_sweep(items, store, task="tasks:heavy_fails", progress=False)
+        second = run_sweep(items, store, SweepExecution("tasks:heavy_fails"), progress=False)
         after = by_hash(store)
         assert pending(items, store) == []
         assert [p.hash for p in pending(items, store, retry_failed=True)] == [
             p.hash for p in items if p.scenario.object.mass_kg == 1.5
         ]
-        third = run_sweep(items, store, task="tasks:heavy_fails", progress=False,
+        third = run_sweep(items, store, SweepExecution("tasks:heavy_fails"), progress=False,
                           retry_failed=True)
         attempts = {r["hash"]: r["attempts"] for r in store.rows()}
     assert first.ok + first.failed == 3
@@ -250,7 +252,7 @@ def test_reproduction_refuses_what_it_cannot_honour():
 def test_workers_must_be_positive(tmp_path):
     with ResultStore(tmp_path / "r.sqlite") as store:
         with pytest.raises(SweepError, match="workers must be >= 1"):
-            run_sweep(planned(), store, task="tasks:seeded", workers=0)
+            run_sweep(planned(), store, SweepExecution("tasks:seeded", workers=0))
 
 
 # ------------------------------------------------------------------ progress
@@ -302,8 +304,8 @@ def test_dask_results_equal_in_process_results(tmp_path):
         runs["scheduler"] = {"scheduler": cluster.scheduler_address}
         for name, options in runs.items():
             with ResultStore(tmp_path / f"{name}.sqlite") as store:
-                summary = run_sweep(items, store, task=tasks.heavy_fails, progress=False,
-                                    **options)
+                summary = run_sweep(items, store, SweepExecution(tasks.heavy_fails, **options),
+                                    progress=False)
                 assert (summary.ok, summary.failed) == (6, 2)
                 rows = by_hash(store)
                 results[name] = {
@@ -331,7 +333,7 @@ def test_dask_results_equal_in_process_results(tmp_path):
 def test_bad_scheduler_address_is_a_sweep_error(tmp_path):
     with ResultStore(tmp_path / "r.sqlite") as store:
         with pytest.raises(SweepError, match="cannot connect to dask scheduler nonsense"):
-            run_sweep(planned(), store, task="tasks:seeded", scheduler="nonsense",
+            run_sweep(planned(), store, SweepExecution("tasks:seeded", scheduler="nonsense"),
                       progress=False)
 
 
@@ -342,7 +344,8 @@ def test_local_workers_keep_their_object_and_share_the_work(tmp_path):
     """Two forked workers: every scenario once, each object's scenarios mostly on one worker."""
     items = planned("tasks:sleepy", masses=(0.1, 0.3, 0.5, 0.7), kinds=("pid", "lead_lag", "mpc"))
     with ResultStore(tmp_path / "r.sqlite") as store:
-        summary = run_sweep(items, store, task="tasks:sleepy", workers=2, progress=False)
+        summary = run_sweep(items, store, SweepExecution("tasks:sleepy", workers=2),
+                            progress=False)
         rows = by_hash(store)
     assert (summary.ok, summary.failed) == (12, 0) and rows.keys() == {p.hash for p in items}
     workers = {}

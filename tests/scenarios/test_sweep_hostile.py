@@ -14,7 +14,7 @@ import pytest
 import tasks
 from test_cli_sweep import cli_env, run_main, write
 
-from scenarios.execution.sweep import plan, run_sweep
+from scenarios.execution.sweep import SweepExecution, plan, run_sweep
 from scenarios.schema import expand_sweep, parse_sweep
 from scenarios.store import ResultStore
 
@@ -36,8 +36,9 @@ def test_scenario_past_its_time_limit_is_a_timeout_row(tmp_path, workers):
     items = planned("tasks:sleeps_past_limit")
     t0 = time.perf_counter()
     with ResultStore(tmp_path / "r.sqlite") as store:
-        summary = run_sweep(items, store, task="tasks:sleeps_past_limit", workers=workers,
-                            progress=False, time_limit_s=1.0)
+        summary = run_sweep(items, store, SweepExecution("tasks:sleeps_past_limit",
+                                                         workers=workers, time_limit_s=1.0),
+                            progress=False)
         rows = {r["hash"]: r for r in store.rows()}
     assert time.perf_counter() - t0 < 30
     assert (summary.ok, summary.failed) == (4, 2)
@@ -66,8 +67,9 @@ def test_timeout_stops_the_processes_the_scenario_started(tmp_path, monkeypatch)
     monkeypatch.setenv("GRIPLOOP_TEST_RUNS", str(runs))
     items = planned("tasks:spawns_then_hangs", masses=(0.2,), kinds=("pid",))
     with ResultStore(tmp_path / "r.sqlite") as store:
-        summary = run_sweep(items, store, task="tasks:spawns_then_hangs", progress=False,
-                            time_limit_s=1.0)
+        summary = run_sweep(items, store,
+                            SweepExecution("tasks:spawns_then_hangs", time_limit_s=1.0),
+                            progress=False)
     assert (summary.ok, summary.failed) == (0, 1)
     (pid,) = (int(s) for s in runs.read_text().split())
     deadline = time.monotonic() + 10
@@ -82,9 +84,9 @@ def test_timeout_stops_the_processes_the_scenario_started(tmp_path, monkeypatch)
 def test_scenario_that_kills_its_process_is_failed_and_not_retried_forever(tmp_path):
     items = planned("tasks:kills_itself")
     with ResultStore(tmp_path / "r.sqlite") as store:
-        first = run_sweep(items, store, task="tasks:kills_itself", progress=False)
+        first = run_sweep(items, store, SweepExecution("tasks:kills_itself"), progress=False)
         failed = store.rows(status="failed")
-        again = run_sweep(items, store, task="tasks:kills_itself", progress=False)
+        again = run_sweep(items, store, SweepExecution("tasks:kills_itself"), progress=False)
     assert (first.ok, first.failed) == (4, 2)
     assert all(r["error"].startswith("killed: the scenario killed its process twice") and
                "SIGKILL" in r["error"] for r in failed)
@@ -99,7 +101,7 @@ def test_scenario_whose_driver_died_twice_is_failed_on_the_next_resume(tmp_path)
         # two drivers died while running it: each left its claim behind
         assert store.claim(p.hash, f"{host}:{_dead_pid()}:a", 3600) == "run"
         assert store.claim(p.hash, f"{host}:{_dead_pid()}:b", 3600) == "run"
-        summary = run_sweep(items, store, task="tasks:seeded", progress=False)
+        summary = run_sweep(items, store, SweepExecution("tasks:seeded"), progress=False)
         (row,) = store.rows()
     assert (summary.ok, summary.failed) == (0, 1)
     assert row["error"].startswith("killed: its driver process died twice")

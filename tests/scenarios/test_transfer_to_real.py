@@ -25,7 +25,8 @@ from estimation.real_recordings import (
     SIM_TRAINED,
     real_inner_outer,
 )
-from scenarios.runners.reproduction import run_reproduction
+from estimation.reproduce import ScoreSettings
+from scenarios.runners.reproduction import ReproductionAnalyses, run_reproduction
 from sim.user.difficulty import recording_difficulty
 from sim.user.subjects import make_population
 
@@ -33,13 +34,13 @@ ESTIMATORS = (*FREE_RUN_MEAN, "adaptive_mlp")
 # the module's reproduction (10 subjects, every channel, the inner splits, 10 more subjects
 # out of population) takes two to three minutes: it starts first on a parallel run
 # (tests/conftest.py)
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.verdict]
 
 
 @pytest.fixture(scope="module")
 def result():
-    return run_reproduction(10, 0, channels="all", estimators=ESTIMATORS, orders=(4,),
-                            inner=True)
+    return run_reproduction(10, 0, estimators=ESTIMATORS, settings=ScoreSettings(channels=None),
+                            analyses=ReproductionAnalyses(orders=(4,), inner=True))
 
 
 def _row(result, name):

@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 
 from controllers.design_cache import grasp_design
-from scenarios.runners.trial_loop import GivenReference, TrialLoop, given_reference_trial
+from scenarios.runners.trial_loop import (
+    GivenReference,
+    TrialHooks,
+    TrialLoop,
+    TrialTiming,
+    given_reference_trial,
+)
 from sim.hand.objects import make_object
 from sim.hand.wrist import LIFT_HEIGHT_M
 from sim.user.operator import WristMove
@@ -31,9 +37,9 @@ class Script:
         return float(self.reference_n[k]), self.moves.get(k)
 
 
-def _loop(person, limit_s, obj=CAN, **kw) -> TrialLoop:
-    loop = TrialLoop(obj, grasp_design(obj, "pid", DT, None), person, limit_s=limit_s,
-                     control_dt_s=DT, lift_height_m=LIFT_HEIGHT_M, seed=0, **kw)
+def _loop(person, limit_s, obj=CAN, **hooks) -> TrialLoop:
+    loop = TrialLoop(obj, grasp_design(obj, "pid", DT, None), person, TrialTiming(limit_s, DT),
+                     lift_height_m=LIFT_HEIGHT_M, seed=0, hooks=TrialHooks(**hooks))
     loop.run()
     return loop
 

@@ -14,7 +14,7 @@ import pytest
 from portable import assert_close_across_paths, assert_rounded_close_across_paths
 
 from sim.user.causal import CausalSession, NotCausalError
-from sim.user.intent import grasp_lift_hold, paper_protocol
+from sim.user.intent import GraspLiftTiming, grasp_lift_hold, paper_protocol
 from sim.user.muscles import CausalActivation, CausalDelay, activation_dynamics, fractional_delay
 from sim.user.subjects import VirtualSubject, make_population
 
@@ -36,7 +36,8 @@ def _chunks(n: int, rng: np.random.Generator, largest: int = 40):
 ])
 def test_chunked_session_equals_record(subject_id, scenario) -> None:
     subject = VirtualSubject.sample(0, subject_id).with_scenario(**scenario)
-    profile = grasp_lift_hold(np.random.default_rng(5), hold_level=0.45, hold_s=5.0)
+    profile = grasp_lift_hold(np.random.default_rng(5), hold_level=0.45,
+                              timing=GraspLiftTiming(hold_s=5.0))
     recording = subject.record(profile, rng=np.random.default_rng(9))
     session = CausalSession(subject, profile.n_samples, rng=np.random.default_rng(9))
     rng = np.random.default_rng(subject_id)

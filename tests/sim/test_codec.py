@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from controllers.approach import ContactGate
+from controllers.base import Implementation
 from controllers.pid import PID
 from sim.codec import CodecError, StoredSystem, decode, encode, state_space_matrices
 from sim.hand.objects import make_object
@@ -92,7 +93,8 @@ def test_a_stored_system_with_shapes_that_do_not_agree_is_refused():
 
 
 def test_griploop_objects_and_their_bound_methods_come_back_working():
-    pid = PID(kp=0.02, ki_per_s=0.5, kd_s=0.0, dt_s=0.01, derivative_filter_s=0.02)
+    pid = PID(kp=0.02, ki_per_s=0.5, kd_s=0.0, derivative_filter_s=0.02,
+              implementation=Implementation(dt_s=0.01))
     gate = ContactGate(pid, closing_command=0.2, feedforward=pid.act, dt_s=0.01)
     gate2 = _round_trip(gate)
     assert type(gate2) is ContactGate and gate2.controller is not pid

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from sim.hand.errors import HandSpecError
-from sim.hand.grasp_env import GraspEnv
+from sim.hand.grasp_env import GraspEnv, GraspTask
 from sim.hand.wrist import CommandedWrist, min_jerk
 
 
@@ -34,7 +34,8 @@ def test_impossible_moves_are_refused(height, duration, match) -> None:
 
 
 def test_the_env_lifts_the_held_object_only_when_told() -> None:
-    env = GraspEnv("can", 8.0, wrist="commanded", terminate_on_drop=False, episode_s=4.0)
+    env = GraspEnv("can", 8.0, wrist="commanded",
+                   task=GraspTask(episode_s=4.0, terminate_on_drop=False))
     with pytest.raises(HandSpecError, match="wrist="):
         GraspEnv("can", 8.0).move_wrist(0.05, 0.5)
     _, info = env.reset(seed=0)

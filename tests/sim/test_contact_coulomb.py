@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim.hand.grasp_env import GraspEnv, WristSchedule
+from sim.hand.grasp_env import GraspEnv, GraspTask, WristSchedule
 from sim.hand.model import build_pinch_model
 from sim.hand.objects import make_object
 
@@ -65,7 +65,8 @@ def test_pinch_slips_20_percent_below_threshold(name: str) -> None:
 
 
 def _held_env(obj):
-    env = GraspEnv(obj, 0.0, schedule=WristSchedule(lift_after_s=np.inf), episode_s=100.0)
+    env = GraspEnv(obj, 0.0, wrist=WristSchedule(lift_after_s=np.inf),
+                   task=GraspTask(episode_s=100.0))
     env.reset(seed=0)
     threshold_n = obj.mass_kg * G / (2 * obj.friction)
     u_hold = env.steady_grasp(1.2 * threshold_n, lifted=True)

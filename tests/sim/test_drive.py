@@ -17,7 +17,7 @@ from sim.hand.drive import (
     make_drive,
     motor_for,
 )
-from sim.hand.grasp_env import GraspEnv, WristSchedule
+from sim.hand.grasp_env import GraspEnv, GraspTask, HandSpec, WristSchedule
 from sim.hand.model import MotorSpec
 
 FULLY_OPEN_RAD, FULLY_CLOSED_RAD = -0.35, 1.3
@@ -52,8 +52,8 @@ def test_unknown_drives_are_refused_listing_the_known_ones() -> None:
 
 
 def _env(drive: str, lift_after_s: float = np.inf) -> GraspEnv:
-    env = GraspEnv("can", 0.0, episode_s=60.0, drive=drive,
-                   schedule=WristSchedule(lift_after_s=lift_after_s))
+    env = GraspEnv("can", 0.0, wrist=WristSchedule(lift_after_s=lift_after_s),
+                   hand=HandSpec(drive=drive), task=GraspTask(episode_s=60.0))
     env.reset(seed=0)
     return env
 

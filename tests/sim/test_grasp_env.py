@@ -11,7 +11,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import sim  # noqa: E402, F401  (registers the environment)
-from sim.hand.grasp_env import GraspEnv, WristSchedule
+from sim.hand.grasp_env import GraspEnv, GraspTask, HandSpec, WristSchedule
 from sim.recording import Recording
 from sim.references import ReferenceSignalError, StreamReference
 
@@ -94,15 +94,16 @@ def test_spaces_and_observation_names() -> None:
 
 
 def test_same_seed_same_trajectory_different_seed_differs() -> None:
-    a = _run(GraspEnv("ball", 10.0, position_jitter_m=0.004), seed=7)
-    b = _run(GraspEnv("ball", 10.0, position_jitter_m=0.004), seed=7)
-    c = _run(GraspEnv("ball", 10.0, position_jitter_m=0.004), seed=8)
+    jitter = GraspTask(position_jitter_m=0.004)
+    a = _run(GraspEnv("ball", 10.0, task=jitter), seed=7)
+    b = _run(GraspEnv("ball", 10.0, task=jitter), seed=7)
+    c = _run(GraspEnv("ball", 10.0, task=jitter), seed=8)
     assert np.array_equal(a, b)
     assert not np.array_equal(a, c)
 
 
 def test_grasp_lift_hold_tracks_reference_and_lifts() -> None:
-    env = GraspEnv("can", 15.0, episode_s=2.5)
+    env = GraspEnv("can", 15.0, task=GraspTask(episode_s=2.5))
     obs, _ = env.reset(seed=0)
     infos = []
     terminated = truncated = False
@@ -142,7 +143,7 @@ def test_crushing_the_egg_terminates_with_penalty() -> None:
 
 
 def test_weak_grip_drops_the_can_after_lift() -> None:
-    env = GraspEnv("can", 1.0, schedule=WristSchedule(lift_after_s=0.6))
+    env = GraspEnv("can", 1.0, wrist=WristSchedule(lift_after_s=0.6))
     env.reset(seed=0)
     for k in range(300):
         u = 0.3 if k < 50 else 0.03  # close, then hold ~2.6 N < m g / (2 mu) = 3.8 N
@@ -201,7 +202,7 @@ def test_constructor_validates() -> None:
     with pytest.raises(ValueError, match="control_dt_s"):
         GraspEnv(control_dt_s=0.003)
     with pytest.raises(ValueError, match="physics_dt_s"):
-        GraspEnv(physics_dt_s=0.005)
+        GraspEnv(hand=HandSpec(physics_dt_s=0.005))
 
 
 def test_reference_inputs_are_validated_at_the_boundary() -> None:
@@ -239,7 +240,7 @@ def test_wrist_schedule_closed_forms() -> None:
 def test_shaking_a_well_held_can_keeps_it() -> None:
     sch = WristSchedule(lift_after_s=0.6, shake_amplitude_m=0.01, shake_frequency_hz=3.0,
                         shake_delay_s=0.1, shake_duration_s=0.6)
-    env = GraspEnv("can", 30.0, schedule=sch, episode_s=2.5)
+    env = GraspEnv("can", 30.0, wrist=sch, task=GraspTask(episode_s=2.5))
     obs, _ = env.reset(seed=0)
     heights = []
     truncated = terminated = False

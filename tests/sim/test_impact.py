@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from sim.hand.contact import FirstContact, first_contact_peak, read_contacts
-from sim.hand.grasp_env import GraspEnv
+from sim.hand.grasp_env import GraspEnv, GraspTask, HandSpec
 from sim.hand.model import MotorSpec, PadSpec, build_model
 from sim.hand.objects import make_object
 
@@ -23,8 +23,10 @@ SEEDS = (0, 1, 2, 3)
 JITTER_M = 0.003
 
 
-def _close(name: str, command: float, seed: int = 0, **env_kwargs) -> FirstContact:
-    env = GraspEnv(name, 0.0, position_jitter_m=JITTER_M if seed else 0.0, **env_kwargs)
+def _close(name: str, command: float, seed: int = 0, hand: HandSpec | None = None
+           ) -> FirstContact:
+    task = GraspTask(position_jitter_m=JITTER_M if seed else 0.0)
+    env = GraspEnv(name, 0.0, hand=hand, task=task)
     env.reset(seed=seed)
     return first_contact_peak(env.model, env.data, env.ids, command)
 
@@ -75,8 +77,8 @@ def test_rigid_pads_and_heavy_rotor_reproduce_the_old_impact() -> None:
     # The mechanism: with (almost) no pad travel and the former 4e-7 kg m^2 rotor,
     # the reflected inertia stops against a stiff contact and the gentle close
     # hits the egg with about ten times the force.
-    old = _close("egg", 0.1, motor=MotorSpec(rotor_inertia_kg_m2=4e-7),
-                 pads=PadSpec(travel_m=1e-5))
+    old = _close("egg", 0.1, hand=HandSpec(motor=MotorSpec(rotor_inertia_kg_m2=4e-7),
+                                          pads=PadSpec(travel_m=1e-5)))
     new = _close("egg", 0.1)
     assert old.peak_force_n > 5.0 * new.peak_force_n
     assert old.overshoot > 1.2

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from sim.hand.contact import read_contacts
-from sim.hand.grasp_env import G_M_S2, GraspEnv, WristSchedule
+from sim.hand.grasp_env import G_M_S2, GraspEnv, GraspTask, WristSchedule
 from sim.hand.objects import make_object
 
 LIFT = WristSchedule(lift_after_s=0.0)
@@ -27,7 +27,7 @@ MIN_JERK_PEAK_M_S2 = 10.0 / math.sqrt(3.0) * LIFT.lift_height_m / LIFT.lift_dura
 def _held_lift(name: str, grip_n: float, seed: int = 0, hold_s: float = 0.6) -> dict:
     """Settle a grasp at ``grip_n`` on the table, then lift it at that constant command."""
     obj = make_object(name)
-    env = GraspEnv(obj, grip_n, schedule=LIFT, episode_s=100.0)
+    env = GraspEnv(obj, grip_n, wrist=LIFT, task=GraspTask(episode_s=100.0))
     env.reset(seed=seed)
     u = env.steady_grasp(grip_n)
     start_height_m = env.data.sensordata[env.ids.sens_object_pos + 2]
@@ -83,8 +83,8 @@ def test_load_in_the_air_is_weight_plus_min_jerk_inertia(name: str, grip_n: floa
 
 
 def test_step_equals_a_plain_loop_sampling_the_wrist_path_every_substep() -> None:
-    env_a = GraspEnv("egg", 2.0, schedule=LIFT)
-    env_b = GraspEnv("egg", 2.0, schedule=LIFT)
+    env_a = GraspEnv("egg", 2.0, wrist=LIFT)
+    env_b = GraspEnv("egg", 2.0, wrist=LIFT)
     for env in (env_a, env_b):
         env.reset(seed=3)
     u = env_a.steady_grasp(2.0)

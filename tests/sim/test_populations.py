@@ -8,7 +8,6 @@ import pytest
 from sim.user.populations import (
     WIDE,
     UnknownPopulationError,
-    population,
     population_description,
     population_names,
 )
@@ -24,7 +23,7 @@ def test_variants_keep_the_default_draws_and_change_only_their_own():
             assert (a.mvc_n, a.fsr, a.muscles.anatomy_seed) == (b.mvc_n, b.fsr,
                                                                  b.muscles.anatomy_seed)
             assert a.muscles.emd_s == b.muscles.emd_s
-    assert make_population(6, 3, variant="wide") == population(6, 3, "wide")  # reproducible
+    assert make_population(6, 3, variant="wide") == make_population(6, 3, variant="wide")
 
 
 def test_wide_draws_placement_co_contraction_and_rounds_from_wider_ranges():
@@ -50,4 +49,4 @@ def test_unknown_variant_and_bad_size_are_named():
     with pytest.raises(UnknownPopulationError, match="wide"):
         make_population(3, 0, variant="no-such")
     with pytest.raises(ValueError, match="at least 1"):
-        population(0, 0, "wide")
+        make_population(0, 0, variant="wide")

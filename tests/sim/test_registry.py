@@ -47,3 +47,27 @@ def test_the_main_families_declare_their_capabilities():
     assert estimator_info("ss_kf").paper and "one_step" in estimator_info("ss_kf").modes
     assert isinstance(kind_info("episode"), ScenarioKind)
     assert "grasp_lift_hold" in kind_info("episode").protocols
+
+
+def test_a_registry_makes_its_modules_unregister_and_names_functions():
+    import pickle
+
+    from sim.user import generators
+
+    tools = Registry("tool", capabilities=Tool)
+    unregister_tool, tool_names = tools.functions(__name__, "tool")
+    assert (unregister_tool.__name__, tool_names.__name__) == ("unregister_tool", "tool_names")
+    assert tool_names.__module__ == __name__ and "tool" in tool_names.__doc__
+    tools.register("knife", object(), sharp=True)
+    tools.register_record("saw", object(), Tool(sharp=True, sizes=(3,)))
+    assert tool_names() == ("knife", "saw") and tools.info("saw").sizes == (3,)
+    unregister_tool("knife")
+    unregister_tool("knife")  # no effect when absent
+    assert tool_names() == ("saw",)
+    with pytest.raises(RegistrationError, match="expected Tool, found dict"):
+        tools.register_record("axe", object(), {"sharp": True})  # type: ignore[arg-type]
+    with pytest.raises(RegistrationError, match="already registered"):
+        tools.register_record("saw", object(), Tool(sharp=False))
+    # the module's public functions are plain functions of that module
+    assert generators.generator_names.__module__ == "sim.user.generators"
+    assert pickle.loads(pickle.dumps(generators.generator_names)) is generators.generator_names

@@ -52,7 +52,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``griploop calibrate``; returns the exit status."""
     from scenarios.live import lsl
-    from scenarios.live.calibrate import cue_schedule, record_calibration
+    from scenarios.live.calibrate import CalibrationStreams, cue_schedule, record_calibration
 
     if args.out.suffix not in (".npz", ".csv"):
         raise UsageError(f"--out: expected a .npz or .csv file, found {args.out.name!r}")
@@ -117,14 +117,15 @@ def run(args: argparse.Namespace) -> int:
     # inlet's buffer)
     force_inlet = lsl.open_inlet(force_info) if force_info is not None else None
     inlet = lsl.open_inlet(info)
-    recording = record_calibration(
-        inlet, force_inlet, cues=cues, duration_s=duration_s,
-        say=lambda line: print(line, flush=True), mvc_n=args.mvc_n, timeout_s=args.timeout_s,
-        source=str(args.out), stream_name=info.name(),
+    streams = CalibrationStreams(
+        inlet, force_inlet, stream_name=info.name(),
         force_name=None if force_info is None else force_info.name(),
         imu_inlet=imu_inlet, imu_channels=channels,
         imu_name=None if imu_info is None else imu_info.name(),
         stream_identity=lsl.identity(info))
+    recording = record_calibration(
+        streams, cues=cues, duration_s=duration_s, say=lambda line: print(line, flush=True),
+        mvc_n=args.mvc_n, timeout_s=args.timeout_s, source=str(args.out))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     recording.save(args.out)
     poses = recording.metadata.get("arm_poses")

@@ -19,6 +19,7 @@ from scenarios.cli.choices import (
 )
 from scenarios.cli.errors import UnknownChoiceError, UsageError
 from scenarios.runners.compare import DEFAULT_REFERENCES, compare_references, format_comparison
+from scenarios.runners.episode import EpisodeSpec
 from scenarios.runners.trial_loop import HandSettings
 
 
@@ -76,10 +77,11 @@ def run(args: argparse.Namespace) -> int:
     check_hand_options(paradigms, args.drive)
     obj = object_for(args.object, mass_kg=args.mass_kg, friction=args.friction)
     by_paradigm = {p: compare_references(
-        obj, estimators=names, mode=args.mode, controller=args.controller,
-        subject_ids=range(1, args.subjects + 1), seed=args.seed, sessions=args.sessions,
-        user=args.user, feedback=args.feedback, practice=args.practice,
-        hand=HandSettings(args.drive, p, args.auto_grip)) for p in paradigms}
+        obj, EpisodeSpec(mode=args.mode, controller=args.controller, user=args.user,
+                         feedback=args.feedback, practice=args.practice,
+                         hand=HandSettings(args.drive, p, args.auto_grip)),
+        estimators=names, subject_ids=range(1, args.subjects + 1), seed=args.seed,
+        sessions=args.sessions) for p in paradigms}
     result = dict(by_paradigm[paradigms[0]])
     if len(paradigms) > 1:
         result["by_paradigm"] = by_paradigm

@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     """Run ``griploop export-c``; returns the exit status."""
     from estimation.reproduce import parse_channels
     from scenarios.cli.choices import check_choice
-    from scenarios.deploy.session import export_session
+    from scenarios.deploy.session import ExportSpec, export_session
     from scenarios.runners.trial_loop import HandSettings
 
     if (args.controller is None) != (args.object is None):
@@ -80,11 +80,11 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--channels: {exc}") from None
     calibration = load_with_options(args.calibration, args)
     check = None if args.check is None else load_with_options(args.check, args)
-    export, report = export_session(calibration, args.estimator, args.out, channels=channels,
-                                    mode=args.mode, controller=args.controller,
-                                    object_name=args.object, check_recording=check,
-                                    target=args.target, seed=args.seed,
-                                    hand=HandSettings(args.drive, args.paradigm, args.auto_grip))
+    spec = ExportSpec(args.estimator, channels, mode=args.mode, controller=args.controller,
+                      object_name=args.object, seed=args.seed,
+                      hand=HandSettings(args.drive, args.paradigm, args.auto_grip))
+    export, report = export_session(calibration, spec, args.out, check_recording=check,
+                                    target=args.target)
     print(f"export-c: {len(export.files)} files in {args.out}")
     for name, part in report["models"].items():
         if part is not None:

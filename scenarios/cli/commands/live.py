@@ -177,6 +177,7 @@ def run(args: argparse.Namespace) -> int:
     from estimation.reproduce import parse_channels
     from scenarios.live import lsl
     from scenarios.live.display import FRAME_DT_S, Viewer, has_display, render_states
+    from scenarios.live.hooks import SessionHooks
     from scenarios.live.inlets import run_session
     from scenarios.live.recorded import fit_calibration
     from scenarios.live.session import LiveGrasp, SessionSettings
@@ -204,7 +205,8 @@ def run(args: argparse.Namespace) -> int:
 
     settings = SessionSettings(duration_s=args.duration_s, timeout_s=args.timeout_s,
                                frame_dt_s=FRAME_DT_S if video is not None else None,
-                               hand=HandSettings(args.drive, args.paradigm, args.auto_grip))
+                               hand=HandSettings(args.drive, args.paradigm, args.auto_grip),
+                               feedback=args.feedback)
     wanted = [(query, "lsl", "stream")]
     if args.imu_lsl is not None:
         wanted.append((stream_query(args, "imu"), "imu", "IMU stream"))
@@ -227,7 +229,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"live: {line}", flush=True)
 
     grasp = LiveGrasp(cal, obj, arm=arm, controller=args.controller, settings=settings,
-                      publish=publish, event=event, notify=notify, feedback=args.feedback)
+                      hooks=SessionHooks(publish, event, notify))
     watches = [("emg", lsl.SourceWatch(info))]
     if imu_info is not None:
         watches.append(("imu", lsl.SourceWatch(imu_info)))
@@ -245,12 +247,12 @@ def run(args: argparse.Namespace) -> int:
     try:
         run_session(grasp, lambda: lsl.open_inlet(info), imu=imu_inlet, watches=watches)
     except KeyboardInterrupt:
-        _finish(args, grasp, info, imu_info, cal, obj, outlets, None, lsl)
+        _finish(args, grasp, info, imu_info, outlets, lsl)
         raise
     finally:
         if viewer is not None:
             viewer.close()
-    report = _finish(args, grasp, info, imu_info, cal, obj, outlets, video, lsl)
+    report = _finish(args, grasp, info, imu_info, outlets, lsl)
     if video is not None and grasp.frames:
         render_states(obj, grasp.frames, video)
         print(f"wrote {video}")
@@ -283,9 +285,11 @@ def _arm(args: argparse.Namespace, imu_info: Any, cal_recording: Any,
                        "down" + ("" if sys.stdin.isatty() else " (each line read from stdin)"))
 
 
-def _finish(args: argparse.Namespace, grasp: Any, info: Any, imu_info: Any, cal: Any, obj: Any,
-            outlets: Any, video: Path | None, lsl: Any) -> dict[str, Any]:
-    """Report, print, and write the JSON and the recording."""
+def _finish(args: argparse.Namespace, grasp: Any, info: Any, imu_info: Any, outlets: Any,
+            lsl: Any) -> dict[str, Any]:
+    """Report, print, and write the JSON and the recording (the calibration and the object
+    are the session's: ``grasp.cal``, ``grasp.obj``)."""
+    cal, obj = grasp.cal, grasp.obj
     report = grasp.report()
     report.update({
         "stream": lsl.identity(info),

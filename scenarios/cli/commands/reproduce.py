@@ -7,7 +7,7 @@ import json
 import time
 from pathlib import Path
 
-from estimation.reproduce import format_report, parse_channels, write_csv
+from estimation.reproduce import ScoreSettings, format_report, parse_channels, write_csv
 from scenarios.cli.choices import generator_names
 
 
@@ -57,15 +57,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the command; returns the exit status."""
-    from scenarios.runners.reproduction import run_reproduction
+    from scenarios.runners.reproduction import ReproductionAnalyses, run_reproduction
 
     t0 = time.perf_counter()
-    result = run_reproduction(args.subjects, args.seed, generator=args.generator,
-                              order=args.order, nn_params={"max_epochs": args.max_epochs},
-                              channels=parse_channels(args.channels),
-                              workers=args.workers,
-                              judge=None if args.judge == "none" else args.judge,
-                              inner=args.inner)
+    settings = ScoreSettings(parse_channels(args.channels), args.order,
+                             {"max_epochs": args.max_epochs})
+    analyses = ReproductionAnalyses(judge=None if args.judge == "none" else args.judge,
+                                    inner=args.inner)
+    result = run_reproduction(args.subjects, args.seed, settings=settings,
+                              generator=args.generator, analyses=analyses,
+                              workers=args.workers)
     result["config"]["wall_time_s"] = time.perf_counter() - t0
     print(format_report(result))
     if args.json:

@@ -61,7 +61,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``griploop stream``; returns the exit status."""
     from scenarios.live.lsl import pylsl_module
-    from scenarios.live.player import Dropout, play
+    from scenarios.live.player import Dropout, Playback, play
 
     if not args.speed > 0:
         raise UsageError(f"--speed: expected a positive factor, found {args.speed}")
@@ -76,9 +76,10 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--imu-dropout: {recording.source} has no forearm pitch to stream "
                          "(no pitch_rad)" if not args.no_imu else
                          "--imu-dropout: expected without --no-imu")
-    play(recording, args.name, loop=args.loop, speed=args.speed,
-         dropouts=[Dropout(a, d) for a, d in args.dropout],
-         imu_dropouts=[Dropout(a, d) for a, d in args.imu_dropout], imu=not args.no_imu,
-         stop_after_s=args.stop_after_s, wait_for_consumer=not args.no_wait,
-         log=lambda line: print(line, flush=True))
+    playback = Playback(loop=args.loop, speed=args.speed, imu=not args.no_imu,
+                        wait_for_consumer=not args.no_wait,
+                        dropouts=tuple(Dropout(a, d) for a, d in args.dropout),
+                        imu_dropouts=tuple(Dropout(a, d) for a, d in args.imu_dropout),
+                        stop_after_s=args.stop_after_s)
+    play(recording, args.name, playback, log=lambda line: print(line, flush=True))
     return 0

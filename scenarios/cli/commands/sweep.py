@@ -6,7 +6,14 @@ import argparse
 import sys
 from pathlib import Path
 
-from scenarios.execution.sweep import DEFAULT_TASK, SweepError, count_pending, iter_plan, run_sweep
+from scenarios.execution.sweep import (
+    DEFAULT_TASK,
+    SweepError,
+    SweepExecution,
+    count_pending,
+    iter_plan,
+    run_sweep,
+)
 from scenarios.schema import (
     DEFAULT_MAX_SCENARIOS,
     SweepConfig,
@@ -115,15 +122,12 @@ def run(args: argparse.Namespace) -> int:
         summary = run_sweep(
             planned,
             store,
+            SweepExecution(task=args.task, workers=workers, scheduler=args.scheduler,
+                           time_limit_s=spec.time_limit_s, plugins=spec.plugins),
             total=total,
-            time_limit_s=spec.time_limit_s,
-            task=args.task,
-            workers=workers,
-            scheduler=args.scheduler,
             sweep_name=spec.name,
             retry_failed=args.retry_failed,
             progress=not args.no_progress,
-            plugins=spec.plugins,
         )
     print(
         f"{spec.name}: {summary.total} scenarios, {summary.skipped} already stored, "
