@@ -488,8 +488,10 @@ def evaluate_recording(
         Must carry the measured force ``force_n``.
     channels : "all", sequence of int (1-based) or str
         sEMG channels whose MAV, RMS and WL are the inputs.
-    estimators, order, nn_params
-        As for :func:`scenarios.runners.reproduction.run_reproduction`.
+    estimators : sequence of str, optional
+        Registered estimators (default: every one).
+    order, nn_params
+        The state-space order and the networks' settings, as in :class:`ScoreSettings`.
     seed : int
         Seeds the networks (:func:`estimation.evaluation.fit_and_score`).
 
