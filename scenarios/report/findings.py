@@ -12,8 +12,10 @@ outcomes that occur. V is 0 when every level has the same outcome rates and 1 wh
 level decides the outcome; unlike the spread of one rate it uses all four outcomes, and
 unlike chi2 itself it compares factors with different numbers of levels. Factors are
 ranked by V (ties: the larger spread of one outcome's rate, then the sweep's order). The
-chi-square p-value is given as a guide only: it is approximate with few episodes per
-level. In a full grid the factors are balanced, so each one's rates average over the same
+chi-square p-value treats every episode as independent and is not reported as a finding:
+whether an effect is beyond chance is a permutation test that keeps each session's
+episodes together, Holm-adjusted over the factors (:mod:`scenarios.report.significance`).
+In a full grid the factors are balanced, so each one's rates average over the same
 mix of the others; in an unbalanced set of episodes they are marginal rates.
 
 :func:`findings_sentence` turns the ranking into one sentence; :func:`summary_section`
@@ -31,6 +33,7 @@ import numpy as np
 from scenarios.outcomes import OUTCOMES, row_outcome
 from scenarios.report import factors as FA
 from scenarios.report import figures as F
+from scenarios.report import significance as SG
 from scenarios.report import summaries as SU
 from scenarios.report.html import Section, esc, note, side_by_side, svg_img, table
 from scenarios.report.sections import ReportContext
@@ -94,6 +97,12 @@ class FactorEffect:
     aliases : tuple of str
         Other swept factors that split the episodes exactly as this one does (their
         effects cannot be told apart from this one's).
+    p_permutation : float
+        Permutation p-value of ``chi2`` with the sessions kept together
+        (:func:`scenarios.report.significance.permutation_p`; ``nan`` until
+        :func:`judge_effects` ran).
+    p_holm : float
+        ``p_permutation`` adjusted by Holm's procedure over the factors tested.
     """
 
     factor: str
@@ -106,6 +115,8 @@ class FactorEffect:
     high: LevelOutcomes
     low: LevelOutcomes
     aliases: tuple[str, ...] = ()
+    p_permutation: float = float("nan")
+    p_holm: float = float("nan")
 
     @property
     def spread(self) -> float:
@@ -212,6 +223,52 @@ def factor_effects(episodes: Sequence[Mapping[str, Any]],
                                           order[e.factor]))
 
 
+def judge_effects(episodes: Sequence[Mapping[str, Any]],
+                   effects: Sequence[FactorEffect]) -> list[FactorEffect]:
+    """``effects`` with their permutation p-values, Holm-adjusted over all of them.
+
+    Each factor is tested by :func:`scenarios.report.significance.permutation_p`, which keeps
+    each session's episodes together; the shuffles come from
+    :func:`~scenarios.report.significance.seeded`, so a store's report is the same each time.
+    """
+    if not effects:
+        return []
+    rng = SG.seeded()
+    raw = [SG.permutation_p(episodes, e.factor, rng) for e in effects]
+    return [replace(e, p_permutation=p, p_holm=float(h))
+            for e, p, h in zip(effects, raw, SG.holm(raw), strict=True)]
+
+
+def _p_text(p: float) -> str:
+    return "p < 0.001" if p < 1e-3 else f"p = {p:.2g}"
+
+
+def _noise_sentence(episodes: Sequence[Mapping[str, Any]],
+                    effects: Sequence[FactorEffect]) -> str:
+    """No factor significant: say so, then the largest effect with its interval."""
+    top = effects[0]
+    sessions = len(set(SG.session_index(episodes).tolist()))
+    if sessions < SG.MIN_SESSIONS:
+        interval = f"no interval: {sessions} sessions are too few to resample"
+    else:
+        low, high = SG.rate_difference_interval(episodes, top.factor,
+                                                (top.high.level, top.low.level), top.outcome,
+                                                SG.seeded())
+        interval = ("no interval: too few resamples hold both levels" if np.isnan(low) else
+                    f"95 % interval {100 * low:+.0f} to {100 * high:+.0f} points, resampling "
+                    "sessions")
+    return (f"No swept factor changes the outcome beyond chance: none of the {len(effects)} "
+            f"tested reaches p < {SG.ALPHA:g} after Holm's correction (permutation tests "
+            f"that keep each of the {sessions} sessions' episodes together). The largest "
+            f"effect is that of {top.name} (Cramér's V {top.cramers_v:.2f}, "
+            f"{_p_text(top.p_holm)} adjusted): {OUTCOME_WORDS[top.outcome]} in "
+            f"{percent(top.high, top.outcome)} of the {top.high.n} episodes at "
+            f"{level_phrase(top.factor, top.high.level)} and in "
+            f"{percent(top.low, top.outcome)} of the {top.low.n} at "
+            f"{level_phrase(top.factor, top.low.level)}, a difference of "
+            f"{100 * top.spread:.0f} points ({interval}).")
+
+
 def held_counts(episodes: Sequence[Mapping[str, Any]], x: str, series: str | None
                 ) -> list[tuple[str, list[tuple[int, int]]]]:
     """``(held, episodes)`` at each level of ``x``, per level of ``series`` (one unlabelled
@@ -268,14 +325,18 @@ def session_text(episodes: Sequence[Mapping[str, Any]]) -> str:
 
 def findings_sentence(episodes: Sequence[Mapping[str, Any]],
                       effects: Sequence[FactorEffect]) -> str:
-    """One sentence: the factor that changes the outcome most and by how much.
+    """One sentence: the factor that changes the outcome most and by how much, when any
+    factor's effect is beyond chance (Holm-adjusted permutation p below
+    :data:`scenarios.report.significance.ALPHA`); otherwise that none is, then the largest
+    effect with the interval of its rate difference.
 
     Parameters
     ----------
     episodes : sequence of dict
         ``ok`` episode rows (at least one).
     effects : sequence of FactorEffect
-        :func:`factor_effects` of the episodes.
+        :func:`factor_effects` of the episodes (tested here unless :func:`judge_effects`
+        already ran).
     """
     n = len(episodes)
     if not effects:
@@ -288,20 +349,27 @@ def findings_sentence(episodes: Sequence[Mapping[str, Any]],
         return (f"Nothing varies between these {n} episodes but the seed (every factor has "
                 f"one level): {OUTCOME_WORDS[outcome]} in {whole.counts[outcome]} of {n}, "
                 f"{percent(whole, outcome)}; there is no factor to compare.")
-    top = effects[0]
-    if top.cramers_v == 0.0:
+    if effects[0].cramers_v == 0.0:
         names = ", ".join(e.name for e in effects)
         return (f"No swept factor changes the outcome: every level of {names} has the same "
                 f"outcome rates ({overall_counts(episodes)}).")
-    p = "p < 0.001" if top.p_value < 1e-3 else f"p = {top.p_value:.2g}"
-    sentence = (f"Of the swept factors, {top.name} changes the outcome most (Cramér's V "
-                f"{top.cramers_v:.2f}, chi-square {p}): {OUTCOME_WORDS[top.outcome]} in "
+    if any(np.isnan(e.p_holm) for e in effects):
+        effects = judge_effects(episodes, effects)
+    found = [e for e in effects if e.p_holm < SG.ALPHA and e.cramers_v > 0.0]
+    if not found:
+        return _noise_sentence(episodes, effects)
+    top = found[0]
+    most = "most" if top is effects[0] else "most beyond chance"
+    sentence = (f"Of the swept factors, {top.name} changes the outcome {most} (Cramér's V "
+                f"{top.cramers_v:.2f}; permutation {_p_text(top.p_permutation)} with the "
+                f"sessions kept together, {_p_text(top.p_holm)} after Holm's correction over "
+                f"{len(effects)} factors): {OUTCOME_WORDS[top.outcome]} in "
                 f"{percent(top.high, top.outcome)} of the {top.high.n} episodes at "
                 f"{level_phrase(top.factor, top.high.level)} and in "
                 f"{percent(top.low, top.outcome)} of the {top.low.n} at "
                 f"{level_phrase(top.factor, top.low.level)}")
-    if len(effects) > 1 and effects[1].cramers_v > 0.0:
-        sentence += f"; next comes {effects[1].name} (V {effects[1].cramers_v:.2f})"
+    if len(found) > 1:
+        sentence += f"; next comes {found[1].name} (V {found[1].cramers_v:.2f})"
     return sentence + "."
 
 
@@ -402,7 +470,7 @@ def summary_section(context: ReportContext) -> Section:
         return Section("summary", TITLE,
                        f'<p class="finding">{esc(_no_episode_sentence(context))}</p>', True)
     factors = list(context.factors)
-    effects = factor_effects(episodes, factors)
+    effects = judge_effects(episodes, factor_effects(episodes, factors))
     parts = [f'<p class="finding">{esc(findings_sentence(episodes, effects))}</p>']
     if not effects:
         parts.append(_trial_table(episodes, []))
@@ -414,7 +482,9 @@ def summary_section(context: ReportContext) -> Section:
         f"{overall_counts(episodes)}, from {session_text(episodes)}. Factors ranked by "
         "Cramér's V of their levels x outcomes table (0: the same outcome rates at every "
         "level; 1: the level decides the outcome); rates with 95 % Wilson intervals, over "
-        "every other factor."
+        "every other factor. An effect is beyond chance when its permutation test (levels "
+        "shuffled within sessions, or among whole sessions for a factor constant within "
+        f"them) gives p < {SG.ALPHA:g} after Holm's correction over the factors tested."
         + (f" Same rates at every level: {', '.join(unchanged)}." if unchanged else "")))
     parts.append(_trial_table(episodes, [e.factor for e in effects]
                               + [f for f in factors if f not in {e.factor for e in effects}]))

@@ -109,10 +109,20 @@ def test_the_factor_that_decides_the_outcome_is_found(tmp_path):
     assert (effects[0].outcome, effects[0].high.level, effects[0].low.level) == \
         ("held", 0.1, 0.4)
     assert stats.chi2.sf(12.0, 1) < 1e-3  # said as "p < 0.001"
-    assert findings_sentence(rows, effects) == (
-        f"Of the swept factors, mass (kg) changes the outcome most (Cramér's V 1.00, chi-square "
-        f"p < 0.001): held in {pct(6, 6)} of the 6 episodes at mass (kg) = 0.1 and in "
-        f"{pct(0, 6)} of the 6 at mass (kg) = 0.4.")
+    sentence = findings_sentence(rows, effects)
+    match = re.fullmatch(
+        r"Of the swept factors, mass \(kg\) changes the outcome most \(Cramér's V 1\.00; "
+        r"permutation p = (\S+) with the sessions kept together, p = (\S+) after Holm's "
+        r"correction over 2 factors\): (.*)\.", sentence)
+    assert match, sentence
+    # three sessions of four episodes, two of them at 0.1 kg: the split is as decisive only
+    # when every session splits alike, one way or the other: p = 2 (1/6)^3 exactly; the
+    # Monte Carlo estimate of 4000 shuffles is within 3 standard errors of it
+    exact = 2 / 6**3
+    assert float(match[1]) == pytest.approx(exact, abs=3 * np.sqrt(exact / 4000) + 5e-4)
+    assert float(match[2]) == pytest.approx(2 * float(match[1]), rel=0.06)  # Holm, 2 factors
+    assert match[3] == (f"held in {pct(6, 6)} of the 6 episodes at mass (kg) = 0.1 and in "
+                        f"{pct(0, 6)} of the 6 at mass (kg) = 0.4")
 
 
 def test_a_partial_effect_is_ranked_by_cramers_v(tmp_path):
