@@ -26,9 +26,12 @@ $(DOCS_STAMP): pyproject.toml
 demo: $(STAMP)
 	$(VENV)/bin/griploop demo --out demo_out
 
-# the suite on one worker process per core (pytest-xdist); each test file stays on one
-# worker, so its module fixtures are built once. TEST_WORKERS=0 runs it in this process.
-TEST_WORKERS ?= auto
+# the suite on pytest-xdist workers, one per core and one more: about 80 s of the suite are
+# live sessions streamed in real time over loopback and sweeps stopped by signals, which
+# leave their core idle while they wait (on 2 cores: 3 min 50 s with 3 workers against
+# 4 min 4 s with 2, docs/results/speed.md). Each test file stays on one worker, so its
+# module fixtures are built once. TEST_WORKERS=0 runs it in this process.
+TEST_WORKERS ?= $(shell $(PYTHON) -c "import os; print((os.cpu_count() or 1) + 1)")
 test: $(STAMP)
 	$(PY) -m ruff check sim estimation controllers scenarios tests benchmarks examples docs
 	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not verdict"
