@@ -233,8 +233,8 @@ def judge_effects(episodes: Sequence[Mapping[str, Any]],
     """
     if not effects:
         return []
-    rng = SG.seeded()
-    raw = [SG.permutation_p(episodes, e.factor, rng) for e in effects]
+    rng, sessions = SG.seeded(), SG.session_index(episodes)  # the sessions once, every factor
+    raw = [SG.permutation_p(episodes, e.factor, rng, sessions=sessions) for e in effects]
     return [replace(e, p_permutation=p, p_holm=float(h))
             for e, p, h in zip(effects, raw, SG.holm(raw), strict=True)]
 
@@ -247,7 +247,7 @@ def _noise_sentence(episodes: Sequence[Mapping[str, Any]],
                     effects: Sequence[FactorEffect]) -> str:
     """No factor significant: say so, then the largest effect with its interval."""
     top = effects[0]
-    sessions = len(set(SG.session_index(episodes).tolist()))
+    sessions = int(SG.session_index(episodes).max()) + 1
     if sessions < SG.MIN_SESSIONS:
         interval = f"no interval: {sessions} sessions are too few to resample"
     else:

@@ -114,15 +114,19 @@ def shuffled_levels(levels: np.ndarray, sessions: np.ndarray, n: int,
 
 
 def permutation_p(episodes: Sequence[Mapping[str, Any]], factor: str,
-                  rng: np.random.Generator, n_permutations: int = PERMUTATIONS) -> float:
-    """The permutation p-value of ``factor``'s levels x outcomes chi-square (module docstring)."""
+                  rng: np.random.Generator, n_permutations: int = PERMUTATIONS,
+                  sessions: np.ndarray | None = None) -> float:
+    """The permutation p-value of ``factor``'s levels x outcomes chi-square (module docstring).
+
+    ``sessions`` is :func:`session_index` of ``episodes``, when the caller has it already.
+    """
     levels = _codes([FA.level_key(e, factor) for e in episodes])
     outcomes = _codes([row_outcome(e["result"]) for e in episodes])
     if levels.max() == 0 or outcomes.max() == 0:
         return 1.0
     observed = chi2_statistics(levels[None, :], outcomes)[0]
-    shuffled = chi2_statistics(shuffled_levels(levels, session_index(episodes), n_permutations,
-                                               rng), outcomes)
+    sessions = session_index(episodes) if sessions is None else sessions
+    shuffled = chi2_statistics(shuffled_levels(levels, sessions, n_permutations, rng), outcomes)
     return float((1 + np.count_nonzero(shuffled >= observed * (1 - 1e-9))) /
                  (1 + n_permutations))
 
