@@ -1,4 +1,5 @@
-"""The paradigm table of issue 35: force and force_hold, on both drives, with and without auto_grip.
+"""The paradigm table of issues 35 and 36: force and force_hold, on both drives, with and without
+auto_grip; velocity with each decoder on the self-locking drive.
 
 Every row runs the same practised virtual users on the same seeds (paired): the benchmarks
 of ``griploop`` as their library files set them (``scenarios/library/*.yaml``), with the
@@ -23,10 +24,15 @@ hand's ``paradigm``, ``hand.drive`` and ``auto_grip`` of the row, for each estim
 - **eggs**: the Virtual Eggs Test's 11 eggs, one transfer each: success (Wilson 95 %),
   overall and for eggs breaking at 2-4 N.
 
+The ``velocity`` rows (issue 36; ``velocity+pattern``, ``velocity+two_site``: the paradigm
+and its decoder) run on the self-locking drive without auto-grip, and with ``ss_kf`` only:
+velocity takes the grip from the decoded close signal, not from the force estimate, so the
+estimator changes nothing in them.
+
 Run::
 
     .venv/bin/python benchmarks/paradigm_table.py [--subjects 10] [--workers 2]
-        [--out paradigm_table.jsonl] [--summary paradigm_table.json]
+        [--rows all|issue35|velocity] [--out paradigm_table.jsonl] [--summary F.json]
 
 Results are appended to ``--out`` one job per line as they finish, so an interrupted run
 resumes where it stopped; ``--summary`` writes the table's figures. ``--markdown`` prints
@@ -47,9 +53,20 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-ROWS = [(p, d, g) for p in ("force", "force_hold") for d in ("backdrivable", "self_locking")
-        for g in (False, True)]
+ISSUE35_ROWS = [(p, d, g) for p in ("force", "force_hold")
+                for d in ("backdrivable", "self_locking") for g in (False, True)]
+VELOCITY_ROWS = [(f"velocity+{decoder}", "self_locking", False)
+                 for decoder in ("pattern", "two_site")]
+ROWS = ISSUE35_ROWS + VELOCITY_ROWS
 ESTIMATORS = ("ss_kf", "mlp", "latent_kf")
+#: The estimators a row runs with (velocity's grip does not come from the estimate).
+ROW_ESTIMATORS = {row: ESTIMATORS if row in ISSUE35_ROWS else ("ss_kf",) for row in ROWS}
+
+
+def hand_fields(paradigm_id: str) -> dict:
+    """A row's ``paradigm`` (and ``decoder``: ``velocity+pattern``) as scenario fields."""
+    paradigm, _, decoder = paradigm_id.partition("+")
+    return {"paradigm": paradigm, **({"decoder": decoder} if decoder else {})}
 FEEDBACK = ("none", "slip_vibration")
 WINDOWS = ((400.0, 125.0), (200.0, 50.0))
 SEED = 35
@@ -78,17 +95,19 @@ def _draws(subjects: int) -> list[tuple[int, dict, int]]:
     return out
 
 
-def jobs(subjects: int) -> list[dict]:
-    """Every scenario of the table, as ``{"id": ..., "scenario": {...}}``."""
+def jobs(subjects: int, rows: list = ROWS) -> list[dict]:
+    """Every scenario of the table's ``rows``, as ``{"id": ..., "scenario": {...}}``."""
     from scenarios.schema import derive_seed
 
     out = []
     draws = _draws(subjects)
     for estimator in ESTIMATORS:
         for feedback in FEEDBACK:
-            for paradigm, drive, auto_grip in ROWS:
+            for paradigm, drive, auto_grip in rows:
+                if estimator not in ROW_ESTIMATORS[(paradigm, drive, auto_grip)]:
+                    continue
                 row = {"estimator": {"name": estimator, "mode": "free_run"},
-                       "controller": {"kind": "pid"}, "paradigm": paradigm,
+                       "controller": {"kind": "pid"}, **hand_fields(paradigm),
                        "hand": {"drive": drive}, "auto_grip": auto_grip,
                        "user": {"kind": "reacting", "feedback": feedback, "practice": 5}}
                 key = f"{paradigm}|{drive}|{int(auto_grip)}|{estimator}|{feedback}"
@@ -135,7 +154,7 @@ def _run(job: dict) -> dict:
     return {"id": job["id"], "row": keep, "wall_s": time.perf_counter() - t0}
 
 
-def summarize(results: list[dict]) -> dict:
+def summarize(results: list[dict], rows: list = ROWS) -> dict:
     """The table's figures per row (paradigm, drive, auto_grip) over estimators and feedback."""
     from scenarios.stats import mean_interval, wilson_interval
 
@@ -149,7 +168,7 @@ def summarize(results: list[dict]) -> dict:
                 "k": k, "n": n}
 
     table: dict = {}
-    for paradigm, drive, auto_grip in ROWS:
+    for paradigm, drive, auto_grip in rows:
         for feedback in (*FEEDBACK, "all"):
             key = f"{paradigm}|{drive}|{int(auto_grip)}"
             mine = [r for r in results if "row" in r and r["id"].split("|")[1:4]
@@ -195,6 +214,10 @@ def summarize(results: list[dict]) -> dict:
                 "time_to_target_s": ci([r.get("time_to_target_s") for r in force]),
                 "transfers_per_min": ci([r["blocks_per_min"] for r in transfers]),
                 "not_released": int(sum(r["not_released"] for r in transfers)),
+                "rigid_unrequested_opens": int(sum(r.get("unrequested_opens") or 0
+                                                   for r in rigid)),
+                "rigid_decoder_windows": int(sum(r.get("decoder_windows") or 0
+                                                 for r in rigid)),
                 "transfers_started": int(sum(r["transfers"] for r in transfers)),
                 "eggs_success": rate(sum(r["success"] for r in eggs),
                                      sum(r["transfers"] for r in eggs)),
@@ -281,10 +304,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("paradigm_table.jsonl"))
     parser.add_argument("--summary", type=Path, default=None)
     parser.add_argument("--markdown", action="store_true")
+    parser.add_argument("--rows", choices=("all", "issue35", "velocity"), default="all",
+                        help="the table's rows to run and summarize (default all)")
     parser.add_argument("--summarize-only", action="store_true",
                         help="summarize --out as it is, running nothing")
     args = parser.parse_args(argv)
-    todo = jobs(args.subjects)
+    rows = {"all": ROWS, "issue35": ISSUE35_ROWS, "velocity": VELOCITY_ROWS}[args.rows]
+    todo = jobs(args.subjects, rows)
     done = {}
     if args.out.exists():
         for line in args.out.read_text().splitlines():
@@ -303,7 +329,7 @@ def main(argv: list[str] | None = None) -> int:
             if i % 200 == 0 or i == len(pending):
                 print(f"{i} of {len(pending)} in {time.perf_counter() - t0:.0f} s", flush=True)
     results = [done[j["id"]] for j in todo if j["id"] in done]
-    table = summarize(results)
+    table = summarize(results, rows)
     if args.summary is not None:
         args.summary.write_text(json.dumps(table, indent=1, default=float))
     if args.markdown:

@@ -66,7 +66,8 @@ class HandLoop:
         self.controller_s = self.physics_s = 0.0
         return self.info
 
-    def step(self, reference_n: float, disturbance: float = 0.0) -> tuple[float, float, bool]:
+    def step(self, reference_n: float, disturbance: float = 0.0,
+             bounds: tuple[float, float] | None = None) -> tuple[float, float, bool]:
         """One control period: compute the next command, apply the previous one.
 
         Parameters
@@ -75,6 +76,9 @@ class HandLoop:
             Grip-force reference the controller tracks at this step, N.
         disturbance : float
             Added to the delivered command at the plant input (command units).
+        bounds : (float, float), optional
+            Clip the computed command to ``lo..hi`` (a paradigm's speed and direction:
+            :func:`controllers.paradigms.command_range`); ``None``: the controller's own.
 
         Returns
         -------
@@ -89,6 +93,9 @@ class HandLoop:
         t0 = time.perf_counter()
         self.observation = observation = observation_from_info(self.info, reference_n)
         u = self.controller.act(observation)
+        if bounds is not None:
+            lo, hi = bounds
+            u = lo if u < lo else hi if u > hi else u
         t1 = time.perf_counter()
         delivered = self._pending
         self._action[0] = delivered + disturbance

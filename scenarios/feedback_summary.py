@@ -92,16 +92,16 @@ def aggregate_force_matching(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any
 def aggregate_transfers(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """The ``transfers`` JSON contract (docs/FORMAT.md) from ``transfers`` rows (one arm).
 
-    ``{"blocks_per_min", "ci95", "drops", "breaks", "not_released", "not_lifted",
-    "transfer_s", "subjects", "per_subject"}``: blocks per minute averaged over subjects with
-    a Student-t interval (one row per subject), counts summed, ``transfer_s`` the mean time
-    of a moved block.
+    ``{"blocks_per_min", "ci95", "transfers", "drops", "breaks", "not_released",
+    "not_lifted", "transfer_s", "subjects", "per_subject"}``: blocks per minute averaged over
+    subjects with a Student-t interval (one row per subject), counts summed (``transfers``:
+    the transfers started), ``transfer_s`` the mean time of a moved block.
     """
     rate = mean_interval([r["blocks_per_min"] for r in rows])
     times = [r["transfer_s"] for r in rows if r.get("transfer_s") is not None]
     return {"blocks_per_min": _num(rate[0]), "ci95": _ci(rate[1:]),
             **{k: int(sum(r.get(k) or 0 for r in rows))
-               for k in ("drops", "breaks", "not_released", "not_lifted")},
+               for k in ("transfers", "drops", "breaks", "not_released", "not_lifted")},
             "transfer_s": float(sum(times) / len(times)) if times else None,
             "subjects": len(rows),
             "per_subject": [{"subject_id": r["subject_id"], "blocks_per_min": r["blocks_per_min"]}

@@ -98,6 +98,9 @@ class EpisodeRow(_Row):
     paradigm: str | None
     drive: str | None
     auto_grip: bool | None
+    decoder: str | None
+    decoder_windows: int | None
+    unrequested_opens: int | None
     user_corrections: int | None
     first_correction_s: float | None
     contact_time_s: float | None

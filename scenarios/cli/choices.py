@@ -16,6 +16,7 @@ from scenarios.schema.names import (
     STEP_RANGE_MS,
     WINDOW_RANGE_MS,
     controller_names,
+    decoder_names,
     drive_names,
     estimator_choices,
     feedback_modes,
@@ -103,14 +104,22 @@ def add_hand_options(parser: object, *, paradigm_list: bool = False) -> None:
     parser.add_argument("--paradigm", default="force", metavar="LIST" if paradigm_list
                         else "NAME", help=f"{what} {one_of(paradigm_names())}: how the hand's "
                         "reference follows the estimate (default force, the paper's; "
-                        "force_hold keeps the grip when the estimate falls and releases at rest)")
+                        "force_hold keeps the grip when the estimate falls and releases at rest; "
+                        "velocity, the clinical one: a close and an open signal move the hand "
+                        "at proportional speed)")
+    parser.add_argument("--decoder", default=None, metavar="NAME",
+                        help=f"open/close decoder {one_of(decoder_names())}, fitted on open "
+                        "contractions added to the calibration (default: none, or "
+                        "the default decoder where the paradigm needs one)")
     add_drive_option(parser)
     parser.add_argument("--auto-grip", action="store_true",
                         help="the hand's own slip response: the grip rises on a sensed slip")
 
 
-def check_hand_options(paradigms: Sequence[str], drive: str) -> None:
-    """Refuse an unknown ``--paradigm`` or ``--drive`` in one line listing the known ones.
+def check_hand_options(paradigms: Sequence[str], drive: str, decoder: str | None = None
+                       ) -> None:
+    """Refuse an unknown ``--paradigm``, ``--drive`` or ``--decoder`` in one line listing the
+    known ones.
 
     Raises
     ------
@@ -119,6 +128,8 @@ def check_hand_options(paradigms: Sequence[str], drive: str) -> None:
     for paradigm in paradigms:
         check_choice("--paradigm", paradigm, paradigm_names())
     check_drive(drive)
+    if decoder is not None:
+        check_choice("--decoder", decoder, decoder_names())
 
 
 def add_practice_window_options(parser: object) -> None:

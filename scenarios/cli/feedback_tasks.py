@@ -112,7 +112,7 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
     feedback = comma_list("--feedback", args.feedback)
     paradigms = comma_list("--paradigm", args.paradigm)
     check_user_options(args.user, feedback)
-    check_hand_options(paradigms, args.drive)
+    check_hand_options(paradigms, args.drive, args.decoder)
     check_choice("--controller", args.controller, controller_names())
     check_choice("--estimator", args.estimator, estimator_choices())
     check_practice_window(args.practice, args.window_ms, args.step_ms)
@@ -127,10 +127,11 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
                 "estimator.step_ms": args.step_ms, "user.kind": args.user,
                 "user.practice": args.practice,
                 "subject.population_seed": args.population_seed, **(base or {}),
-                **hand_settings(args.drive, args.auto_grip)}
+                **hand_settings(args.drive, args.auto_grip, args.decoder)}
     arms = [(settings, feedback, {**(grid or {}), **paradigm_grid(paradigms)})]
     if getattr(args, "intact", False):
-        arms.append(({**settings, "estimator.name": INTACT, "user.kind": "reacting"},
+        intact = {k: v for k, v in settings.items() if k != "decoder"}  # no sEMG to decode
+        arms.append(({**intact, "estimator.name": INTACT, "user.kind": "reacting"},
                      ["touch"], grid))
     with tempfile.TemporaryDirectory() as tmp:
         db = args.db if args.db is not None else Path(tmp) / "results.sqlite"
@@ -142,7 +143,8 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
     result = {**by_paradigm[paradigms[0]],
               "settings": {"kind": kind, **settings, "feedback": feedback,
                            "paradigm": paradigms, "drive": args.drive,
-                           "auto_grip": args.auto_grip, "subjects": args.subjects,
+                           "auto_grip": args.auto_grip, "decoder": args.decoder,
+                           "subjects": args.subjects,
                            "seed": spec.seed, **{k: v for k, v in (grid or {}).items()}},
               "scenarios": {"ok": len(ok), "failed": len(failed)}}
     if len(paradigms) > 1:
@@ -172,10 +174,11 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
     return 0
 
 
-def hand_settings(drive: str, auto_grip: bool) -> dict[str, Any]:
+def hand_settings(drive: str, auto_grip: bool, decoder: str | None = None) -> dict[str, Any]:
     """The hand's settings as scenario paths, left out at their defaults (no seed moves)."""
     return {**({} if drive == "backdrivable" else {"hand.drive": drive}),
-            **({"auto_grip": True} if auto_grip else {})}
+            **({"auto_grip": True} if auto_grip else {}),
+            **({} if decoder is None else {"decoder": decoder})}
 
 
 def paradigm_grid(paradigms: list[str]) -> dict[str, list[str]]:

@@ -11,10 +11,18 @@ Python controller saw and commanded; :func:`replay_controller` feeds those obser
 to the C controller and compares the commands. :func:`replay_reference` feeds the C
 estimates to the runtime's reference (rest threshold, force mapping, paradigm) and to
 :func:`python_reference`, the same chain of griploop's own parts
-(:class:`~estimation.rest_gate.RestGate`, :mod:`controllers.paradigms`). Tolerances
-(docs/DEPLOY.md): features within one unit in the last place of float32 (the C divides
-and takes square roots in float32, Python in float64), estimate, reference and command
-within 1e-3 (N, command units).
+(:class:`~estimation.rest_gate.RestGate`, :mod:`controllers.paradigms`).
+
+With an open/close decoder, :func:`replay_decoder` pushes the frames through the C MAV
+window of every channel and the C decoder, and the same recording through
+:class:`estimation.feature_window.FeatureWindow` (MAV, all channels) and the decoder's
+stream; :func:`replay_shaping` feeds the C estimates and the C decoder's levels to the C
+reference and to the Python paradigm (``velocity``: its held grip and ``command_range``).
+
+Tolerances (docs/DEPLOY.md): features within one unit in the last place of float32 (the
+C divides and takes square roots in float32, Python in float64), estimate, reference and
+command within 1e-3 (N, command units), decoder levels within 1e-5 with every label
+equal, command bounds within 1e-6.
 """
 
 from __future__ import annotations
@@ -26,11 +34,13 @@ from typing import Any
 import numpy as np
 
 from controllers.base import Observation
-from controllers.paradigms import make_paradigm
+from controllers.paradigms import Decoded, command_range, make_paradigm, uses_decoder
 from estimation.features import extract_features
 from estimation.rest_gate import RestGate
 from scenarios.deploy.library import (
     CompiledController,
+    CompiledDecoder,
+    CompiledDecoderWindow,
     CompiledFeatures,
     CompiledLibrary,
     CompiledReference,
@@ -56,6 +66,8 @@ ESTIMATE_TOLERANCE_N = 1e-3
 REFERENCE_TOLERANCE_N = 1e-3
 COMMAND_TOLERANCE = 1e-3
 FEATURE_TOLERANCE_ULPS = 1.0
+DECODER_TOLERANCE = 1e-5
+RANGE_TOLERANCE = 1e-6
 
 
 @dataclass
@@ -141,6 +153,197 @@ def replay_estimator(library: CompiledLibrary, recording: Recording, pipeline: A
                           fs.t_s)
 
 
+@dataclass
+class DecoderReplay:
+    """A recording through the C and the Python decoder (each on its own MAV window).
+
+    Attributes
+    ----------
+    windows : int
+    mav_c, mav_py : ndarray, shape (windows, n_channels)
+        Every channel's MAV per window, counts.
+    levels_c, levels_py : ndarray, shape (windows, 2)
+        Close and open levels, 0..1.
+    labels_c, labels_py : ndarray of int, shape (windows,)
+        0 rest, 1 close, 2 open.
+    """
+
+    windows: int
+    mav_c: np.ndarray
+    mav_py: np.ndarray
+    levels_c: np.ndarray
+    levels_py: np.ndarray
+    labels_c: np.ndarray
+    labels_py: np.ndarray
+
+    @property
+    def level_error(self) -> float:
+        """Largest close or open level difference."""
+        return float(np.max(np.abs(self.levels_c - self.levels_py), initial=0.0))
+
+    @property
+    def mav_ulps(self) -> float:
+        """Largest MAV difference in float32 units in the last place of the Python value."""
+        ulp = np.spacing(np.abs(self.mav_py).astype(np.float32)).astype(np.float64)
+        return float(np.max(np.abs(self.mav_c - self.mav_py) / ulp, initial=0.0))
+
+    @property
+    def label_mismatches(self) -> int:
+        """Windows whose C and Python labels differ."""
+        return int(np.sum(self.labels_c != self.labels_py))
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready: windows, errors and how many windows each side decoded as open."""
+        return {"windows": self.windows, "max_abs_error": self.level_error,
+                "mav_max_ulps": self.mav_ulps, "label_mismatches": self.label_mismatches,
+                "open_windows": int(np.sum(self.labels_py == 2)),
+                "close_windows": int(np.sum(self.labels_py == 1))}
+
+
+def replay_decoder(library: CompiledLibrary, recording: Recording, decoder: Any, *,
+                   window_ms: float, step_ms: float) -> DecoderReplay:
+    """Replay ``recording`` through the compiled and the Python open/close decoder.
+
+    Raises
+    ------
+    ExportError
+        The recording's samples are not 8-bit counts.
+    """
+    from estimation.feature_window import FeatureWindow
+
+    frames = int8_frames(recording)
+    n_ch = int(frames.shape[1])
+    mav_c = CompiledDecoderWindow(library, n_ch).run(frames).astype(np.float64)
+    window = FeatureWindow(recording.fs_hz, range(n_ch), window_ms=window_ms, step_ms=step_ms,
+                           features=("mav",), integer=True)
+    mav_py = np.asarray(window.push(frames)[0], dtype=np.float64).reshape(-1, n_ch)
+    n = min(len(mav_c), len(mav_py))
+    c_dec, stream = CompiledDecoder(library), decoder.stream()
+    c_dec.reset()
+    stream.reset()
+    levels_c, levels_py = np.zeros((n, 2)), np.zeros((n, 2))
+    labels_c, labels_py = np.zeros(n, dtype=int), np.zeros(n, dtype=int)
+    for k in range(n):
+        close, open_, labels_c[k] = c_dec.step(mav_c[k])
+        levels_c[k] = close, open_
+        levels_py[k] = stream.step(mav_py[k])
+        labels_py[k] = stream.label()
+    return DecoderReplay(n, mav_c[:n], mav_py[:n], levels_c, levels_py, labels_c, labels_py)
+
+
+@dataclass
+class ShapingReplay:
+    """The hand reference and the paradigm's command bounds of the C runtime and of Python.
+
+    Attributes
+    ----------
+    reference_c_n, reference_py_n : ndarray, shape (windows,)
+        N.
+    range_c, range_py : ndarray, shape (windows, 2)
+        The command's lower and upper bound after each window (``(-1, 1)``: none).
+    """
+
+    reference_c_n: np.ndarray
+    reference_py_n: np.ndarray
+    range_c: np.ndarray
+    range_py: np.ndarray
+
+    @property
+    def reference_error_n(self) -> float:
+        """Largest reference difference, N."""
+        return float(np.max(np.abs(self.reference_c_n - self.reference_py_n), initial=0.0))
+
+    @property
+    def range_error(self) -> float:
+        """Largest command bound difference."""
+        return float(np.max(np.abs(self.range_c - self.range_py), initial=0.0))
+
+
+def python_shaping(estimates_n: np.ndarray, reference: HandReference, levels: np.ndarray,
+                   grip_at_full_close_n: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`python_reference` with the decoder's levels: each window's
+    :class:`~controllers.paradigms.Decoded` (grip = close x ``grip_at_full_close_n``) reaches
+    the paradigm, as a trial hands it over (:mod:`scenarios.runners.semg_reference`).
+
+    Returns
+    -------
+    reference_n : ndarray, shape (n,)
+    ranges : ndarray, shape (n, 2)
+        ``command_range`` after each step (``(-1, 1)`` for a paradigm without one).
+    """
+    decoded = [Decoded(float(c), float(o), float(c) * float(grip_at_full_close_n))
+               for c, o in np.asarray(levels, dtype=float).reshape(-1, 2)]
+    return _shaped(estimates_n, reference, decoded)
+
+
+def _shaped(estimates_n: np.ndarray, reference: HandReference,
+            decoded: Sequence[Decoded] | None) -> tuple[np.ndarray, np.ndarray]:
+    gate = RestGate(reference.rest_on_n, reference.rest_off_n)
+    paradigm = make_paradigm(reference.paradigm)
+    with_decoded = decoded is not None and uses_decoder(paradigm)
+    to_hand = 1.0 if reference.to_hand is None else float(reference.to_hand)
+    ceiling = np.inf if reference.reference_max_n is None else float(reference.reference_max_n)
+    held, out, ranges = 0.0, [], []
+    for k, estimate in enumerate(np.asarray(estimates_n, dtype=float)):
+        value = gate.step(float(estimate)) * to_hand
+        if value == value:
+            held = min(max(value, 0.0), ceiling)
+        out.append(paradigm.step(held, decoded[k]) if with_decoded else paradigm.step(held))
+        ranges.append(command_range(paradigm))
+    return np.array(out), np.array(ranges, dtype=float).reshape(-1, 2)
+
+
+def replay_shaping(library: CompiledLibrary, estimates_n: np.ndarray, reference: HandReference,
+                   levels: np.ndarray, grip_at_full_close_n: float) -> ShapingReplay:
+    """The C runtime's and Python's reference and command bounds for the same estimates and
+    decoder levels (``levels``: the C decoder's, shape (n, 2))."""
+    c = CompiledReference(library)
+    ref_c, range_c = [], []
+    for estimate, (close, open_) in zip(np.asarray(estimates_n, dtype=float),
+                                        np.asarray(levels, dtype=float), strict=True):
+        ref_c.append(c.step(estimate, close, open_))
+        range_c.append(c.command_range())
+    ref_py, range_py = python_shaping(estimates_n, reference, levels, grip_at_full_close_n)
+    return ShapingReplay(np.array(ref_c), ref_py, np.array(range_c, dtype=float), range_py)
+
+
+@dataclass
+class DecoderCheck:
+    """The decoder's replay and the paradigm's shaping on it, C against Python.
+
+    Attributes
+    ----------
+    replay : DecoderReplay
+    shaping : ShapingReplay
+        The C estimates and the C decoder's levels through the C reference and the
+        Python paradigm.
+    """
+
+    replay: DecoderReplay
+    shaping: ShapingReplay
+
+    @classmethod
+    def of(cls, library: CompiledLibrary, recording: Recording, export: Any,
+           estimates: EstimatorReplay) -> DecoderCheck:
+        """Both replays of ``recording`` for an export with a decoder
+        (:class:`scenarios.deploy.writer.CExport`)."""
+        part = export.decoder_part
+        dec = replay_decoder(library, recording, part.decoder,
+                             window_ms=export.window.window_ms, step_ms=export.window.step_ms)
+        if dec.windows != estimates.windows:
+            raise ExportError(f"decoder replay: {dec.windows} windows; expected the feature "
+                              f"window's {estimates.windows}")
+        shaping = replay_shaping(library, estimates.estimate_c_n, export.reference,
+                                 dec.levels_c, part.grip_at_full_close_n)
+        return cls(dec, shaping)
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready: :meth:`DecoderReplay.summary` and the shaping's largest errors."""
+        return {**self.replay.summary(), "reference_max_abs_error_n":
+                self.shaping.reference_error_n,
+                "command_range_max_abs_error": self.shaping.range_error}
+
+
 def python_reference(estimates_n: np.ndarray, reference: HandReference) -> np.ndarray:
     """The hand reference griploop's Python parts make of a sequence of estimates, N.
 
@@ -153,17 +356,7 @@ def python_reference(estimates_n: np.ndarray, reference: HandReference) -> np.nd
     -------
     ndarray, shape (n,)
     """
-    gate = RestGate(reference.rest_on_n, reference.rest_off_n)
-    paradigm = make_paradigm(reference.paradigm)
-    to_hand = 1.0 if reference.to_hand is None else float(reference.to_hand)
-    ceiling = np.inf if reference.reference_max_n is None else float(reference.reference_max_n)
-    held, out = 0.0, []
-    for estimate in np.asarray(estimates_n, dtype=float):
-        value = gate.step(float(estimate)) * to_hand
-        if value == value:
-            held = min(max(value, 0.0), ceiling)
-        out.append(paradigm.step(held))
-    return np.array(out)
+    return _shaped(estimates_n, reference, None)[0]
 
 
 def replay_reference(library: CompiledLibrary, estimates_n: np.ndarray,
@@ -178,10 +371,57 @@ def replay_reference(library: CompiledLibrary, estimates_n: np.ndarray,
     return c.run(estimates_n), python_reference(estimates_n, reference)
 
 
+@dataclass
+class HandRun:
+    """What the Python controller saw and commanded in a trial (:func:`hand_run`).
+
+    Attributes
+    ----------
+    observations : list of Observation
+    commands : ndarray, shape (n_run,)
+        The commands, within the paradigm's bounds.
+    bounds : ndarray, shape (n_run, 2)
+        The paradigm's bounds on each step's command (``(-1, 1)``: none).
+    """
+
+    observations: list[Observation]
+    commands: np.ndarray
+    bounds: np.ndarray
+
+
+class _RangeRecorder:
+    """A paradigm that records its ``command_range`` after every step."""
+
+    def __init__(self, paradigm: Any) -> None:
+        self._paradigm = paradigm
+        self.ranges: list[tuple[float, float]] = []
+
+    def step(self, *args: Any) -> float:
+        out = self._paradigm.step(*args)
+        self.ranges.append(command_range(self._paradigm))
+        return out
+
+    @property
+    def command_range(self) -> tuple[float, float]:
+        return command_range(self._paradigm)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.__dict__["_paradigm"], name)
+
+
 def hand_observations(design: Any, obj: ObjectSpec, recording: Recording, fitted: Any, *,
                       hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N, duration_s: float,
                       seed: int = 0, hand: HandSettings = DEFAULT_HAND,
                       ) -> tuple[list[Observation], np.ndarray]:
+    """:func:`hand_run`'s observations and commands."""
+    run = hand_run(design, obj, recording, fitted, hand_force_at_mvc_n=hand_force_at_mvc_n,
+                   duration_s=duration_s, seed=seed, hand=hand)
+    return run.observations, run.commands
+
+
+def hand_run(design: Any, obj: ObjectSpec, recording: Recording, fitted: Any, *,
+             hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N, duration_s: float,
+             seed: int = 0, hand: HandSettings = DEFAULT_HAND) -> HandRun:
     """What the design's Python controller saw and commanded in a trial on ``recording``.
 
     The trial starts 1 s before the first window whose reference exceeds 0.5 N (a
@@ -211,8 +451,7 @@ def hand_observations(design: Any, obj: ObjectSpec, recording: Recording, fitted
 
     Returns
     -------
-    observations : list of Observation
-    commands : ndarray, shape (n_run,)
+    HandRun
     """
     check_layout(recording, fitted)
     dt = float(design.core.dt_s)
@@ -226,9 +465,16 @@ def hand_observations(design: Any, obj: ObjectSpec, recording: Recording, fitted
     loop = TrialLoop(obj, design, person, TrialTiming(limit_s, dt),
                      lift_height_m=spec.lift_height_m, seed=seed,
                      hooks=TrialHooks(keep_observations=True), hand=hand)
+    recorder = None
+    if hasattr(loop.paradigm, "command_range"):  # velocity: record its bounds on the motor
+        loop.paradigm = recorder = _RangeRecorder(loop.paradigm)
     loop.run()
     rec = loop.recorder
-    return list(rec.observations), np.asarray(rec.computed)
+    observations = list(rec.observations)
+    bounds = (np.array(recorder.ranges, dtype=float).reshape(-1, 2)[:len(observations)]
+              if recorder is not None else
+              np.tile(np.array([-1.0, 1.0]), (len(observations), 1)))
+    return HandRun(observations, np.asarray(rec.computed), bounds)
 
 
 def _grasp_start_s(recording: Recording, fitted: Any, spec: Any) -> float:
@@ -246,3 +492,13 @@ def replay_controller(library: CompiledLibrary, design: Any,
     """The compiled controller's commands for an observation sequence (from a reset)."""
     c = CompiledController(library, dt_s=design.core.dt_s, name=design.kind)
     return np.array([c.act(o) for o in observations])
+
+
+def clip_commands(commands: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+    """``commands`` clipped to each step's ``bounds`` (n, 2) in float32, as the runtime
+    clips the controller's command to the paradigm's range (``gl_clip``)."""
+    out = np.asarray(commands, dtype=float)
+    if not out.size:
+        return out
+    b = np.asarray(bounds, dtype=np.float32).astype(float).reshape(-1, 2)
+    return np.where(out < b[:, 0], b[:, 0], np.where(out > b[:, 1], b[:, 1], out))

@@ -4,8 +4,11 @@ Each wrapper owns its C state (a buffer of the size the library reports) and
 offers the Python protocol of what it replaces: :class:`CompiledFeatures` pushes
 int8 frames, :class:`CompiledStream` is an estimator stream (``reset``, ``step(u,
 y_prev)``), :class:`CompiledReference` shapes the hand reference from the estimate
-(``reset``, ``step(estimate_n)``), :class:`CompiledController` is a runtime controller
-(``reset``, ``act(observation)``). Values cross as the library's real type (float32 unless
+(``reset``, ``step(estimate_n)``; with a decoder ``step(estimate_n, close, open)`` and the
+paradigm's ``command_range``), :class:`CompiledController` is a runtime controller
+(``reset``, ``act(observation)``), :class:`CompiledDecoderWindow` and
+:class:`CompiledDecoder` are the open/close decoder's MAV window and state machine.
+Values cross as the library's real type (float32 unless
 built with ``GRIPLOOP_DOUBLE``).
 """
 
@@ -42,6 +45,7 @@ class CompiledLibrary:
         self.path = Path(path)
         self.lib = ctypes.CDLL(str(self.path))
         self.has_controller = hasattr(self.lib, "griploop_controller_act")
+        self.has_decoder = hasattr(self.lib, "griploop_decoder_step")
         self._declare()
 
     def _declare(self) -> None:
@@ -56,7 +60,19 @@ class CompiledLibrary:
         lib.griploop_estimator_step.restype = f
         lib.griploop_estimator_step.argtypes = [ctypes.c_void_p, ctypes.c_void_p, f]
         lib.griploop_reference_step.restype = f
-        lib.griploop_reference_step.argtypes = [ctypes.c_void_p, f]
+        lib.griploop_reference_step.argtypes = [ctypes.c_void_p, f, f, f] if \
+            self.has_decoder else [ctypes.c_void_p, f]
+        if self.has_decoder:
+            lib.griploop_decoder_window_state_size.restype = ctypes.c_uint32
+            lib.griploop_decoder_window_reset.restype = None
+            lib.griploop_decoder_window_push.restype = ctypes.c_int
+            lib.griploop_decoder_window_push.argtypes = [ctypes.c_void_p] * 3
+            lib.griploop_decoder_reset.restype = None
+            lib.griploop_decoder_step.restype = None
+            lib.griploop_decoder_step.argtypes = [ctypes.c_void_p] * 3
+            lib.griploop_decoder_label.restype = ctypes.c_int32
+            lib.griploop_reference_command_range.restype = None
+            lib.griploop_reference_command_range.argtypes = [ctypes.c_void_p] * 3
         if self.has_controller:
             lib.griploop_controller_act.restype = f
             lib.griploop_controller_act.argtypes = [ctypes.c_void_p,
@@ -66,7 +82,7 @@ class CompiledLibrary:
 
     def state(self, part: str) -> ctypes.Array:
         """A zeroed state buffer of ``part`` (``features``, ``estimator``, ``reference``,
-        ``controller``)."""
+        ``controller``, ``decoder_window``)."""
         size = int(getattr(self.lib, f"griploop_{part}_state_size")())
         return (ctypes.c_uint64 * ((size + 7) // 8))()  # 8-byte aligned
 
@@ -127,6 +143,7 @@ class CompiledReference:
 
     def __init__(self, library: CompiledLibrary) -> None:
         self._lib = library.lib
+        self._decoded = library.has_decoder
         self._state = library.state("reference")
         self.reset()
 
@@ -134,9 +151,23 @@ class CompiledReference:
         """Open, as at rest."""
         self._lib.griploop_reference_reset(self._state)
 
-    def step(self, estimate_n: float) -> float:
-        """One window's estimate (user N); the hand reference, N."""
+    def step(self, estimate_n: float, close: float = 0.0, open_: float = 0.0) -> float:
+        """One window's estimate (user N) and, with a decoder, its close and open levels;
+        the hand reference, N."""
+        if self._decoded:
+            return float(self._lib.griploop_reference_step(self._state, float(estimate_n),
+                                                           float(close), float(open_)))
         return float(self._lib.griploop_reference_step(self._state, float(estimate_n)))
+
+    def command_range(self) -> tuple[float, float]:
+        """The bounds the paradigm put on the motor command at the last step (with a
+        decoder; ``(-1, 1)`` without one)."""
+        if not self._decoded:
+            return (-1.0, 1.0)
+        lo, hi = ctypes.c_float(), ctypes.c_float()
+        self._lib.griploop_reference_command_range(self._state, ctypes.byref(lo),
+                                                   ctypes.byref(hi))
+        return float(lo.value), float(hi.value)
 
     def run(self, estimates_n: np.ndarray) -> np.ndarray:
         """:meth:`step` over a sequence, from the current state, shape (n,)."""
@@ -186,3 +217,47 @@ class CompiledController:
     def phase(self) -> int:
         """The gate's phase (0 closing, 1 approach, 2 force, 3 releasing, 4 open)."""
         return int(self._lib.griploop_controller_phase(self._state))
+
+
+class CompiledDecoderWindow:
+    """The decoder's C window: :meth:`run` gives the MAV of every channel per window."""
+
+    def __init__(self, library: CompiledLibrary, n_channels: int) -> None:
+        self._lib = library.lib
+        self._state = library.state("decoder_window")
+        self._out = np.zeros(n_channels, dtype=np.float32)
+        self._out_ptr = self._out.ctypes.data_as(ctypes.c_void_p)
+        self._lib.griploop_decoder_window_reset(self._state)
+
+    def run(self, emg: np.ndarray) -> np.ndarray:
+        """MAV rows of every window of ``emg`` (n_samples, n_armband) int8, from a reset,
+        shape (n_windows, n_armband)."""
+        self._lib.griploop_decoder_window_reset(self._state)
+        emg = np.ascontiguousarray(emg, dtype=np.int8)
+        rows = []
+        for frame in emg:
+            if self._lib.griploop_decoder_window_push(
+                    self._state, frame.ctypes.data_as(ctypes.c_void_p), self._out_ptr):
+                rows.append(self._out.copy())
+        return np.array(rows, dtype=np.float32).reshape(len(rows), self._out.size)
+
+
+class CompiledDecoder:
+    """The C open/close decoder (state in the library's statics: one per library)."""
+
+    def __init__(self, library: CompiledLibrary) -> None:
+        self._lib = library.lib
+        self._close, self._open = ctypes.c_float(), ctypes.c_float()
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to rest."""
+        self._lib.griploop_decoder_reset()
+
+    def step(self, mav: np.ndarray) -> tuple[float, float, int]:
+        """One window's MAV of every channel; ``(close, open, label)``."""
+        row = np.ascontiguousarray(mav, dtype=np.float32)
+        self._lib.griploop_decoder_step(row.ctypes.data_as(ctypes.c_void_p),
+                                        ctypes.byref(self._close), ctypes.byref(self._open))
+        return (float(self._close.value), float(self._open.value),
+                int(self._lib.griploop_decoder_label()))

@@ -29,7 +29,7 @@ import numpy as np
 
 from controllers.base import Observation
 from scenarios.deploy.build import C_FLAGS, CompilerMissingError, run_compiler
-from scenarios.deploy.check import EstimatorReplay, int8_frames
+from scenarios.deploy.check import DecoderCheck, EstimatorReplay, int8_frames
 from sim.c_source import c_table, render
 from sim.errors import GriploopError
 from sim.recording import Recording
@@ -81,7 +81,7 @@ def _write_firmware(export: Any, frames: np.ndarray, force_prev: np.ndarray,
             n_obs=len(observations),
             frames=c_table("gl_frames", frames, ctype="int8_t", per_line=16),
             force_prev=c_table("gl_force_prev", force_prev, per_line=4),
-            obs_real=obs_real, obs_flags=obs_flags),
+            obs_real=obs_real, obs_flags=obs_flags, decoder=export.decoder is not None),
         "target.ld": render("scenarios.deploy", "target.ld.j2"),
     }
     for name, text in texts.items():
@@ -112,7 +112,8 @@ def _sizes(tools: dict[str, str], objects: Sequence[Path]) -> dict[str, dict[str
 def run_target(export: Any, recording: Recording, replay: EstimatorReplay,
                observations: Sequence[Observation], *, c_commands: np.ndarray | None = None,
                c_reference: np.ndarray | None = None,
-               build_dir: Path | None = None) -> dict[str, Any]:
+               build_dir: Path | None = None,
+               decoded: DecoderCheck | None = None) -> dict[str, Any]:
     """Cross-compile the export, run the replay on QEMU, compare with the host build.
 
     Parameters
@@ -131,13 +132,19 @@ def run_target(export: Any, recording: Recording, replay: EstimatorReplay,
         (:func:`scenarios.deploy.check.replay_reference`); compared when given.
     build_dir : Path, optional
         Default ``export.out_dir / "target"``.
+    decoded : scenarios.deploy.check.DecoderCheck, optional
+        The host build's decoder replay and shaping (an export with a decoder): every
+        window's MAV, close and open levels, label and command bounds are compared too,
+        and the decoder's instructions (its window's pushes and its step) counted.
 
     Returns
     -------
     dict
         ``flash_bytes``, ``ram_bytes``, ``instructions_per_update`` (features: per
         feature window, the pushes of its frames included; estimator: per window;
-        controller: per control step), ``matches_host`` (every output bit-identical to
+        controller: per control step; with a decoder, ``decoder``: its window's pushes and
+        its step per window, and ``features_estimator_decoder``: the three together),
+        ``matches_host`` (every output bit-identical to
         the host build's), and the details behind them.
 
     Raises
@@ -174,23 +181,34 @@ def run_target(export: Any, recording: Recording, replay: EstimatorReplay,
                            "-icount", f"shift={ICOUNT_SHIFT}", "-kernel", str(elf)],
                           capture_output=True, text=True, timeout=600, check=False)
     values, counts = _parse(proc.stderr)  # QEMU writes semihosting output to stderr
-    return _summarize(export, replay, obs, c_commands, c_reference, values, counts,
-                      _sizes(tools, objects))
+    result = _summarize(export, replay, obs, (c_commands, c_reference, decoded), values, counts,
+                        _sizes(tools, objects))
+    return result
 
 
 def _summarize(export: Any, replay: EstimatorReplay, obs: Sequence[Observation],
-               c_commands: np.ndarray | None, c_reference: np.ndarray | None,
+               host_outputs: tuple[np.ndarray | None, np.ndarray | None, DecoderCheck | None],
                values: np.ndarray, counts: list[int],
                sizes: dict[str, dict[str, int]]) -> dict[str, Any]:
+    c_commands, c_reference, decoded = host_outputs
     nf = export.window.n_features
     n_win = replay.windows
-    per_window = values[:n_win * (nf + 2)].reshape(n_win, nf + 2)
-    commands = values[n_win * (nf + 2):]
+    n_ch = export.window.n_armband_channels
+    width = nf + 2 + (n_ch + 5 if decoded is not None else 0)
+    per_window = values[:n_win * width].reshape(n_win, width)
+    commands = values[n_win * width:]
     host = [replay.features_c.astype(np.float32), replay.estimate_c_n.astype(np.float32)]
     target = [per_window[:, :nf], per_window[:, nf]]
     if c_reference is not None:
         host.append(np.asarray(c_reference, dtype=np.float32))
         target.append(per_window[:, nf + 1])
+    if decoded is not None:
+        d, s = decoded.replay, decoded.shaping
+        host += [d.mav_c.astype(np.float32), d.levels_c.astype(np.float32),
+                 d.labels_c.astype(np.float32), s.range_c.astype(np.float32)]
+        at = nf + 2
+        target += [per_window[:, at:at + n_ch], per_window[:, at + n_ch:at + n_ch + 2],
+                   per_window[:, at + n_ch + 2], per_window[:, at + n_ch + 3:at + n_ch + 5]]
     if obs and c_commands is not None:
         host.append(np.asarray(c_commands, dtype=np.float32))
         target.append(commands)
@@ -207,16 +225,25 @@ def _summarize(export: Any, replay: EstimatorReplay, obs: Sequence[Observation],
     ipu_f = (ticks_f - overhead * n_frames) * per_tick / max(windows, 1)
     ipu_e = (ticks_e - overhead * windows) * per_tick / max(windows, 1)
     ipu_c = ((ticks_c - overhead * len(obs)) * per_tick / len(obs)) if obs else None
+    ipu = {"features": int(round(ipu_f)), "estimator": int(round(ipu_e)),
+           "controller": None if ipu_c is None else int(round(ipu_c))}
+    if decoded is not None:
+        ticks_d = (counts[12] << 32) | counts[13]
+        ipu_d = (ticks_d - overhead * n_frames) * per_tick / max(windows, 1)
+        ipu["decoder"] = int(round(ipu_d))
+        ipu["features_estimator_decoder"] = int(round(ipu_f + ipu_e + ipu_d))
     flash = sum(s["text"] + s["data"] for s in sizes.values())
     static_ram = sum(s["data"] + s["bss"] for s in sizes.values())
     state = {"features": size_f, "estimator": size_e, "controller": size_c if obs else None}
     ram = static_ram + size_f + size_e + (size_c if export.controller is not None else 0)
+    if decoded is not None:
+        state["decoder_window"] = counts[14]
+        ram += counts[14]
     period = export.window.step_ms / 1e3
     control_dt = export.controller.summary["control_dt_s"] if export.controller else None
     return {
         "flash_bytes": int(flash), "ram_bytes": int(ram),
-        "instructions_per_update": {"features": int(round(ipu_f)), "estimator": int(round(ipu_e)),
-                                    "controller": None if ipu_c is None else int(round(ipu_c))},
+        "instructions_per_update": ipu,
         "matches_host": bool(same),
         "max_abs_difference_from_host": diff,
         "outputs_compared": int(sum(h.size for h in host)),

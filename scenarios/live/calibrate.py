@@ -10,7 +10,8 @@ the only stream of type ``Force``; an FSR through an ADC streamer), interpolated
 each sEMG sample's time stamp. Without one, the label is the level each cue asks
 for (a fraction of MVC) times ``mvc_n``: a prompted-force label, coarser than a
 measured force (the person's reaction time and their actual effort are not in it),
-and the file says so (``metadata["force_source"] == "cues"``).
+and the file says so (``metadata["force_source"] == "cues"``). Cue labels follow the
+cues' clock, sample ``n`` at ``n / fs`` (lost samples counted), as the cues are given.
 
 The armband's IMU stream, when there is one, is recorded beside the sEMG: the
 forearm's pitch interpolated at each sEMG sample's time stamp (``pitch_rad``). After
@@ -21,6 +22,16 @@ median pitch of the last 2 s of each becomes ``metadata["arm_poses"]``
 wrist's height with. The poses are asked for after the calibration's duration, and
 their sEMG is not kept: the estimator's fit sees the same session with or without an
 IMU.
+
+With ``open_levels`` (``griploop calibrate --open``), open contractions follow the
+squeezes (:data:`OPEN_LEVELS`: open small, medium, strong, each held and followed by a
+rest), cued in the terminal as the squeezes are, and the recording gains ``open_intent``:
+the level each open cue asks for (a fraction of the person's largest opening), a
+prompted label as the cue force is. The force label is the squeezes' only (0 while the
+hand opens, or the force stream's reading). ``metadata["open_from_s"]`` says where the
+open contractions begin: the estimator is fitted on the squeezes before it
+(:func:`scenarios.live.recorded.fit_calibration`), an open/close decoder on the whole
+recording. Without open levels the session, its cues and its file are the paper's.
 """
 
 from __future__ import annotations
@@ -39,6 +50,9 @@ from sim.recording import EMG_UNITS, Recording
 
 LEVELS = (("small", 0.25), ("medium", 0.5), ("strong", 0.9))
 """Squeezes of the session and the share of the strongest grip each asks for."""
+OPEN_LEVELS = (("small", 0.3), ("medium", 0.6), ("strong", 1.0))
+"""Open contractions of ``griploop calibrate --open`` and the share of the person's largest
+opening (finger extension) each asks for."""
 DEFAULT_MVC_N = 40.0
 """Force label of a 100 % squeeze without a force stream, N (virtual subjects: 30-50 N)."""
 
@@ -52,9 +66,10 @@ class Cue:
     t_s : float
         When it is given, s of stream time from the first sample.
     label : str
-        ``"rest"`` or ``"squeeze small"`` ...
+        ``"rest"``, ``"squeeze small"`` ..., ``"open small"`` ...
     level : float
-        Share of the strongest grip asked for (0 at rest).
+        Share of the strongest grip (a squeeze) or of the largest opening (an open
+        cue) asked for (0 at rest).
     duration_s : float
         How long it lasts, s.
     """
@@ -64,15 +79,22 @@ class Cue:
     level: float
     duration_s: float
 
+    @property
+    def action(self) -> str:
+        """What the cue asks for: ``"rest"``, ``"squeeze"``, ``"open"`` or ``"arm"``."""
+        return self.label.split()[0]
+
 
 def cue_schedule(*, first_rest_s: float = 3.0, squeeze_s: float = 4.0, rest_s: float = 4.0,
-                 final_rest_s: float = 5.0,
-                 levels: Sequence[tuple[str, float]] = LEVELS) -> tuple[list[Cue], float]:
+                 final_rest_s: float = 5.0, levels: Sequence[tuple[str, float]] = LEVELS,
+                 open_levels: Sequence[tuple[str, float]] = ()) -> tuple[list[Cue], float]:
     """The cues of a calibration session and its duration (default 28 s).
 
     Rest, then each squeeze for ``squeeze_s`` followed by a rest (``final_rest_s``
     after the last), so that the paper's 50 % identification split falls inside
-    the medium squeeze.
+    the medium squeeze. Then each open contraction of ``open_levels`` (``(name,
+    level)``, e.g. :data:`OPEN_LEVELS`) for ``squeeze_s``, each followed by ``rest_s``
+    (default: none; with :data:`OPEN_LEVELS`, 24 s more).
 
     Returns
     -------
@@ -91,7 +113,17 @@ def cue_schedule(*, first_rest_s: float = 3.0, squeeze_s: float = 4.0, rest_s: f
         t += squeeze_s
         cues.append(Cue(t, "rest", 0.0, rest))
         t += rest
+    for name, level in open_levels:
+        cues.append(Cue(t, f"open {name}", float(level), squeeze_s))
+        t += squeeze_s
+        cues.append(Cue(t, "rest", 0.0, rest_s))
+        t += rest_s
     return cues, t
+
+
+def open_from_s(cues: Sequence[Cue]) -> float | None:
+    """When the first open cue is given, s (``None``: a schedule of squeezes only)."""
+    return next((c.t_s for c in cues if c.action == "open"), None)
 
 
 def arm_cues(start_s: float, *, pose_s: float = ARM_POSE_S) -> list[Cue]:
@@ -100,11 +132,12 @@ def arm_cues(start_s: float, *, pose_s: float = ARM_POSE_S) -> list[Cue]:
             Cue(float(start_s) + pose_s, "arm raised", 0.0, pose_s)]
 
 
-def cue_levels(cues: Sequence[Cue], t_s: np.ndarray) -> np.ndarray:
-    """The level asked for at each time (a step function of the cues)."""
+def cue_levels(cues: Sequence[Cue], t_s: np.ndarray, action: str = "squeeze") -> np.ndarray:
+    """The level the ``action`` cues (``"squeeze"`` or ``"open"``) ask for at each time
+    (a step function of the cues; 0 under any other cue)."""
     starts = np.array([c.t_s for c in cues])
     idx = np.clip(np.searchsorted(starts, t_s, side="right") - 1, 0, len(cues) - 1)
-    return np.array([c.level for c in cues])[idx]
+    return np.array([c.level if c.action == action else 0.0 for c in cues])[idx]
 
 
 def say_cue(cue: Cue) -> str:
@@ -115,6 +148,10 @@ def say_cue(cue: Cue) -> str:
     if cue.label == "arm raised":
         return (f"[{cue.t_s:5.1f} s] ARM RAISED: keep your hand relaxed and raise your forearm "
                 f"as to lift an object {100 * LIFT_HEIGHT_M:g} cm, for {cue.duration_s:g} s")
+    if cue.action == "open":
+        return (f"[{cue.t_s:5.1f} s] OPEN {cue.label.split()[-1].upper()}: open your hand "
+                f"(stretch your fingers out), about {100 * cue.level:.0f} % of your widest "
+                f"opening, hold it for {cue.duration_s:g} s")
     if cue.level > 0:
         return (f"[{cue.t_s:5.1f} s] SQUEEZE {cue.label.split()[-1].upper()}: about "
                 f"{100 * cue.level:.0f} % of your strongest grip, hold it for "
@@ -194,6 +231,8 @@ def record_calibration(streams: CalibrationStreams, *, cues: Sequence[Cue], dura
         filled; their count is in ``metadata["lost_samples"]``), with the force
         label, and with an IMU the pitch (``pitch_rad``) and ``metadata["arm_poses"]``
         (``None``, with ``arm_poses_error`` saying why, when the poses were unusable).
+        With open cues, ``open_intent`` (each open cue's level) and
+        ``metadata["open_from_s"]``.
 
     Raises
     ------
@@ -238,13 +277,15 @@ def record_calibration(streams: CalibrationStreams, *, cues: Sequence[Cue], dura
             say(say_cue(cues[next_cue]))
             next_cue += 1
     emg, t_emg = np.concatenate(got.chunks), np.concatenate(got.stamps)
+    t_cues = np.concatenate(got.kept) / fs  # the cues' clock: sample n at n / fs
     if force_inlet is not None:
         force_n = _force_on(t_emg, force, force_name)
     else:
-        force_n = cue_levels(cues, t_emg - got.ts0) * mvc_n
+        force_n = cue_levels(cues, t_cues) * mvc_n
+    opens_at = open_from_s(cues)
     metadata = {
         "source": "lsl", "stream": stream_name, "protocol": "paper_protocol (live)",
-        **_cue_metadata([c for c in cues if not c.label.startswith("arm ")]),
+        **_cue_metadata([c for c in cues if c.action != "arm"]),
         "force_source": "cues" if force_inlet is None else f"lsl:{force_name}",
         "mvc_n_cues": mvc_n if force_inlet is None else None, "lost_samples": got.lost,
         "bad_samples": {"non_numeric": guard.non_numeric, "out_of_range": guard.out_of_range},
@@ -252,13 +293,18 @@ def record_calibration(streams: CalibrationStreams, *, cues: Sequence[Cue], dura
     }
     if stream_identity is not None:
         metadata["stream_identity"] = dict(stream_identity)
+    extra = {}
+    if opens_at is not None:  # the open contractions' label: the level each open cue asks
+        extra["open_intent"] = cue_levels(cues, t_cues, "open")
+        metadata.update({"protocol": "paper_protocol + open contractions (live)",
+                         "open_from_s": opens_at, "open_intent_source": "cues"})
     pitch = None if imu_inlet is None else _arm_on(
         t_emg, got.stream_s(), imu, duration_s, imu_name, metadata, say,
         list(imu_channels.labels))
     return Recording(emg=emg.astype(np.int8) if integer else emg, fs_hz=fs,
                      force_n=np.clip(force_n, 0.0, None),
                      emg_unit=stream_unit(emg_inlet, integer), pitch_rad=pitch,
-                     metadata=metadata, source=source)
+                     metadata=metadata, source=source, **extra)
 
 
 class _Samples:
@@ -272,6 +318,7 @@ class _Samples:
         self.fs, self.n_target, self.guard = fs, n_target, guard
         self.chunks: list[np.ndarray] = []
         self.stamps: list[np.ndarray] = []
+        self.kept: list[np.ndarray] = []  # each kept sample's index (n: stream time n / fs)
         self._every: list[tuple[np.ndarray, np.ndarray]] = []  # each sample's stamp, index
         self.received = self.lost = 0
         self.n = -1
@@ -290,6 +337,7 @@ class _Samples:
         keep = index < self.n_target
         self.chunks.append(x[keep])
         self.stamps.append(t[keep])
+        self.kept.append(index[keep])
         self._every.append((t, index))
         self.received += int(keep.sum())
         self.lost += int(gaps[keep].sum())
@@ -382,7 +430,15 @@ def _force_on(t_emg: np.ndarray, force: _Side, force_name: str | None) -> np.nda
 
 
 def _cue_metadata(cues: Sequence[Cue]) -> dict[str, Any]:
-    """The cues of a live session as a recording's metadata (as the paper's session has them)."""
-    return {"cues": [[("start" if c.level > 0 else "end"), c.t_s] for c in cues[1:]],
-            "cue_labels": [[c.label, c.t_s, c.level] for c in cues],
-            "levels": [c.level for c in cues if c.level > 0]}
+    """The cues of a live session as a recording's metadata (the squeezes' ``cues`` and
+    ``levels`` as the paper's session has them; every cue in ``cue_labels``; the open
+    contractions' levels, if any, in ``open_levels``)."""
+    opens_at = open_from_s(cues)
+    squeezes = [c for c in cues if opens_at is None or c.t_s < opens_at]
+    out = {"cues": [[("start" if c.level > 0 else "end"), c.t_s] for c in squeezes[1:]],
+           "cue_labels": [[c.label, c.t_s, c.level] for c in cues],
+           "levels": [c.level for c in squeezes if c.level > 0]}
+    opens = [c.level for c in cues if c.action == "open"]
+    if opens:
+        out["open_levels"] = opens
+    return out

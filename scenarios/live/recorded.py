@@ -3,17 +3,15 @@
 A live session and an offline replay of its recording must be comparable, so both run
 the one trial loop (:mod:`scenarios.runners.trial_loop`) from the same pieces:
 
-- :func:`fit_calibration` fits the estimator on a calibration recording (a
-  virtual subject's paper session, a file from ``griploop calibrate --lsl`` or a
-  lab's recording) exactly as :func:`scenarios.runners.calibration.calibrate` fits it
-  on a simulated session: features of the chosen channels, the first 50 % of the
-  windows identify, the rest scores, ``mvc_cal_n`` is the largest measured force;
+- :func:`fit_calibration` fits the estimator (and an open/close decoder) on a
+  calibration recording (:mod:`scenarios.live.calibration_fit`, re-exported here);
 - :func:`grasp_session` records a virtual subject grasping an object, aiming at the
   force an episode's user aims at through that calibration's force mapping, and
   lifting it with their own arm (the forearm's pitch, as an armband's IMU reads it);
 - :class:`RecordedPerson` is a recording in a trial: its samples reach the hand's
   reference as the trial's clock reaches them (the live session's windows, estimator,
-  gate and mapping: :class:`~scenarios.runners.semg_reference.SemgReference`), and the
+  gate and mapping: :class:`~scenarios.runners.semg_reference.SemgReference`; with a
+  decoder, every window's MAV of all the armband's channels decoded, ``decoded``), and the
   wrist follows the recorded forearm's pitch through the live session's arm mapping
   (:func:`recorded_arm`); only a recording without a pitch lifts on
   the scripted user's schedule (``episode_s - hold_s - 0.6 s``, once the grip is
@@ -30,14 +28,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from controllers.design_cache import grasp_design
-from estimation.features import PAPER_CHANNELS, extract_features
-from estimation.paper import PAPER_ORDER
 from estimation.threads import one_blas_thread
 from scenarios.live.arm import (
     FOREARM_M,
@@ -49,16 +45,25 @@ from scenarios.live.arm import (
     forearm_pitch_rad,
     virtual_arm_poses,
 )
-from scenarios.live.errors import ArmPosesError, SessionError
+from scenarios.live.calibration_fit import (  # noqa: F401 - re-exported: the replay's API
+    OPEN_ON,
+    RecordedCalibration,
+    calibration_decoder,
+    fit_calibration,
+    has_open_contractions,
+    require_open_contractions,
+    squeeze_part,
+    with_open_contractions,
+)
+from scenarios.live.errors import ArmPosesError
 from scenarios.live.reference_windows import ReferenceWindows
-from scenarios.runners.calibration import Calibration, fit_on_features
 from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
 from scenarios.runners.episode_metrics import contact_peak_ratio, episode_metrics
 from scenarios.runners.reference import RAMP_S, REST_S, intended_grip_n, reference_from_windows
 from scenarios.runners.semg_reference import SemgReference
+from scenarios.runners.trial import NOT_OPENING
 from scenarios.runners.trial_loop import DEFAULT_HAND, Frames, HandSettings, TrialLoop
 from scenarios.runners.trial_outcome import TrialReferee, judge
-from scenarios.schema import ORACLE
 from sim.hand.objects import ObjectSpec
 from sim.hand.wrist import min_jerk
 from sim.recording import Recording, RecordingError
@@ -70,110 +75,6 @@ from sim.user.subjects import VirtualSubject
 FS_HZ = 200.0
 IMU_NOISE_RAD = float(np.radians(0.2))
 """SD of the noise on a virtual subject's recorded forearm pitch, rad."""
-
-
-@dataclass
-class RecordedCalibration:
-    """An estimator fitted on a calibration recording, with the layout a stream must match.
-
-    Attributes
-    ----------
-    calibration : scenarios.runners.calibration.Calibration
-        Estimator name, mode, fitted pipeline, ``mvc_cal_n`` (N), validation R^2, fit time.
-    recording : Recording
-        The calibration recording.
-    channels : list or None
-        The channels used, as given (``None``: all).
-    channel_index : list of int
-        Their zero-based columns.
-    """
-
-    calibration: Calibration
-    recording: Recording
-    channels: list[int | str] | None
-    channel_index: list[int] = field(default_factory=list)
-
-    @property
-    def fs_hz(self) -> float:
-        """Sampling rate a stream must have, Hz."""
-        return self.recording.fs_hz
-
-    @property
-    def n_channels(self) -> int:
-        """Channel count a stream must have."""
-        return self.recording.n_channels
-
-    @property
-    def integer(self) -> bool:
-        """Whether samples are int8 counts (MYO): features are then exact integer sums."""
-        return self.recording.emg.dtype == np.int8
-
-    def to_hand(self, hand_force_at_mvc_n: float = HAND_FORCE_AT_MVC_N) -> float:
-        """The force mapping: hand newtons per estimated user newton."""
-        return hand_force_at_mvc_n / self.calibration.mvc_cal_n
-
-    def summary(self) -> dict[str, Any]:
-        """JSON-ready description."""
-        c = self.calibration
-        return {"file": self.recording.source, "estimator": c.name, "mode": c.mode,
-                "channels": "all" if self.channels is None else [str(ch) for ch in self.channels],
-                "r2": c.r2, "mvc_cal_n": c.mvc_cal_n, "fit_s": c.fit_s,
-                "n_channels": self.n_channels, "fs_hz": self.fs_hz}
-
-
-def fit_calibration(recording: Recording, estimator: str = "ridge", *, mode: str = "free_run",
-                    channels: Sequence[int | str] | None = PAPER_CHANNELS,
-                    order: int = PAPER_ORDER, identification_fraction: float = 0.5,
-                    seed: int = 0) -> RecordedCalibration:
-    """Fit ``estimator`` on a calibration recording's first part and score it on the rest.
-
-    Parameters
-    ----------
-    recording : Recording
-        sEMG with the measured force (N).
-    estimator : str
-        A registered estimator (not the oracle: a person's recording has no true force).
-    mode : {"free_run", "one_step"}
-        The mode it will stream in (a live session runs ``free_run``: sEMG only).
-    channels : sequence of int or str, or None
-        Channels (1-based numbers or names); ``None``: all. Default: the paper's 6, 7, 8.
-    order : int
-        State-space order of the estimators that take one.
-    identification_fraction : float
-        Share of the windows that identify (paper: 0.5).
-    seed : int
-        Seeds the estimators that draw random numbers (networks, trees).
-
-    Raises
-    ------
-    RecordingError
-        No force, or no positive force.
-    SessionError
-        ``estimator`` is the oracle.
-    UnsupportedScenarioError, DivergedError
-        As :func:`scenarios.runners.calibration.calibrate`.
-    """
-    if estimator == ORACLE:
-        raise SessionError("estimator: the oracle needs the user's true force, which a "
-                           "recording of a person does not have; expected a fitted estimator")
-    if recording.force_n is None:
-        raise RecordingError(
-            f"{recording.source}: no force; a calibration recording needs the measured force "
-            "(record one with griploop calibrate --lsl)"
-        )
-    mvc_cal_n = float(np.max(recording.force_n))
-    if not mvc_cal_n > 0:
-        raise RecordingError(f"{recording.source}: force never rises above 0 N; expected the "
-                             "calibration squeezes")
-    channel_list = None if channels is None else list(channels)
-    index = (list(range(recording.n_channels)) if channel_list is None
-             else [recording.channel_index(ch) for ch in channel_list])
-    features = extract_features(recording, channels=channel_list)
-    with one_blas_thread():
-        cal = fit_on_features(features, estimator, mode, rng=np.random.default_rng(seed),
-                              order=order, identification_fraction=identification_fraction,
-                              mvc_cal_n=mvc_cal_n)
-    return RecordedCalibration(cal, recording, channel_list, index)
 
 
 @dataclass(frozen=True)
@@ -413,6 +314,12 @@ class RecordedPerson:
             self.wrist_tremor_m = 0.0
         self.pushed = 0
 
+    @property
+    def decoded(self) -> Any:
+        """The latest window's open and close signals
+        (:class:`controllers.paradigms.Decoded`; ``None`` without a decoder)."""
+        return self.reference.decoded
+
     def act(self, k: int, scene: Scene, setpoint_m: float) -> tuple[float, WristMove | None]:
         """The reference at step ``k`` from every sample by then, and the recorded arm's move."""
         t = self.start_s + k * self.dt
@@ -518,9 +425,26 @@ def episode_on_recording(recording: Recording, cal: RecordedCalibration, obj: Ob
                             control_dt_s=spec.control_dt_s,
                             wrist_tremor_m=person.wrist_tremor_m,
                             windows=ReferenceWindows.of(chain, spec.episode_s), oracle_n=oracle)
+    metrics.update(decoder_counts(chain, getattr(recording, "open_intent", None)))
     timings = {**chain.timings, "t_controller_s": loop.controller_s,
                "t_physics_s": loop.physics_s}
     return RecordedEpisode(metrics, traces, design, timings, loop.referee)
+
+
+def decoder_counts(chain: SemgReference, open_intent: np.ndarray | None = None
+                   ) -> dict[str, int | None]:
+    """With a decoder: ``decoder_windows`` (windows decoded) and ``unrequested_opens``
+    (windows decoded open while ``open_intent`` at their last sample was below
+    :data:`scenarios.runners.trial.NOT_OPENING`, as a simulated trial counts them), or
+    ``None`` without an open-intent label (a person's); empty without a decoder."""
+    if chain.decoder is None:
+        return {}
+    ends = np.asarray(chain.window_end, dtype=int)
+    if open_intent is None:
+        return {"decoder_windows": int(ends.size), "unrequested_opens": None}
+    opens = np.array([o > 0.0 for _, o in chain.window_decoded], dtype=bool)
+    asked = open_intent[np.minimum(ends, open_intent.size - 1)] >= NOT_OPENING
+    return {"decoder_windows": int(ends.size), "unrequested_opens": int(np.sum(opens & ~asked))}
 
 
 def session_seed(seed: int) -> int:

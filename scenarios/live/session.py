@@ -47,7 +47,8 @@ Safe when the stream is not:
   (``ended: "source_changed"``, event ``source_changed``) with the hand holding its
   grip: samples from another source are never used;
 - a stall of the IMU stream holds the wrist still (:mod:`scenarios.live.arm`); the
-  hand keeps following the sEMG.
+  hand keeps following the sEMG; decoded signals (:attr:`LiveGrasp.decoded`) are relaxed
+  while the hand holds its grip: under ``velocity`` the motor stops.
 
 Bad samples (non-numeric or NaN, out of range) are counted and replaced by 0 or
 clipped by :class:`~scenarios.live.samples.SampleGuard`; they never stop a session.
@@ -64,9 +65,10 @@ from typing import Any
 import numpy as np
 
 from controllers.design_cache import grasp_design
+from controllers.paradigms import RELAXED
 from scenarios.live.arm import LIFT_HEIGHT_M, Arm
 from scenarios.live.hooks import DEFAULT_HOOKS, SessionHooks
-from scenarios.live.recorded import RecordedCalibration, grasp_metrics, session_seed
+from scenarios.live.recorded import RecordedCalibration, decoder_counts, grasp_metrics, session_seed
 from scenarios.live.reference_windows import ReferenceWindows
 from scenarios.live.samples import SampleGuard
 from scenarios.live.timing import percentile, warnings_for
@@ -197,8 +199,7 @@ class LiveGrasp:
         self.viewer = viewer
         self.viewer_every = max(1, int(round(0.04 / s.control_dt_s)))
         n = self.n_steps
-        self._stimulus = np.zeros(n)
-        self._latency = np.zeros(n)
+        self._stimulus, self._latency = np.zeros(n), np.zeros(n)
         self._n_latency = 0
         capacity = int(np.ceil((s.duration_s + s.timeout_s + 2.0) * self.fs_hz))
         self._transport = np.zeros(capacity)
@@ -208,13 +209,10 @@ class LiveGrasp:
         self.gaps: list[dict[str, float]] = []
         self.finished, self.ended = False, ""
         self.failure: str | None = None
-        self.stale_skipped = 0
         self.events: list[tuple[float, str]] = []
         self.source_changes: list[dict[str, Any]] = []
         self._notify = notify
-        self.received = 0
-        self.lost = 0
-        self.deadline_misses = 0
+        self.received = self.lost = self.deadline_misses = self.stale_skipped = 0
         self.wall_s = 0.0
         # what start() sets, so that an unstarted session reports (nothing happened)
         self.n, self.in_gap, self.holding = -1, False, False
@@ -229,6 +227,13 @@ class LiveGrasp:
         move their arm starts now (:class:`~scenarios.runners.trial_loop.Person`)."""
         return self.chain.reference_n, self.arm.command(k * self.settings.control_dt_s,
                                                         setpoint_m)
+
+    @property
+    def decoded(self) -> Any:
+        """The latest window's :class:`~controllers.paradigms.Decoded` (``None`` without a
+        decoder), relaxed while the hand holds its grip (read before ``start()`` too)."""
+        d = self.chain.decoded
+        return RELAXED if d is not None and getattr(self, "holding", False) else d
 
     @property
     def k(self) -> int:
@@ -553,9 +558,10 @@ class LiveGrasp:
         processing = self.trial.physics_s + self.trial.controller_s
         t, referee = traces["t_s"], self.referee
         rising = np.flatnonzero(traces["wrist_height_m"] > 0.0)
-        metrics = grasp_metrics(traces, info, referee, self.obj, control_dt_s=s.control_dt_s,
-                                wrist_tremor_m=self.wrist_tremor_m,
-                                windows=ReferenceWindows.of(self.chain, s.duration_s))
+        metrics = {**grasp_metrics(traces, info, referee, self.obj, control_dt_s=s.control_dt_s,
+                                   wrist_tremor_m=self.wrist_tremor_m,
+                                   windows=ReferenceWindows.of(self.chain, s.duration_s)),
+                   **decoder_counts(self.chain)}  # a person's: no open-intent label
         out: dict[str, Any] = {
             "samples": {"received": int(self.received), "expected": int(expected),
                         "lost": int(max(expected - self.received, 0))},

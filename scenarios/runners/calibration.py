@@ -14,7 +14,7 @@ the model does not diverge in it.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -28,6 +28,7 @@ from scenarios.rows import CalibrationRow
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
 from scenarios.runners.subject import calibration_session, subject_for
 from scenarios.schema import NO_ESTIMATOR, Scenario
+from sim.recording import Recording
 from sim.user.subjects import VirtualSubject
 
 
@@ -53,6 +54,9 @@ class Calibration:
         The hand's rest threshold on the estimate (:mod:`estimation.rest_gate`), N:
         closed above ``rest_on_n``, open again below ``rest_off_n``; set from the
         estimate at sustained rest in the session (0: none, the oracle's).
+    decoder : object or None
+        The open/close decoder fitted on the squeeze session and a session of open
+        contractions (:mod:`estimation.decoding`); ``None``: none fitted.
     """
 
     name: str
@@ -63,6 +67,7 @@ class Calibration:
     fit_s: float
     rest_on_n: float = 0.0
     rest_off_n: float = 0.0
+    decoder: Any = None
 
     def rest_gate(self) -> RestGate:
         """A new (open) :class:`~estimation.rest_gate.RestGate` at the calibration's thresholds."""
@@ -168,6 +173,10 @@ class CalibrationSettings:
         The estimator's own hyperparameters.
     window_ms, step_ms : float
         The feature window and its increment, ms.
+    decoder : str or None
+        An open/close decoder to fit too (:mod:`estimation.decoding`): the session then
+        adds open contractions (:meth:`sim.user.subjects.VirtualSubject.open_session`).
+        ``None``: the paper's squeezes only.
     """
 
     estimator: str
@@ -179,6 +188,7 @@ class CalibrationSettings:
     options: Mapping[str, Any] | None = None
     window_ms: float = 400.0
     step_ms: float = 125.0
+    decoder: str | None = None
 
     def fit(self, subject: VirtualSubject, seed_seq: np.random.SeedSequence) -> Calibration:
         """:func:`shared_calibration` of ``subject`` with these settings."""
@@ -191,7 +201,8 @@ class CalibrationSettings:
                 "generator": self.generator,
                 "identification_fraction": float(self.identification_fraction),
                 "calibration_s": self.calibration_s, "options": dict(self.options or {}),
-                "window_ms": float(self.window_ms), "step_ms": float(self.step_ms)}
+                "window_ms": float(self.window_ms), "step_ms": float(self.step_ms),
+                **({} if self.decoder is None else {"decoder": self.decoder})}
 
 
 def calibrate(subject: VirtualSubject, settings: CalibrationSettings, *,
@@ -227,10 +238,50 @@ def calibrate(subject: VirtualSubject, settings: CalibrationSettings, *,
                                               window_ms=s.window_ms, step_ms=s.step_ms)
     mvc_cal_n = float(np.max(recording.force_n))
     if s.estimator in NO_ESTIMATOR:  # the oracle, the intact hand: nothing to fit
-        return Calibration(s.estimator, s.mode, None, mvc_cal_n, None, 0.0)
-    return fit_on_features(features, s.estimator, s.mode, rng=estimator_rng, order=s.order,
-                           identification_fraction=s.identification_fraction,
-                           mvc_cal_n=mvc_cal_n, options=s.options)
+        cal = Calibration(s.estimator, s.mode, None, mvc_cal_n, None, 0.0)
+    else:
+        cal = fit_on_features(features, s.estimator, s.mode, rng=estimator_rng, order=s.order,
+                              identification_fraction=s.identification_fraction,
+                              mvc_cal_n=mvc_cal_n, options=s.options)
+    if s.decoder is not None:
+        # a third stream of the calibration's seed: the squeezes and the estimator keep theirs
+        open_session = subject.open_session(rng.spawn(1)[0], generator=s.generator,
+                                            fs_hz=recording.fs_hz)
+        cal.decoder = fit_decoder(s.decoder, [recording, open_session],
+                                  window_ms=s.window_ms, step_ms=s.step_ms)
+    return cal
+
+
+def fit_decoder(name: str, recordings: Sequence[Recording], *, window_ms: float = 400.0,
+                step_ms: float = 125.0) -> Any:
+    """The decoder ``name`` fitted on the labelled windows of ``recordings``.
+
+    Parameters
+    ----------
+    name : str
+        A registered decoder (:func:`estimation.decoding.decoder_names`).
+    recordings : sequence of Recording
+        Sessions with their close intent (``intent``) and, for some, their open intent
+        (``open_intent``): the paper's squeezes and the open contractions.
+    window_ms, step_ms : float
+        The feature window and its increment, ms.
+
+    Raises
+    ------
+    estimation.decoding.DecoderCalibrationError
+        No open contractions in any recording, or a site that never rises above its
+        rest level (the message names its channels).
+    """
+    from estimation.decoding import decoder_windows, make_decoder
+
+    xs, ys = [], []
+    for rec in recordings:
+        intent = rec.intent if rec.intent is not None else np.zeros(rec.n_samples)
+        x, y = decoder_windows(rec.emg, intent, getattr(rec, "open_intent", None),
+                               fs_hz=rec.fs_hz, window_ms=window_ms, step_ms=step_ms)[:2]
+        xs.append(x)
+        ys.append(y)
+    return make_decoder(name).fit(np.concatenate(xs), np.concatenate(ys))
 
 
 _CALIBRATIONS: dict[tuple, Calibration] = {}
@@ -252,7 +303,8 @@ def shared_calibration(subject: VirtualSubject, settings: CalibrationSettings, *
     s = settings
     key = (subject, s.estimator, s.mode, s.order, s.generator, s.identification_fraction,
            s.calibration_s, tuple(seed_seq.generate_state(4)),
-           tuple(sorted((s.options or {}).items())), float(s.window_ms), float(s.step_ms))
+           tuple(sorted((s.options or {}).items())), float(s.window_ms), float(s.step_ms),
+           s.decoder)
     if key not in _CALIBRATIONS:
         if len(_CALIBRATIONS) >= _MAX_CALIBRATIONS:
             _CALIBRATIONS.pop(next(iter(_CALIBRATIONS)))

@@ -186,7 +186,8 @@ class EpisodeSpec:
         """How the estimator is calibrated."""
         return CalibrationSettings(self.estimator, self.mode, self.order, self.generator,
                                    self.identification_fraction, self.calibration_s,
-                                   self.estimator_options, self.window_ms, self.step_ms)
+                                   self.estimator_options, self.window_ms, self.step_ms,
+                                   self.hand.effective_decoder)
 
 
 def scenario_object(scenario: Scenario) -> ObjectSpec:
@@ -329,6 +330,7 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
     verdict_fields = verdict.fields()
     del verdict_fields["released"]
     row = EpisodeRow.build(**{
+        **dict.fromkeys(("decoder", "decoder_windows", "unrequested_opens")),  # no decoder
         **row,
         **metrics,
         "intended_grip_n": target_n,
@@ -343,6 +345,7 @@ def _episode_result(row: dict[str, Any], cal: Calibration, design: ControllerDes
         "loop_dt_s": float(control_dt_s),
         "mpc_failures": mpc_failures(design),
         "cal_r2": cal.r2, "cal_mvc_n": cal.mvc_cal_n, "fit_s": cal.fit_s,
+        **trial.decoding,
         **timings,
         "simulated_s": float(simulated),
         "realtime_factor": float(simulated / loop_time) if loop_time > 0 else None,
@@ -401,8 +404,9 @@ def episode_spec(scenario: Scenario) -> EpisodeSpec:
 
 
 def hand_settings(scenario: Scenario) -> HandSettings:
-    """The scenario's hand: ``hand.drive``, ``paradigm`` and ``auto_grip``."""
-    return HandSettings(scenario.hand.drive, scenario.paradigm, scenario.auto_grip)
+    """The scenario's hand: ``hand.drive``, ``paradigm``, ``auto_grip`` and ``decoder``."""
+    return HandSettings(scenario.hand.drive, scenario.paradigm, scenario.auto_grip,
+                        scenario.decoder)
 
 
 def episode_from_scenario(scenario: Scenario, *, record_frames: bool = False,

@@ -81,7 +81,8 @@ def calibration_settings(scenario: Scenario) -> CalibrationSettings:
     e, p = scenario.estimator, scenario.protocol
     return CalibrationSettings(e.name, e.mode, PAPER_ORDER if e.order is None else e.order,
                                scenario.subject.generator, p.identification_fraction,
-                               p.calibration_s, e.options, e.window_ms, e.step_ms)
+                               p.calibration_s, e.options, e.window_ms, e.step_ms,
+                               hand_settings(scenario).effective_decoder)
 
 
 class TaskSetup:

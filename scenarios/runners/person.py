@@ -119,6 +119,8 @@ class VirtualPerson:
         self.hop = self.reference.hop
         self.n_samples = n
         self.intent = np.zeros(n)
+        # the open intent of a user who opens the hand on a second signal (else None)
+        self.open_intent = np.zeros(n) if plan.open_to_release and operator.reacts else None
         self._n_intent = 0
         self._intact = calibration.name == INTACT  # no sEMG path: the true force, every step
         self.to_hand, self.ceiling = self.reference.to_hand, self.reference.ceiling
@@ -130,6 +132,12 @@ class VirtualPerson:
     def done(self) -> bool:
         """The operator has finished the task."""
         return bool(self.operator.done)
+
+    @property
+    def decoded(self) -> Any:
+        """The latest window's open and close signals
+        (:class:`controllers.paradigms.Decoded`; ``None`` without a decoder)."""
+        return self.reference.decoded
 
     def act(self, k: int, scene: Scene, setpoint_m: float) -> tuple[float, WristMove | None]:
         """The hand reference for control step ``k`` (time ``k * dt``), N, and the arm's move.
@@ -167,6 +175,8 @@ class VirtualPerson:
         if n > self._n_intent:
             t0 = time.perf_counter()
             self.intent[self._n_intent:n] = self.operator.intent(n - self._n_intent)
+            if self.open_intent is not None:
+                self.open_intent[self._n_intent:n] = self.operator.open_intent(n - self._n_intent)
             self._n_intent = n
             self.timings["t_operator_s"] += time.perf_counter() - t0
 
@@ -176,7 +186,12 @@ class VirtualPerson:
         self.intent_until(n)
         t0 = time.perf_counter()
         done = self.session.n_done
-        chunk = self.session.advance(self.intent[done:n]) if n > done else None
+        chunk = None
+        if n > done:
+            opening = None if self.open_intent is None else self.open_intent[done:n]
+            chunk = (self.session.advance(self.intent[done:n]) if opening is None
+                     or not opening.any() else
+                     self.session.advance(self.intent[done:n], open_intent=opening))
         self.timings["t_semg_s"] += time.perf_counter() - t0
         if chunk is not None:
             self.reference.push(chunk)

@@ -172,5 +172,6 @@ def plan_for(task: Task, limit_s: float, subject: VirtualSubject, cal: Calibrati
                 need_n=task.need_n, break_n=task.break_n,
                 level_per_n=level_per_newton(cal, subject, hand_force_at_mvc_n),
                 lift_height_m=task.lift_height_m, hold_s=task.hold_s, place=task.place,
-                move_s=task.move_s, limit_s=float(limit_s))
+                move_s=task.move_s, limit_s=float(limit_s),
+                open_to_release=getattr(cal, "decoder", None) is not None)
     return plan, start_s

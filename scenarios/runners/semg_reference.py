@@ -8,7 +8,10 @@ subject, a recording, an LSL stream)::
         window's end) --rest gate--> user newtons --force mapping--> hand newtons,
         clipped to 0..1.2 x the hand force at the user's MVC
 
-and holds each window's value until the next window (0 before the first). The force
+and holds each window's value until the next window (0 before the first). A calibration
+that fitted an open/close decoder (:mod:`estimation.decoding`) also has every window's MAV
+of all the armband's channels decoded into the close and open levels
+(:class:`~controllers.paradigms.Decoded`, held likewise; relaxed before the first). The force
 mapping is :mod:`scenarios.runners.episode`'s: ``hand_force_at_mvc_n / mvc_cal_n``. The
 oracle (a calibration without a pipeline) is the user's true grip at each window's end,
 through the same mapping.
@@ -24,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from controllers.paradigms import RELAXED, Decoded
 from estimation.feature_window import FeatureWindow
 from scenarios.runners.dispatch import UnsupportedScenarioError
 
@@ -109,6 +113,11 @@ class SemgReference:
         Each window's end (its last sample's time from the first sample, s) and value, N.
     window_end : list of int
         Each window's last sample.
+    decoded : Decoded or None
+        The latest window's open and close signals (held until the next); ``None``
+        without a decoder in the calibration.
+    window_decoded : list of (float, float)
+        Each window's close and open levels (empty without a decoder).
     timings : dict
         Wall time in the features and in the estimator, s.
 
@@ -138,6 +147,14 @@ class SemgReference:
         self.to_hand, self.ceiling = mapping.to_hand, mapping.reference_max_n
         self._forces = forces
         self.stream = None if self.oracle else calibration.pipeline.streaming(calibration.mode)
+        self.decoder = getattr(calibration, "decoder", None)
+        self.hand_force_at_mvc_n = float(hand_force_at_mvc_n)
+        self.decoder_window = self.decoder_stream = None
+        if self.decoder is not None:
+            self.decoder_window = FeatureWindow(
+                fs_hz, range(int(self.decoder.n_features_in_)), window_ms=window_ms,
+                step_ms=step_ms, features=("mav",), integer=integer)
+            self.decoder_stream = self.decoder.stream()
         self.reset()
 
     def reset(self) -> None:
@@ -145,6 +162,11 @@ class SemgReference:
         self.window.reset()
         if self.stream is not None:
             self.stream.reset()
+        if self.decoder_window is not None:
+            self.decoder_window.reset()
+            self.decoder_stream.reset()
+        self.decoded: Decoded | None = None if self.decoder is None else RELAXED
+        self.window_decoded: list[tuple[float, float]] = []
         self.gate = self.calibration.rest_gate()
         self.base = 0  # index of the window's first sample since the trial began
         self.reference_n = 0.0
@@ -157,6 +179,8 @@ class SemgReference:
         """Windows start again with sample ``at_sample`` (after a gap); the estimator keeps
         its state and the reference holds until the next window."""
         self.window.reset()
+        if self.decoder_window is not None:
+            self.decoder_window.reset()
         self.base = int(at_sample)
 
     def push(self, samples: np.ndarray) -> int:
@@ -174,6 +198,8 @@ class SemgReference:
         """
         t0 = time.perf_counter()
         rows, ends = self.window.push(samples)
+        if self.decoder_window is not None:
+            self._decode(self.decoder_window.push(samples)[0])
         t1 = time.perf_counter()
         self.timings["t_features_s"] += t1 - t0
         if not ends.size:
@@ -198,3 +224,12 @@ class SemgReference:
             self.window_values_n.append(self.reference_n)
         self.timings["t_estimator_s"] += time.perf_counter() - t1
         return int(ends.size)
+
+    def _decode(self, rows: np.ndarray) -> None:
+        """Decode the MAV rows of the windows just completed (they end where the
+        estimator's windows end: the same window, increment and samples)."""
+        step, grip_at_full = self.decoder_stream.step, self.hand_force_at_mvc_n
+        for row in rows:
+            close, open_ = step(row)
+            self.window_decoded.append((close, open_))
+            self.decoded = Decoded(close, open_, close * grip_at_full)

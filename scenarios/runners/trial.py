@@ -108,6 +108,9 @@ class Trial:
         When the user's phases began (empty for a user without phases), s.
     timings : dict
         Wall time in each part of the loop (:data:`TIMING_KEYS`), s.
+    decoding : dict
+        With a decoder: ``decoder_windows`` (windows decoded) and ``unrequested_opens``
+        (windows decoded as open while the user was not opening); empty without one.
     """
 
     traces: dict[str, np.ndarray]
@@ -119,6 +122,7 @@ class Trial:
     memory: TrialMemory
     phases: list[tuple[float, str]] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+    decoding: dict[str, int] = field(default_factory=dict)
 
     @property
     def attempts(self) -> int:
@@ -187,7 +191,25 @@ def run_trial(setup: TrialSetup, operator: Operator, task: Task,
     phases = list(operator.phase_log)
     memory = operator.finish()
     return Trial(traces, loop.failure, loop.info, stream, loop.referee, str(loop.ended),
-                 memory, phases, timings)
+                 memory, phases, timings, decoding_counts(person))
+
+
+#: The open intent below which a user is not opening (the decoder's labels' rest edge).
+NOT_OPENING = 0.05
+
+
+def decoding_counts(person: VirtualPerson) -> dict[str, int]:
+    """The decoder's windows in a trial and those it decoded as open while the user was not
+    opening (open intent below :data:`NOT_OPENING` at the window's last sample); empty
+    without a decoder."""
+    ref = person.reference
+    if ref.decoder is None:
+        return {}
+    ends = np.asarray(ref.window_end, dtype=int)
+    opens = np.array([o > 0.0 for _, o in ref.window_decoded], dtype=bool)
+    asked = (np.zeros(ends.size, dtype=bool) if person.open_intent is None
+             else person.open_intent[np.minimum(ends, person.n_samples - 1)] >= NOT_OPENING)
+    return {"decoder_windows": int(ends.size), "unrequested_opens": int(np.sum(opens & ~asked))}
 
 
 def _stream(person: VirtualPerson, start_s: float, t_ctrl: np.ndarray,

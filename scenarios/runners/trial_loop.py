@@ -40,7 +40,12 @@ from typing import Any, Protocol
 import numpy as np
 
 from controllers.drive import HandLoop
-from controllers.paradigms import make_paradigm
+from controllers.paradigms import (
+    DecoderMissingError,
+    make_paradigm,
+    needs_decoder,
+    uses_decoder,
+)
 from controllers.reflex import AUTO_GRIP
 from scenarios.runners.trial_outcome import TrialReferee
 from sim.hand.drive import make_drive
@@ -73,7 +78,9 @@ class Person(Protocol):
     reference for step ``k`` (N) and the arm's move decided now (or ``None``). ``done``
     says the person has finished the task. ``wrist_tremor_m`` is how much the person's
     wrist moves when held still (0 for a virtual arm; a measured arm trembles): the
-    in-air hold ends when the wrist comes down by more than it.
+    in-air hold ends when the wrist comes down by more than it. ``decoded`` is the
+    latest window's open and close signals (:class:`controllers.paradigms.Decoded`), or
+    ``None`` when the person's calibration has no decoder (a person may leave it out).
     """
 
     done: bool
@@ -134,26 +141,48 @@ class HandSettings:
     drive : str
         The transmission (:mod:`sim.hand.drive`): ``backdrivable`` or ``self_locking``.
     paradigm : str
-        How the reference follows the estimate (:mod:`controllers.paradigms`): ``force``
-        or ``force_hold``.
+        How the reference follows the estimate (:mod:`controllers.paradigms`): ``force``,
+        ``force_hold`` or ``velocity``.
     auto_grip : bool
         The hand's own slip response: the slip reflex around whatever controller runs
         (:data:`controllers.reflex.AUTO_GRIP`).
+    decoder : str or None
+        The open/close decoder (:mod:`estimation.decoding`: ``two_site`` or ``pattern``)
+        the calibration fits on open contractions too; ``None``: none, unless the
+        paradigm needs one (``velocity``), which then gets the default
+        (:attr:`effective_decoder`).
     """
 
     drive: str = "backdrivable"
     paradigm: str = "force"
     auto_grip: bool = False
+    decoder: str | None = None
+
+    @property
+    def effective_decoder(self) -> str | None:
+        """The decoder the calibration fits: the one asked for, else the default
+        (:data:`estimation.decoding.DEFAULT_DECODER`) when the paradigm needs one."""
+        if self.decoder is not None:
+            return self.decoder
+        if needs_decoder(self.paradigm):
+            from estimation.decoding import DEFAULT_DECODER
+            return DEFAULT_DECODER
+        return None
 
     def check(self) -> HandSettings:
-        """``self``, or a one-line error naming the registered drives or paradigms.
+        """``self``, or a one-line error naming the registered drives, paradigms or
+        decoders.
 
         Raises
         ------
-        sim.hand.drive.UnknownDriveError, controllers.paradigms.UnknownParadigmError
+        sim.hand.drive.UnknownDriveError, controllers.paradigms.UnknownParadigmError,
+        estimation.decoding.UnknownDecoderError
         """
         make_drive(self.drive)
         make_paradigm(self.paradigm)
+        if self.decoder is not None:
+            from estimation.decoding import make_decoder
+            make_decoder(self.decoder)
         return self
 
     def controller_spec(self, spec: Mapping[str, Any] | None) -> dict[str, Any] | None:
@@ -164,8 +193,12 @@ class HandSettings:
         return {**dict(spec or {}), "slip_reflex": dict(AUTO_GRIP)}
 
     def fields(self) -> dict[str, Any]:
-        """The settings as a row's columns."""
-        return {"paradigm": self.paradigm, "drive": self.drive, "auto_grip": self.auto_grip}
+        """The settings as a row's columns (``decoder`` only when there is one)."""
+        out = {"paradigm": self.paradigm, "drive": self.drive, "auto_grip": self.auto_grip}
+        decoder = self.effective_decoder
+        if decoder is not None:
+            out["decoder"] = decoder
+        return out
 
 
 DEFAULT_HAND = HandSettings()
@@ -328,6 +361,13 @@ class TrialLoop:
         self.design, self.person, self.seed = design, person, int(seed)
         self.hand = hand
         self.paradigm = make_paradigm(hand.paradigm)
+        self._decoded = uses_decoder(self.paradigm)
+        if getattr(self.paradigm, "needs_decoder", False) and \
+                getattr(person, "decoded", None) is None:
+            raise DecoderMissingError(
+                f"paradigm {hand.paradigm} needs open and close signals, but the calibration "
+                "has no open contractions (no decoder was fitted); expected a calibration "
+                "with open contractions (griploop calibrate --open)")
         self.dt = float(control_dt_s)
         self.n_steps = int(round(limit_s / control_dt_s))
         self.t_s = np.arange(self.n_steps) * self.dt
@@ -380,7 +420,10 @@ class TrialLoop:
         t = float(self.t_s[k])
         ref, move = self.person.act(k, scene_from_info(t, info),
                                     env.commanded.height_m(env.data.time))
-        ref = self.paradigm.step(ref)
+        if self._decoded:
+            ref = self.paradigm.step(ref, getattr(self.person, "decoded", None))
+        else:
+            ref = self.paradigm.step(ref)
         if reference_n is not None:
             ref = reference_n
         if move is not None:
@@ -392,7 +435,9 @@ class TrialLoop:
                 self._load_n = new_load
             rec.loads[k] = self._load_n
         env.set_reference(ref)
-        _, command, _ = self.hand_loop.step(ref)
+        # a paradigm that bounds the motor (velocity) says so; the others leave it alone
+        _, command, _ = self.hand_loop.step(ref, bounds=getattr(self.paradigm,
+                                                                "command_range", None))
         self.info = info = self.hand_loop.info
         rec.record(k, ref, info, command, max(ref, self.design.core.last_reference_n))
         if rec.observations is not None:

@@ -70,13 +70,13 @@ from scenarios.schema.models import (
     controller_names,
     estimator_choices,
     feedback_modes,
-    field_paths,
     generator_names,
     kind_protocols,
     object_names,
     scenario_kinds,
     user_kinds,
 )
+from scenarios.schema.paths import field_paths
 from scenarios.schema.sweep_file import (
     Choice,
     Distribution,

@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from scenarios.schema.models import Scenario, ScenarioError, with_value_at
+from scenarios.schema.models import Scenario, ScenarioError
+from scenarios.schema.paths import with_value_at
 from scenarios.schema.sweep_file import SweepConfig
 from scenarios.schema.yaml_loading import describe_error, short_repr
 

@@ -8,7 +8,6 @@ scenario is validated (:mod:`scenarios.schema.names`). Module attributes
 
 from __future__ import annotations
 
-import copy
 import json
 from typing import Annotated, Any, Literal
 
@@ -27,6 +26,7 @@ from scenarios.schema.names import (  # noqa: F401  (re-exported: the schema's p
     check_registered,
     controller_names,
     controller_own_options,
+    decoder_names,
     drive_names,
     estimator_choices,
     estimator_own_options,
@@ -525,6 +525,9 @@ class Scenario(StrictModel):
         :mod:`controllers.paradigms` (``force``, default; ``force_hold``).
     auto_grip : bool
         The hand's own slip response (:data:`controllers.reflex.AUTO_GRIP`).
+    decoder : str or None
+        The open/close decoder (:mod:`estimation.decoding`: ``two_site``, ``pattern``);
+        ``None``: none, or the default one when the paradigm needs one (``velocity``).
     """
 
     kind: str = "episode"
@@ -538,6 +541,7 @@ class Scenario(StrictModel):
     hand: HandConfig = added_field(default_factory=HandConfig)
     paradigm: str = added_field("force")
     auto_grip: bool = added_field(False)
+    decoder: str | None = added_field(None)
 
     @field_validator("kind")
     @classmethod
@@ -548,6 +552,11 @@ class Scenario(StrictModel):
     @classmethod
     def _registered_paradigm(cls, value: str) -> str:
         return check_registered(value, paradigm_names())
+
+    @field_validator("decoder")
+    @classmethod
+    def _registered_decoder(cls, value: str | None) -> str | None:
+        return None if value is None else check_registered(value, decoder_names())
 
     @model_validator(mode="after")
     def _protocol_fits_kind(self) -> Scenario:
@@ -573,28 +582,3 @@ class Scenario(StrictModel):
         """The scenario as canonical JSON (:meth:`canonical_dict`), sorted keys, no spaces."""
         return json.dumps(self.canonical_dict(), sort_keys=True, separators=(",", ":"))
 
-
-def field_paths(model: type[BaseModel] = Scenario, prefix: str = "") -> list[str]:
-    """Every dotted leaf field path of ``model`` (what a grid or random design may set)."""
-    out: list[str] = []
-    for name, field in model.model_fields.items():
-        sub = field.annotation
-        if isinstance(sub, type) and issubclass(sub, BaseModel):
-            out.extend(field_paths(sub, f"{prefix}{name}."))
-        elif model is ControllerConfig and name == "options":
-            out.extend(f"{prefix}options.{k}" for k in sorted(
-                {k for kind in controller_names() for k in controller_own_options(kind)}))
-        else:
-            out.append(prefix + name)
-    return out
-
-
-def with_value_at(data: dict[str, Any], path: str, value: Any) -> dict[str, Any]:
-    """A deep copy of ``data`` with ``value`` at the dotted ``path`` (``"object.mass_kg"``)."""
-    out = copy.deepcopy(data)
-    node = out
-    parts = path.split(".")
-    for part in parts[:-1]:
-        node = node[part]
-    node[parts[-1]] = value
-    return out

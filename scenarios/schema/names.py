@@ -103,12 +103,19 @@ def paradigm_names() -> tuple[str, ...]:
     return names()
 
 
+def decoder_names() -> tuple[str, ...]:
+    """Open/close decoders registered in :mod:`estimation.decoding`."""
+    from estimation.decoding import decoder_names as names
+
+    return names()
+
+
 #: Module attributes of :mod:`scenarios.schema.models` that list what is registered now.
 REGISTRY_LISTS = {"ESTIMATORS": estimator_choices, "OBJECTS": object_names,
           "GENERATORS": generator_names, "CONTROLLERS": controller_names,
           "SCENARIO_KINDS": scenario_kinds, "USER_KINDS": user_kinds,
           "FEEDBACK_MODES": feedback_modes, "DRIVES": drive_names,
-          "PARADIGMS": paradigm_names}
+          "PARADIGMS": paradigm_names, "DECODERS": decoder_names}
 
 
 def check_registered(value: str, names: tuple[str, ...]) -> str:

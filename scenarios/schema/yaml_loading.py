@@ -20,7 +20,8 @@ from typing import Any
 import yaml
 from pydantic import BaseModel, ValidationError
 
-from scenarios.schema.models import Scenario, ScenarioError, field_paths, with_value_at
+from scenarios.schema.models import Scenario, ScenarioError
+from scenarios.schema.paths import field_paths, with_value_at
 from scenarios.schema.sweep_file import SweepConfig
 
 MAX_YAML_DEPTH = 32

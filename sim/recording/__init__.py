@@ -3,7 +3,9 @@
 A :class:`Recording` is what a MYO armband and an FSR produce in one session:
 multichannel sEMG of shape ``(n_samples, n_channels)`` sampled at ``fs_hz``, the
 measured grip force in newtons (optional), and, for simulated subjects, the
-ground-truth intent (normalized force, 0..1) that produced them.
+ground-truth intent (normalized force, 0..1) that produced them; a calibration for a
+hand that opens on a second signal also labels its open contractions (``open_intent``,
+optional).
 
 One module per job; the names below are the package's interface:
 

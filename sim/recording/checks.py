@@ -22,8 +22,9 @@ TIME_UNITS = ("s", "ms", "us")
 TIME_UNIT_S = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
 DUPLICATES = ("average", "spread")
 #: Optional per-sample columns written and read by name: the simulated ground truth
-#: (``intent``, ``intent_force_n``) and the forearm's pitch from an armband's IMU.
-OPTIONAL_COLUMNS = ("intent", "intent_force_n", "pitch_rad")
+#: (``intent``, ``intent_force_n``), the forearm's pitch from an armband's IMU and the
+#: open-contraction label of a calibration for a hand that opens on a second signal.
+OPTIONAL_COLUMNS = ("intent", "intent_force_n", "pitch_rad", "open_intent")
 MIN_FS_HZ = 10.0
 """Lowest sampling rate a CSV time column may imply, Hz (lower means a wrong time unit)."""
 MAX_GAP_STEPS = 20

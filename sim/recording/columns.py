@@ -345,8 +345,9 @@ def resolve_columns(
     emg : list of int
     force : int or None
     extra : dict
-        Positions of the simulated ground truth (``intent``, ``intent_force_n``) and
-        the forearm pitch (``pitch_rad``) found by griploop's names and otherwise unused.
+        Positions of the simulated ground truth (``intent``, ``intent_force_n``), the
+        forearm pitch (``pitch_rad``) and the open label (``open_intent``) found by
+        griploop's names and otherwise unused.
 
     Raises
     ------

@@ -55,6 +55,12 @@ class Recording:
         Forearm pitch from the armband's IMU at each sEMG sample, rad (what
         ``griploop live --imu-lsl`` turns into the wrist's height); a virtual
         subject's grasp recording derives it from the simulated wrist height.
+    open_intent : ndarray, shape (n_samples,), optional
+        Ground-truth intended opening (finger extension), 0..1 of the largest opening
+        contraction: labels the open contractions of a calibration for a hand that opens
+        on a second signal (``griploop calibrate --open``; a virtual subject's
+        ``open_session``). Optional: a recording without it is a squeeze-only
+        (single-site) calibration, any lab's CSV included.
     metadata : dict
         JSON-serializable provenance (subject id, seed, generator, muscles...).
     """
@@ -67,6 +73,7 @@ class Recording:
     intent: np.ndarray | None = None
     intent_force_n: np.ndarray | None = None
     pitch_rad: np.ndarray | None = None
+    open_intent: np.ndarray | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
     source: str = "<array>"
 
@@ -74,7 +81,7 @@ class Recording:
         self.emg = self._checked_emg()
         n, c = self.emg.shape
         self.channel_names = self._checked_names(c)
-        for name in ("force_n", "intent", "intent_force_n", "pitch_rad"):
+        for name in ("force_n", "intent", "intent_force_n", "pitch_rad", "open_intent"):
             value = getattr(self, name)
             if value is not None:
                 setattr(self, name, self._checked_series(name, value, n))
@@ -136,7 +143,7 @@ class Recording:
 
     def _checked_series(self, name: str, value: Any, n: int) -> np.ndarray:
         """One of the per-sample series (``force_n``, ``intent``, ``intent_force_n``,
-        ``pitch_rad``) as ``n`` finite floats in range."""
+        ``pitch_rad``, ``open_intent``) as ``n`` finite floats in range."""
         src = self.source
         raw = np.asarray(value)
         if raw.dtype.kind not in "iuf":
@@ -148,8 +155,13 @@ class Recording:
             )
         if not np.all(np.isfinite(arr)):
             raise RecordingError(f"{src}: column {name} contains NaN or inf")
-        limit, unit = {"intent": (MAX_INTENT, ""),
+        limit, unit = {"intent": (MAX_INTENT, ""), "open_intent": (MAX_INTENT, ""),
                        "pitch_rad": (MAX_PITCH_RAD, " rad")}.get(name, (MAX_FORCE_N, " N"))
+        if name == "open_intent" and (arr.min() < 0.0 or arr.max() > 1.0):
+            raise RecordingError(
+                f"{src}: open_intent: expected values in 0..1, found "
+                f"{float(arr.min()):.6g}..{float(arr.max()):.6g}"
+            )
         peak = float(np.max(np.abs(arr)))
         if peak > limit:
             raise RecordingError(
@@ -210,6 +222,7 @@ class Recording:
             intent=cut(self.intent),
             intent_force_n=cut(self.intent_force_n),
             pitch_rad=cut(self.pitch_rad),
+            open_intent=cut(self.open_intent),
             metadata=dict(self.metadata),
             source=self.source,
         )
@@ -224,8 +237,9 @@ class Recording:
         return writing.save_npz(self, path)
 
     def save_csv(self, path: str | Path) -> Path:
-        """Save as plain CSV ``t,emg1..emgN[,force,intent,intent_force_n,pitch_rad]`` plus a
-        JSON sidecar.
+        """Save as plain CSV ``t,emg1..emgN`` with the optional columns ``force``,
+        ``intent``, ``intent_force_n``, ``pitch_rad`` and ``open_intent``, plus a JSON
+        sidecar.
 
         The CSV has one header line and one row per sample (``t`` in seconds,
         sEMG in ``emg_unit``, forces in newtons), so ``pandas.read_csv``,

@@ -103,6 +103,7 @@ def load_csv(path: Path, emg_unit: str | None, max_bytes: int, columns: ColumnMa
         intent=col(extra.get("intent")),
         intent_force_n=col(extra.get("intent_force_n")),
         pitch_rad=col(extra.get("pitch_rad")),
+        open_intent=col(extra.get("open_intent")),
         metadata=metadata,
         source=str(path),
     )
@@ -158,7 +159,7 @@ def _csv_header(path: Path, lines: list[str], max_bytes: int
     if len(header) > MAX_CSV_COLUMNS:
         raise RecordingError(
             f"{path}: {len(header)} columns (expected at most {MAX_CSV_COLUMNS}: "
-            "t, emg1..emg256, force, intent, intent_force_n, pitch_rad)"
+            "t, emg1..emg256, force, intent, intent_force_n, pitch_rad, open_intent)"
         )
     if not in_file_meta:
         meta = _read_sidecar(path, max_bytes)

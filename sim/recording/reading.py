@@ -27,7 +27,7 @@ from sim.recording.csv_import import load_csv
 from sim.recording.errors import Fix, RecordingError
 
 _NPZ_ARRAYS = ("emg", "fs_hz", "channel_names", "emg_unit", "metadata_json", "force_n",
-               "intent", "intent_force_n", "pitch_rad")
+               "intent", "intent_force_n", "pitch_rad", "open_intent")
 #: What each CSV-only option is, for the message refusing it for an NPZ file.
 _CSV_ONLY = {"time_column": "time column", "emg_columns": "sEMG column list",
              "force_column": "force column", "time_unit": "time unit",
@@ -202,6 +202,7 @@ def _load_npz(path: Path, max_bytes: int) -> Recording:
         intent=arrays.get("intent"),
         intent_force_n=arrays.get("intent_force_n"),
         pitch_rad=arrays.get("pitch_rad"),
+        open_intent=arrays.get("open_intent"),
         metadata=_npz_metadata(arrays["metadata_json"], path)
         if "metadata_json" in arrays else {},
         source=str(path),

@@ -39,6 +39,7 @@ class RecordingFields(Protocol):
     intent: np.ndarray | None
     intent_force_n: np.ndarray | None
     pitch_rad: np.ndarray | None
+    open_intent: np.ndarray | None
     metadata: dict[str, Any]
 
     @property
@@ -76,7 +77,7 @@ def save_npz(rec: RecordingFields, path: str | Path) -> Path:
         "emg_unit": np.array(rec.emg_unit),
         "metadata_json": np.array(json.dumps(rec.metadata, sort_keys=True)),
     }
-    for name in ("force_n", "intent", "intent_force_n", "pitch_rad"):
+    for name in ("force_n", "intent", "intent_force_n", "pitch_rad", "open_intent"):
         value = getattr(rec, name)
         if value is not None:
             arrays[name] = value
@@ -106,7 +107,8 @@ def save_csv(rec: RecordingFields, path: str | Path) -> Path:
             header.append(name)
             columns.append(value[:, None])
             formats.append("%.6g")
-            units[name] = {"intent": "1 (0..1 of MVC)", "pitch_rad": "rad"}.get(name, "N")
+            units[name] = {"intent": "1 (0..1 of MVC)", "pitch_rad": "rad",
+                           "open_intent": "1 (0..1 of the largest opening)"}.get(name, "N")
     np.savetxt(path, np.hstack(columns), fmt=formats, delimiter=",",
                header=",".join(header), comments="")
     meta = {

@@ -22,7 +22,9 @@ does it without changing a single sample:
    activation dynamics' ``lfilter`` state) and the FSR's own code fed the
    pre-drawn noise.
 
-Fed the intent of a profile in any chunks, a session gives ``record``'s sEMG
+An open intent (``advance(intent, open_intent)``) adds the subject's opening pattern to
+the sEMG's drive and nothing to the force's, as ``record`` does with a profile's
+``open_intent``. Fed the intent of a profile in any chunks, a session gives ``record``'s sEMG
 and forces exactly (``tests/sim/test_causal.py``), so a scripted user's
 results do not depend on which path produced them. Generators without the
 causal capability (the motor-unit pool draws its discharges from the drive
@@ -37,7 +39,7 @@ from sim.errors import GriploopError
 from sim.user.armband import INT8_MAX, INT8_MIN
 from sim.user.emg import is_causal
 from sim.user.generators import make_generator
-from sim.user.muscles import N_MUSCLES, drive_targets, slow_fluctuation
+from sim.user.muscles import N_MUSCLES, drive_targets, slow_fluctuation, with_opening
 from sim.user.subjects import VirtualSubject
 
 
@@ -142,7 +144,8 @@ class CausalSession:
         """Samples produced so far."""
         return self._n
 
-    def advance(self, intent: np.ndarray) -> np.ndarray:
+    def advance(self, intent: np.ndarray, open_intent: np.ndarray | None = None
+                ) -> np.ndarray:
         """The sEMG of the next chunk of the session, for this chunk of intent.
 
         The drive of the chunk is kept; :meth:`read_forces` turns it into
@@ -153,6 +156,11 @@ class CausalSession:
         ----------
         intent : ndarray, shape (n_chunk,)
             Intended grip force as a fraction of MVC (clipped to 0..1).
+        open_intent : ndarray, shape (n_chunk,), optional
+            Intended opening, 0..1 (``None``: none; clipped to 0..1): it drives the sEMG
+            with the subject's opening pattern (:func:`sim.user.muscles.with_opening`) and
+            adds nothing to the grip, whose muscle force comes from the close intent's
+            drive alone, as in ``record``.
 
         Returns
         -------
@@ -162,7 +170,8 @@ class CausalSession:
         Raises
         ------
         ValueError
-            The session would run past ``n_samples``.
+            The session would run past ``n_samples``, or ``open_intent`` is not shaped
+            like ``intent``.
         """
         # np.minimum/np.maximum give np.clip's values exactly, for less overhead per chunk
         u = np.minimum(np.maximum(np.asarray(intent, dtype=float), 0.0), 1.0)
@@ -170,21 +179,34 @@ class CausalSession:
         if i1 > self.n_samples:
             raise ValueError(f"causal session of {self.n_samples} samples asked for sample {i1}")
         drift = None if self._cocontraction is None else self._cocontraction[i0:i1]
-        target = drive_targets(self.subject.muscles, u, self._one_eta[i0:i1], drift)
-        grid, curve = self._grid, self._curve
-        if self._shared_curve:  # one curve for all muscles (noise): one call, same values
-            drive = np.interp(target.ravel(), curve[:, 0], grid[:, 0]).reshape(target.shape)
-        else:
-            drive = np.empty_like(target)
-            for j in range(N_MUSCLES):
-                drive[:, j] = np.interp(target[:, j], curve[:, j], grid[:, j])
-        self._drive[i0:i1] = drive
+        one_eta = self._one_eta[i0:i1]
+        close = drive_targets(self.subject.muscles, u, one_eta, drift)
+        if open_intent is None:
+            drive = self._inverse(close)
+            self._drive[i0:i1] = drive
+        else:  # the sEMG of both intents; the grip's force from the close intent's drive
+            v = np.minimum(np.maximum(np.asarray(open_intent, dtype=float), 0.0), 1.0)
+            if v.shape != u.shape:
+                raise ValueError(f"open intent: expected shape {u.shape} like the intent, "
+                                 f"found {v.shape}")
+            drive = self._inverse(with_opening(self.subject.muscles, close, v, one_eta))
+            self._drive[i0:i1] = self._inverse(close)
         # Armband.digitize's steps (mix, noise, round, clip) without its saturation count
         band = self.subject.armband
         muscle_lsb = self._muscles.emg(drive) * self._gain[i0:i1] * self._amplitude
         q = band.quantize(muscle_lsb @ self._mixing_t, self._armband_noise[i0:i1])
         self._n = i1
         return np.clip(q, INT8_MIN, INT8_MAX, out=q).astype(np.int8)
+
+    def _inverse(self, target: np.ndarray) -> np.ndarray:
+        """Drive of each muscle for its force target: the steady curve's inverse."""
+        grid, curve = self._grid, self._curve
+        if self._shared_curve:  # one curve for all muscles (noise): one call, same values
+            return np.interp(target.ravel(), curve[:, 0], grid[:, 0]).reshape(target.shape)
+        drive = np.empty_like(target)
+        for j in range(N_MUSCLES):
+            drive[:, j] = np.interp(target[:, j], curve[:, j], grid[:, j])
+        return drive
 
     def read_forces(self) -> tuple[np.ndarray, np.ndarray]:
         """Grip force and FSR reading of every sample produced so far, N.

@@ -8,6 +8,9 @@ same machinery:
 * :func:`paper_protocol`: the paper's session: rounds of three squeezes at
   small, medium and highest force after start cues, released after end cues,
   with rests between (timing, levels and reaction times jittered per session);
+* :func:`open_protocol`: an added calibration protocol of opening contractions (finger
+  extension at three efforts), for a hand that opens on a second signal; the close
+  intent is 0 and the profile's ``open_intent`` carries them;
 * :func:`ramp_profile`: slow trapezoidal ramps (force tracking);
 * :func:`grasp_lift_hold`: rest, ramp to a hold level, hold, release (the
   intent of a closed-loop grasp-and-lift episode; durations in a
@@ -46,11 +49,15 @@ class IntentProfile:
     fs_hz : float
         Sampling rate in hertz.
     cues : tuple of (str, float)
-        ``("start", t_s)`` / ``("end", t_s)`` cue times in seconds, in order.
+        ``("start", t_s)`` / ``("end", t_s)`` cue times in seconds, in order
+        (``open_start`` / ``open_end`` for opening contractions).
     levels : tuple of float
         Target level of each contraction (fraction of MVC).
     name : str
         Which builder made it.
+    open_intent : ndarray, shape (n_samples,), optional
+        Intended opening (finger extension) as a fraction of the subject's largest
+        opening contraction, 0..1 (``None``: the subject never opens).
     """
 
     intent: np.ndarray
@@ -58,6 +65,17 @@ class IntentProfile:
     cues: tuple[tuple[str, float], ...]
     levels: tuple[float, ...]
     name: str
+    open_intent: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.open_intent is not None:
+            v = np.asarray(self.open_intent, dtype=float)
+            if v.shape != np.shape(self.intent):
+                raise ProfileError(f"open_intent: expected shape {np.shape(self.intent)} like "
+                                   f"intent, found {v.shape}")
+            if v.size and not (np.all(np.isfinite(v)) and 0.0 <= v.min() and v.max() <= 1.0):
+                raise ProfileError(f"open_intent: expected finite values in 0..1, found "
+                                   f"{v.min():.6g}..{v.max():.6g}")
 
     @property
     def n_samples(self) -> int:
@@ -84,7 +102,9 @@ class IntentProfile:
             return self
         n = int(round(self.duration_s * fs_hz))
         intent = np.interp(np.arange(n) / fs_hz, self.t_s, self.intent)
-        return IntentProfile(intent, float(fs_hz), self.cues, self.levels, self.name)
+        opening = (None if self.open_intent is None else
+                   np.interp(np.arange(n) / fs_hz, self.t_s, self.open_intent))
+        return IntentProfile(intent, float(fs_hz), self.cues, self.levels, self.name, opening)
 
     def to_metadata(self) -> dict:
         """JSON-ready description (name, levels, cues)."""
@@ -230,6 +250,72 @@ def paper_protocol(
         segments += [(reaction, level), (fall, 0.0), (rest, 0.0)]
         t += reaction + squeeze + reaction + fall + rest
     return from_segments(segments, fs_hz=fs_hz, cues=cues, levels=flat, name="paper_protocol")
+
+
+#: Efforts of the open protocol's contractions, fractions of the largest opening.
+OPEN_LEVELS = (0.3, 0.6, 1.0)
+
+
+def open_protocol(rng: np.random.Generator | int | None = None, *, fs_hz: float = 200.0,
+                  levels: Sequence[float] = OPEN_LEVELS, hold_s: float = 3.0,
+                  rest_s: float = 3.0, rise_s: float = 0.5) -> IntentProfile:
+    """A calibration session of opening contractions, beside the paper's squeezes.
+
+    griploop's protocol (the paper has none): a rest of 3-4 s, then for each level an
+    ``open_start`` cue, a reaction time of 0.2-0.4 s, a raised-cosine rise of ``rise_s``
+    (within 20 %), a hold so that cue to cue lasts ``hold_s`` (within 15 %), an
+    ``open_end`` cue, the reaction time again, a fall of ``rise_s`` (within 20 %) and a rest
+    of ``rest_s`` (within 15 %; 3-4 s after the last contraction). The timing is jittered
+    per call as :func:`paper_protocol`'s is; the levels are kept as given.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator, int or None
+        Source of the jitter.
+    fs_hz : float
+        Sampling rate in hertz.
+    levels : sequence of float
+        Effort of each contraction, fractions of the largest opening, in (0, 1]
+        (default :data:`OPEN_LEVELS`: 0.3, 0.6, 1.0).
+    hold_s, rest_s, rise_s : float
+        Cue-to-cue hold, rest between contractions and rise (and fall) time, seconds.
+
+    Returns
+    -------
+    IntentProfile
+        ``intent`` 0 throughout, ``open_intent`` the contractions, ``levels`` theirs, cues
+        ``open_start, open_end`` per contraction in time order.
+
+    Raises
+    ------
+    ProfileError
+        A level outside (0, 1], none at all, non-positive ``hold_s``, ``rest_s`` or
+        ``rise_s``, or a ``rise_s`` as long as the hold.
+    """
+    g = as_rng(rng)
+    lv = tuple(float(v) for v in levels)
+    if not lv or any(not 0.0 < v <= 1.0 for v in lv) or min(hold_s, rest_s, rise_s) <= 0 \
+            or rise_s * 1.2 >= hold_s * 0.85:
+        raise ProfileError(f"open_protocol needs levels in (0, 1] and positive hold_s, rest_s "
+                           f"and rise_s (rise shorter than the hold), found {lv}, {hold_s}, "
+                           f"{rest_s}, {rise_s}")
+    t = g.uniform(3.0, 4.0)
+    segments: list[tuple[float, float]] = [(t, 0.0)]
+    cues: list[tuple[str, float]] = []
+    for i, level in enumerate(lv):
+        reaction = g.uniform(0.2, 0.4)
+        rise = rise_s * g.uniform(0.8, 1.2)
+        hold = hold_s * g.uniform(0.85, 1.15)
+        fall = rise_s * g.uniform(0.8, 1.2)
+        rest = rest_s * g.uniform(0.85, 1.15) if i < len(lv) - 1 else g.uniform(3.0, 4.0)
+        cues.append(("open_start", t))
+        segments += [(reaction, 0.0), (rise, level), (hold - rise, level)]
+        cues.append(("open_end", t + reaction + hold))
+        segments += [(reaction, level), (fall, 0.0), (rest, 0.0)]
+        t += reaction + hold + reaction + fall + rest
+    opening = from_segments(segments, fs_hz=fs_hz, cues=cues, levels=lv, name="open_protocol")
+    return IntentProfile(np.zeros(opening.n_samples), opening.fs_hz, opening.cues, lv,
+                         "open_protocol", opening.intent)
 
 
 def ramp_profile(

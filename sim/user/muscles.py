@@ -10,6 +10,27 @@ signal-level building blocks shared by both sEMG generators:
 * electromechanical delay (EMD, 40-140 ms): force lags the sEMG;
 * slow drive fluctuations (Ornstein-Uhlenbeck), the per-muscle
   non-stationarity that keeps sEMG and force from being a fixed map.
+
+Two intents drive the muscles: closing (grip force, the paper's only one, through
+``MuscleParams.synergy``) and opening (finger extension, through
+``MuscleParams.open_synergy``, :data:`OPEN_PATTERN`). The opening pattern follows the
+published one qualitatively: the extensor digitorum communis (channel 4) is the prime mover
+of finger extension, the wrist extensors (carpi radialis and ulnaris, channels 3 and 5)
+stabilize the wrist, and the flexors stay co-active at a low level. Extrinsic finger
+muscles work in a reciprocal agonist/antagonist pattern in which no muscle is ever silent,
+and truly co-contract only in resisted grasp (an electromyographic study of the extrinsic
+finger muscles in resisted grasp, finger extension and grasp-release: "Activity analysis:
+electromyographic and electrogoniometric verification", Am J Occup Ther). Hand opening is
+one of the movements NinaPro DB5 records with two MYO armbands on the forearm (Pizzolato et
+al. 2017, PLoS ONE 12:e0186132). **The numeric ranges of** :data:`OPEN_PATTERN` **are
+griploop's choice within that pattern, not measured values**: no source we hold gives
+per-muscle amplitudes of an opening contraction under a MYO band.
+
+Both patterns model the paper's able-bodied forearms. A residual limb (transradial
+amputation) differs: its extrinsic muscles are shortened, scarred and partly reattached
+(myodesis, myoplasty); contractions are efforts of a phantom hand without proprioceptive
+feedback; amplitudes are lower, open and close patterns less separable, and the sites
+shift with the socket's loading (docs/SUBJECTS.md, "Opening").
 """
 
 from __future__ import annotations
@@ -37,6 +58,26 @@ MUSCLE_ROLES = ("other", "other", "extensor", "extensor", "extensor", "flexor", 
 """Role in the grip synergy: flexors drive grip, extensors co-contract, others weakly."""
 
 N_MUSCLES = len(MUSCLES)
+
+OPEN_PATTERN = {
+    "extensor_digitorum_communis": (0.85, 1.00),
+    "extensor_carpi_radialis": (0.45, 0.80),
+    "extensor_carpi_ulnaris": (0.45, 0.80),
+    "flexor_carpi_ulnaris": (0.08, 0.30),
+    "palmaris_longus": (0.08, 0.30),
+    "flexor_carpi_radialis": (0.08, 0.30),
+    "pronator_teres": (0.05, 0.25),
+    "brachioradialis": (0.05, 0.25),
+}
+"""Drive of each muscle per unit open intent: the uniform range each subject's
+``open_synergy`` is drawn from (:meth:`sim.user.subjects.VirtualSubject.sample`).
+
+Extensor digitorum communis, the prime mover of finger extension, 0.85-1.0; the wrist
+extensors that stabilize the wrist 0.45-0.80; the flexors, antagonists co-active at a low
+level (never silent), 0.08-0.30; pronator teres and brachioradialis 0.05-0.25. The pattern
+is the published one (module docstring); the numbers are griploop's choice within it, not
+measured values.
+"""
 
 
 class MuscleParamsError(GriploopError, ValueError):
@@ -106,6 +147,10 @@ class MuscleParams:
     anatomy_seed : int
         Seed of the subject's fixed motor-unit anatomy (MUAP shapes, sizes),
         so that every session of a subject uses the same motor units.
+    open_synergy : tuple of float
+        Neural drive of each muscle per unit *open* intent (0..1): the pattern of an
+        opening contraction (finger extension), :data:`OPEN_PATTERN`. All zero: a
+        subject who never opens (the default of a hand-made parameter set).
     """
 
     synergy: tuple[float, ...]
@@ -126,6 +171,7 @@ class MuscleParams:
     cocontraction_drift_time_s: float = 8.0
     cocontraction_power: float = 1.0
     anatomy_seed: int = 0
+    open_synergy: tuple[float, ...] = (0.0,) * N_MUSCLES
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -271,7 +317,8 @@ def fractional_delay(x: np.ndarray, delay_s: np.ndarray | float, fs_hz: float) -
 
 
 def drive_targets(muscles: MuscleParams, u: np.ndarray, one_eta: np.ndarray,
-                  drift: np.ndarray | None = None) -> np.ndarray:
+                  drift: np.ndarray | None = None, open_u: np.ndarray | None = None
+                  ) -> np.ndarray:
     """Each muscle's force target for the intent, 0..1.
 
     The muscles that grip aim at ``synergy_m u (1 + eta_m)``; the others (antagonists and
@@ -291,11 +338,18 @@ def drive_targets(muscles: MuscleParams, u: np.ndarray, one_eta: np.ndarray,
         ``1 + eta``: the force-steadiness fluctuation.
     drift : ndarray, shape (n_samples, n_others), optional
         The co-contraction drift ``c`` of the muscles that do not grip (None: none).
+    open_u : ndarray, shape (n_samples,), optional
+        The open intent ``v``, 0..1: each muscle's close target (the one computed without
+        it) gains ``open_synergy_m v (1 + eta_m)`` and the sum is clipped to 0..1, so
+        ``v = 0`` gives the close targets exactly. ``None``: no opening, and the targets
+        are computed exactly as before the open intent existed (no seed moves).
 
     Returns
     -------
     ndarray, shape (n_samples, n_muscles)
     """
+    if open_u is not None:
+        return with_opening(muscles, drive_targets(muscles, u, one_eta, drift), open_u, one_eta)
     target = muscles.array("synergy")[None, :] * u[:, None] * one_eta
     power = muscles.cocontraction_power
     if power == 1.0:
@@ -309,6 +363,29 @@ def drive_targets(muscles: MuscleParams, u: np.ndarray, one_eta: np.ndarray,
     mean = u[:, None] ** (power - 1.0)
     target[:, others] *= mean if drift is None else np.maximum(mean + drift, 0.2 * mean)
     return np.minimum(np.maximum(target, 0.0), 1.0)
+
+
+def with_opening(muscles: MuscleParams, close: np.ndarray, open_u: np.ndarray,
+                 one_eta: np.ndarray) -> np.ndarray:
+    """Close targets plus the opening's: ``clip(close_m + open_synergy_m v (1 + eta_m), 0, 1)``.
+
+    Parameters
+    ----------
+    muscles : MuscleParams
+    close : ndarray, shape (n_samples, n_muscles)
+        The targets of the close intent alone (:func:`drive_targets` without ``open_u``).
+    open_u : ndarray, shape (n_samples,)
+        The open intent ``v``, 0..1.
+    one_eta : ndarray, shape (n_samples, n_muscles)
+        ``1 + eta``, the fluctuation the close targets were made with.
+
+    Returns
+    -------
+    ndarray, shape (n_samples, n_muscles)
+        Each muscle's target, 0..1 (``close`` itself where ``v = 0``).
+    """
+    opening = muscles.array("open_synergy")[None, :] * np.asarray(open_u)[:, None] * one_eta
+    return np.minimum(np.maximum(close + opening, 0.0), 1.0)
 
 
 def slow_fluctuation(

@@ -150,6 +150,9 @@ class Plan:
         own ``lift_s``.
     limit_s : float
         The trial's time limit, s (the scripted user times their lift from it).
+    open_to_release : bool
+        The hand opens on a second, open signal (a calibration with open contractions
+        and a decoder): the user lets go by contracting to open, not only by relaxing.
     """
 
     intent: np.ndarray
@@ -165,6 +168,7 @@ class Plan:
     place: bool = True
     move_s: float | None = None
     limit_s: float = math.inf
+    open_to_release: bool = False
 
     def aim_n(self, margin: float) -> float:
         """The hand grip force a user with safety ``margin`` aims at, N.
@@ -236,7 +240,10 @@ class Operator(Protocol):
     changes samples before it); ``wrist_move`` returns the arm move decided at
     the last ``perceive`` (each once; ``None``: the arm stays), the only route by
     which the wrist moves; ``finish`` ends the trial (what the user learnt feeds
-    the next ``start``). ``corrections`` counts the corrections of the current
+    the next ``start``). ``open_intent`` returns the open intent (0..1 of the user's
+    largest opening) of the same samples the last ``intent`` call gave: the second signal
+    of a hand that opens on one (``plan.open_to_release``); zeros for a user who never
+    opens. ``corrections`` counts the corrections of the current
     trial and ``correction_times`` lists when they were decided (episode time, s).
 
     The rest describes the user to the trial: ``done`` (the trial is over for
@@ -267,6 +274,8 @@ class Operator(Protocol):
     def perceive(self, scene: Scene) -> None: ...
 
     def intent(self, n_samples: int) -> np.ndarray: ...
+
+    def open_intent(self, n_samples: int) -> np.ndarray: ...
 
     def wrist_move(self) -> WristMove | None: ...
 

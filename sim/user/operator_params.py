@@ -140,6 +140,12 @@ class OperatorParams:
         How long after relaxing the user waits for the hand to open before they
         give up, s: 3.0 (chosen). A hand whose estimate does not fall below
         the rest threshold stays closed.
+    open_level : float
+        How hard the user contracts to open a hand that opens on a second signal
+        (a two-signal paradigm, :mod:`controllers.paradigms`), as a fraction of their
+        largest opening contraction: 0.6, the middle of the calibration's open levels
+        (0.3, 0.6, 1.0: :func:`sim.user.intent.open_protocol`). A deliberate, not a
+        maximal, contraction (chosen; no published figure for how hard users open).
 
     What the user knows of their prosthesis (:mod:`sim.user.belief`):
 
@@ -196,6 +202,7 @@ class OperatorParams:
     lift_s: float = _param(0.6, 0.1, 3.0, "s")
     release_s: float = _param(0.3, 0.01, 2.0, "s")
     release_wait_s: float = _param(3.0, 0.0, 10.0, "s")
+    open_level: float = _param(0.6, 0.05, 1.0, "", added=True)
     min_learning_rate: float = _param(0.2, 0.0, 1.0, "")
     intact_margin: float = _param(0.25, 0.0, 1.0, "")
     novice_margin: float = _param(0.5, 0.0, 3.0, "")

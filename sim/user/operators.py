@@ -139,7 +139,8 @@ def make_operator(kind: str, *, feedback: str = "none",
 #: What a registered operator model must have (:class:`sim.user.operator.Operator`).
 REQUIRED_MEMBERS = ("start", "perceive", "intent", "finish")
 #: What :class:`CompletedOperator` supplies when a model lacks it.
-OPTIONAL_MEMBERS = ("wrist_move", "done", "belief", "phase_log", "reacts", "default_trial_s")
+OPTIONAL_MEMBERS = ("wrist_move", "done", "belief", "phase_log", "reacts", "default_trial_s",
+                    "open_intent")
 
 
 def complete_operator(operator: Any, kind: str, params: OperatorParams | None = None) -> Any:
@@ -163,14 +164,21 @@ def complete_operator(operator: Any, kind: str, params: OperatorParams | None = 
     return CompletedOperator(operator, params)
 
 
+def never_opens(n_samples: int) -> Any:
+    """The open intent of a user who never opens: ``n_samples`` zeros (ndarray)."""
+    import numpy as np
+
+    return np.zeros(int(n_samples))
+
+
 class CompletedOperator:
     """A registered model with the protocol's optional members supplied.
 
     Whatever the model has is its own; without ``wrist_move`` its arm is the scripted
     user's (:class:`sim.user.scripted.ScriptedArm`, watching the scenes it is given), and
     its trial lasts the scripted user's by default. It is never ``done`` before the
-    trial's limit, has no ``belief`` and no phases, and ``reacts`` (its sEMG is produced
-    as it decides).
+    trial's limit, has no ``belief`` and no phases, never opens (``open_intent`` zeros) and
+    ``reacts`` (its sEMG is produced as it decides).
     """
 
     def __init__(self, inner: Any, params: OperatorParams | None = None) -> None:
@@ -181,6 +189,7 @@ class CompletedOperator:
         self.arm = None if callable(getattr(inner, "wrist_move", None)) else ScriptedArm(
             (params or OperatorParams()).lift_s)
         defaults = {"done": False, "belief": None, "phase_log": [], "reacts": True,
+                    "open_intent": never_opens,
                     "default_trial_s": SCRIPTED_TRIAL_S if self.arm is not None
                     else PACED_TRIAL_S}
         self._defaults = {k: v for k, v in defaults.items() if not hasattr(inner, k)}

@@ -33,6 +33,10 @@ its moves to the hand's commanded wrist)::
              hand is seen open (it let go), or after ``release_wait_s`` more
              if it does not open (an estimate that does not fall to zero at
              rest keeps the hand closed: :attr:`released` is then false).
+             A hand that opens on a second signal (``plan.open_to_release``) is
+             opened: the user also contracts to open, to ``open_level`` of their
+             largest opening, in ``release_s``; done once it is seen open.
+             A user who lets go (a drop or a break seen) opens it likewise.
 
 A plan without a lift (holding a force on the table) stays in one hold phase. There a
 slip felt before the hand has held the object for ``touch_dwell_s`` is the object
@@ -168,6 +172,7 @@ class ReactingOperator:
         self._anchor: float | None = None  # where the object sat in the hand, as seen
         self._next_ok_s = -math.inf
         self._released_s = math.inf  # let go (a drop or a break seen)
+        self._opens: list[tuple[float, float, float, float]] = []  # open intent's ramps
         full = np.flatnonzero(self._shape >= 0.99)
         self._ready_s = float(full[0] / plan.fs_hz) if full.size else 0.0
         self._still_since: float | None = None
@@ -267,9 +272,10 @@ class ReactingOperator:
                 self._phase_end_s = t + self._move_s()
                 self._enter(t, "setdown")
         elif phase == "setdown":
-            if t >= self._phase_end_s:  # on the table: relax
+            if t >= self._phase_end_s:  # on the table: relax (and open, on a second signal)
                 now = self.level(t)
                 self._changes.append((t, now, 0.0, p.release_s))
+                self._open(t)
                 self._phase_end_s = t + p.release_s
                 self._enter(t, "release")
         elif phase == "release":  # done once the hand is seen (felt) open, or the user gives up
@@ -388,10 +394,38 @@ class ReactingOperator:
                          else (1.0 - self.params.force_step))
 
     def _let_go(self, t: float) -> None:
-        """A drop or a break seen: the user lets go; the trial is over."""
+        """A drop or a break seen: the user lets go (and opens, on a second signal); the
+        trial is over."""
         self._released_s = t
+        self._open(t)
         self.done = True
         self._enter(t, "done")
+
+    def _open(self, t: float) -> None:
+        """Contract to open from ``t`` on, when the hand opens on a second signal."""
+        if started(self._plan).open_to_release:
+            self._opens.append((t, 0.0, self.params.open_level, self.params.release_s))
+
+    def open_intent(self, n_samples: int) -> np.ndarray:
+        """The open intent of the same ``n_samples`` the last :meth:`intent` call gave, 0..1.
+
+        Zero unless the hand opens on a second signal (``plan.open_to_release``): then
+        the opening contraction the user makes to let go (module notes), with the same
+        motor noise as the close intent. Call it right after :meth:`intent`.
+        """
+        plan = started(self._plan)
+        i1 = self._n
+        i0 = i1 - n_samples
+        out = np.zeros(n_samples)
+        if not self._opens:
+            return out
+        t = np.arange(i0, i1) / plan.fs_hz
+        idx = np.minimum(np.arange(i0, i1), self._noise.size - 1)
+        for t_c, lo, hi, rise in self._opens:
+            after = t >= t_c
+            if after.any():
+                out[after] = ramp(t[after] - t_c, lo, hi, rise)
+        return np.clip(out * self._noise[idx], 0.0, 1.0)
 
     def intent(self, n_samples: int) -> np.ndarray:
         """The next ``n_samples`` of intent: the plan's shape x the level x motor noise, 0..1."""

@@ -149,6 +149,10 @@ class ScriptedOperator:
         self._n += n_samples
         return take(plan.intent, i0, n_samples)
 
+    def open_intent(self, n_samples: int) -> np.ndarray:
+        """The scripted user never opens: zeros."""
+        return np.zeros(int(n_samples))
+
     def wrist_move(self) -> WristMove | None:
         """The scripted lift, at the step it starts."""
         return self.arm.wrist_move()

@@ -4,8 +4,9 @@ A :class:`VirtualSubject` is a frozen set of parameters (anatomy, physiology,
 armband fit, FSR device) plus the methods that turn an intent profile into a
 :class:`~sim.recording.Recording`:
 
-    intent u(t) (0..1)
+    intent u(t) (0..1), optionally open intent v(t) (0..1)
       -> target force_m(t) = synergy_m u(t) (1 + eta_m(t))  (grip synergy, slow fluctuation)
+         [+ open_synergy_m v(t) (1 + eta_m(t)): the sEMG's drive; the force's is u's alone]
       -> drive_m(t): inverse of the generator's steady force-drive curve
       -> generator: muscle sEMG s_m(t) and force F_m(t)    ("noise" or "motor_units")
       -> sEMG gain (1 + xi_m(t)): amplitude changes that force does not share
@@ -30,22 +31,31 @@ import numpy as np
 from sim.errors import GriploopError
 from sim.recording import Recording
 from sim.user.armband import Armband
-from sim.user.emg import EmgGenerator
+from sim.user.emg import EmgGenerator, MuscleSignals
 from sim.user.fsr import FSR402
 from sim.user.generators import (  # noqa: F401  (UnknownGeneratorError re-exported)
     UnknownGeneratorError,
     generator_names,
     make_generator,
 )
-from sim.user.intent import PROTOCOL_ROUNDS, IntentProfile, as_rng, paper_protocol
+from sim.user.intent import (
+    PROTOCOL_ROUNDS,
+    IntentProfile,
+    as_rng,
+    open_protocol,
+    paper_protocol,
+)
 from sim.user.muscles import (
     MUSCLE_ABBREVIATIONS,
     MUSCLE_ROLES,
     MUSCLES,
     N_MUSCLES,
+    OPEN_PATTERN,
     MuscleParams,
     drive_targets,
+    muscle_force,
     slow_fluctuation,
+    with_opening,
 )
 from sim.user.populations import apply_variant
 
@@ -80,10 +90,19 @@ _RIG_LAG_S = (0.0, 0.15)  # sEMG stream behind the FSR stream in the recording r
 # the same log-log sEMG-force slope over 3-100 % MVC as ``amplitude_exponent``
 # p in the noise generator (measured: p = 0.16 + 0.77 gamma for gamma in 0.3..1.6).
 _MUAP_EXPONENT_FIT = (0.16, 0.77)
+# Second word of a subject's SeedSequence spawn keys: 0 its parameters, 1 its sessions
+# (session_rng), 2 the population variants (sim.user.populations), 3 its opening pattern,
+# 4 its open session.
+_OPEN_SYNERGY_STREAM = 3
+_OPEN_SESSION_STREAM = 4
 
 
 class SubjectParamsError(GriploopError, ValueError):
     """A virtual subject's own parameters (rig lag, FSR contact) are out of range."""
+
+
+class OpenIntentError(GriploopError, ValueError):
+    """An open intent that cannot be recorded (shape, or a generator without it)."""
 
 
 @dataclass(frozen=True)
@@ -143,8 +162,17 @@ class VirtualSubject:
     # -------------------------------------------------------------- creation
     @classmethod
     def sample(cls, seed: int, subject_id: int) -> VirtualSubject:
-        """Draw a subject's parameters from ``SeedSequence(seed, spawn_key=(subject_id, 0))``."""
+        """Draw a subject's parameters from ``SeedSequence(seed, spawn_key=(subject_id, 0))``.
+
+        The opening pattern (``MuscleParams.open_synergy``, :data:`OPEN_PATTERN`) comes from
+        a stream of its own, ``spawn_key=(subject_id, 3)``, so every other parameter keeps
+        the value it had before the open intent existed.
+        """
         rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(subject_id, 0)))
+        # the opening pattern from a stream of its own: every draw below keeps its value
+        open_rng = np.random.default_rng(np.random.SeedSequence(
+            seed, spawn_key=(subject_id, _OPEN_SYNERGY_STREAM)))
+        open_synergy = tuple(float(open_rng.uniform(*OPEN_PATTERN[m])) for m in MUSCLES)
 
         def per_role(table: dict[str, tuple[float, float]]) -> tuple[float, ...]:
             return tuple(float(rng.uniform(*table[role])) for role in MUSCLE_ROLES)
@@ -188,7 +216,8 @@ class VirtualSubject:
         # drawn last, so that the parameters above keep their draws
         muscles = dataclasses.replace(
             muscles, carrier_laplace=float(rng.uniform(*_CARRIER_LAPLACE)),
-            cocontraction_drift_std=float(rng.uniform(*_COCONTRACTION_DRIFT)))
+            cocontraction_drift_std=float(rng.uniform(*_COCONTRACTION_DRIFT)),
+            open_synergy=open_synergy)
         loose = rng.random() < _ARTIFACT_PROBABILITY
         rate = float(np.exp(rng.uniform(*np.log(_ARTIFACT_RATE_HZ))))
         armband = dataclasses.replace(
@@ -236,7 +265,10 @@ class VirtualSubject:
 
     # -------------------------------------------------------------- metadata
     def session_rng(self, session: int = 1) -> np.random.Generator:
-        """The subject's reproducible stream for session number ``session``."""
+        """The subject's reproducible stream for session number ``session``:
+        ``SeedSequence(seed, spawn_key=(subject_id, session))``. Session 1 is the default
+        of :meth:`record` and :meth:`paper_session`; keys 2-4 are other streams of the
+        subject (population variants, opening pattern, :meth:`open_session`)."""
         return np.random.default_rng(
             np.random.SeedSequence(self.seed, spawn_key=(self.subject_id, int(session)))
         )
@@ -269,6 +301,7 @@ class VirtualSubject:
         fs_hz: float,
         rng: np.random.Generator,
         generator: str | EmgGenerator = "noise",
+        open_intent: np.ndarray | None = None,
     ) -> np.ndarray:
         """Neural drive per muscle, shape (n_samples, n_muscles), 0..1.
 
@@ -279,8 +312,18 @@ class VirtualSubject:
         :func:`sim.user.muscles.drive_targets`); the drive
         is the inverse of the generator's steady force-drive curve at that
         target (identity for the noise generator, the convex recruitment and
-        rate-coding curve for motor units), clipped to 0..1.
+        rate-coding curve for motor units), clipped to 0..1. With an ``open_intent``
+        ``v`` (shape (n_samples,), 0..1) every target gains ``open_synergy_m v (1 + eta_m)``
+        (:func:`sim.user.muscles.with_opening`); ``None`` draws and computes exactly what
+        it did before the open intent existed.
         """
+        return self._drives(intent, fs_hz, rng, generator, open_intent)[0]
+
+    def _drives(self, intent: np.ndarray, fs_hz: float, rng: np.random.Generator,
+                generator: str | EmgGenerator, open_intent: np.ndarray | None
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """The drive of both intents and that of the close intent alone (the same array
+        without an open intent), each (n_samples, n_muscles)."""
         gen = make_generator(generator)
         u = np.clip(np.asarray(intent, dtype=float), 0.0, 1.0)
         eta = slow_fluctuation(u.size, fs_hz, self.muscles.array("fluctuation_std"),
@@ -292,12 +335,23 @@ class VirtualSubject:
             std = np.full(int(others.sum()), self.muscles.cocontraction_drift_std)
             drift = slow_fluctuation(u.size, fs_hz, std, self.muscles.cocontraction_drift_time_s,
                                      rng)
-        target = drive_targets(self.muscles, u, 1.0 + eta, drift)
+        one_eta = 1.0 + eta
+        close = drive_targets(self.muscles, u, one_eta, drift)
         grid = np.repeat(np.linspace(0.0, 1.0, 257)[:, None], N_MUSCLES, axis=1)
         curve = np.maximum.accumulate(gen.steady_force(grid, self.muscles), axis=0)
-        return np.stack(
-            [np.interp(target[:, m], curve[:, m], grid[:, m]) for m in range(N_MUSCLES)], axis=1
-        )
+
+        def inverse(target: np.ndarray) -> np.ndarray:
+            return np.stack([np.interp(target[:, m], curve[:, m], grid[:, m])
+                             for m in range(N_MUSCLES)], axis=1)
+
+        close_drive = inverse(close)
+        if open_intent is None:
+            return close_drive, close_drive
+        v = np.clip(np.asarray(open_intent, dtype=float), 0.0, 1.0)
+        if v.shape != u.shape:
+            raise OpenIntentError(f"open intent: expected shape {u.shape} like the intent, "
+                                  f"found {v.shape}")
+        return inverse(with_opening(self.muscles, close, v, one_eta)), close_drive
 
     def record(
         self,
@@ -310,10 +364,18 @@ class VirtualSubject:
     ) -> Recording:
         """Record sEMG and FSR force while the subject follows ``profile``.
 
+        With the profile's ``open_intent`` the sEMG comes from the drive of both intents
+        and the muscle force that loads the grip (and the FSR) from the drive of the close
+        intent alone: an opening contraction extends the digits and presses nothing. The
+        noise generator's force is a function of the drive alone
+        (:func:`sim.user.muscles.muscle_force`), so it is computed for that drive without
+        a draw; the motor-unit pool's is not, and an open intent is refused for it.
+
         Parameters
         ----------
         profile : IntentProfile
-            Intended grip force (0..1 of MVC); resampled to ``fs_hz`` if needed.
+            Intended grip force (0..1 of MVC) and, optionally, intended opening; resampled
+            to ``fs_hz`` if needed.
         generator : {"noise", "motor_units"} or EmgGenerator
             The sEMG model.
         fs_hz : float
@@ -328,15 +390,20 @@ class VirtualSubject:
         -------
         Recording
             ``emg`` int8 (n_samples, 8); ``force_n`` FSR reading (N);
-            ``intent`` (0..1); ``intent_force_n`` true grip force (N);
-            metadata with subject id, seed, generator, muscles per channel,
-            mvc_n, cues, saturation count and every parameter.
+            ``intent`` (0..1); ``intent_force_n`` true grip force (N); ``open_intent``
+            (0..1) when the profile has one; metadata with subject id, seed, generator,
+            muscles per channel, mvc_n, cues, saturation count and every parameter.
+
+        Raises
+        ------
+        OpenIntentError
+            An open intent with a generator other than the noise generator.
         """
         gen = make_generator(generator)
         g = self.session_rng() if rng is None else as_rng(rng)
         prof = profile.resampled(fs_hz)
-        drive = self.drive(prof.intent, fs_hz, g, gen)
-        out = gen.generate(drive, self.muscles, self.armband.front_end, fs_hz=fs_hz, rng=g)
+        opening = prof.open_intent
+        drive, out = self._muscle_signals(prof, gen, fs_hz, g)
         xi = slow_fluctuation(drive.shape[0], fs_hz, self.muscles.array("emg_gain_std"),
                               self.muscles.emg_gain_time_s, g)
         gain = np.clip(1.0 + xi, 0.0, None)
@@ -373,9 +440,30 @@ class VirtualSubject:
             emg_unit="int8",
             intent=prof.intent,
             intent_force_n=grip_n,
+            open_intent=None if opening is None else np.clip(opening, 0.0, 1.0),
             metadata=metadata,
             source=f"subject{self.subject_id:02d}",
         )
+
+    def _muscle_signals(self, prof: IntentProfile, gen: EmgGenerator, fs_hz: float,
+                        g: np.random.Generator) -> tuple[np.ndarray, MuscleSignals]:
+        """:meth:`record`'s drive (both intents) and the generator's muscle signals, whose
+        force is the close intent's alone when the profile has an open intent."""
+        opening = prof.open_intent
+        if opening is not None:
+            from sim.user.emg_noise import NoiseEmgGenerator
+            if not isinstance(gen, NoiseEmgGenerator):
+                raise OpenIntentError(
+                    f"sEMG generator {gen.name} cannot record open contractions (its force is "
+                    "not a function of the drive alone); expected the noise generator")
+        drive, close_drive = self._drives(prof.intent, fs_hz, g, gen, opening)
+        out = gen.generate(drive, self.muscles, self.armband.front_end, fs_hz=fs_hz, rng=g)
+        if opening is not None:
+            # an opening presses nothing: the grip's muscle force is the close drive's
+            out = dataclasses.replace(out, force=muscle_force(
+                np.clip(close_drive, 0.0, None), fs_hz,
+                self.muscles.array("activation_cutoff_hz"), self.muscles.array("emd_s")))
+        return drive, out
 
     def paper_session(
         self,
@@ -395,6 +483,32 @@ class VirtualSubject:
         rounds = self.protocol_rounds if rounds is None else rounds
         profile = paper_protocol(g, fs_hz=fs_hz, rounds=rounds)
         return self.record(profile, generator=generator, fs_hz=fs_hz, rng=g, rig=True)
+
+    def open_session(
+        self,
+        rng: np.random.Generator | int | None = None,
+        *,
+        generator: str | EmgGenerator = "noise",
+        fs_hz: float = 200.0,
+    ) -> Recording:
+        """A session of opening contractions (:func:`sim.user.intent.open_protocol`), by
+        the rig: the calibration a hand that opens on a second signal adds to the paper's.
+
+        ``rng`` draws the protocol's timing, then the session's noise; ``None`` uses the
+        subject's own stream for it (:meth:`open_session_rng`), apart from
+        :meth:`session_rng`'s, so :meth:`paper_session` keeps its numbers. The recording's
+        ``open_intent`` labels the contractions; its ``intent`` is 0 and its grip force
+        the rest level.
+        """
+        g = self.open_session_rng() if rng is None else as_rng(rng)
+        profile = open_protocol(g, fs_hz=fs_hz)
+        return self.record(profile, generator=generator, fs_hz=fs_hz, rng=g, rig=True)
+
+    def open_session_rng(self) -> np.random.Generator:
+        """The subject's reproducible stream for :meth:`open_session`:
+        ``SeedSequence(seed, spawn_key=(subject_id, 4))``."""
+        return np.random.default_rng(
+            np.random.SeedSequence(self.seed, spawn_key=(self.subject_id, _OPEN_SESSION_STREAM)))
 
 
 def make_population(n: int = 10, seed: int = 0, *,

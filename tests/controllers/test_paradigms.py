@@ -6,9 +6,13 @@ import numpy as np
 import pytest
 
 from controllers.paradigms import (
+    RELAXED,
+    Decoded,
+    DecoderMissingError,
     ForceHold,
     UnknownParadigmError,
     make_paradigm,
+    needs_decoder,
     paradigm_names,
     register_paradigm,
     unregister_paradigm,
@@ -41,9 +45,9 @@ def test_force_hold_keeps_the_grip_above_the_gates_lower_edge_and_releases_below
 
 
 def test_paradigms_are_a_registered_family() -> None:
-    assert paradigm_names()[:2] == ("force", "force_hold")
-    with pytest.raises(UnknownParadigmError, match="force, force_hold"):
-        make_paradigm("velocity")
+    assert paradigm_names()[:3] == ("force", "force_hold", "velocity")
+    with pytest.raises(UnknownParadigmError, match="force, force_hold, velocity"):
+        make_paradigm("position")
 
     class Halve:
         name = "halve"
@@ -59,3 +63,30 @@ def test_paradigms_are_a_registered_family() -> None:
         assert make_paradigm("halve").step(4.0) == 2.0
     finally:
         unregister_paradigm("halve")
+
+
+def test_velocity_closes_and_opens_at_the_speed_of_each_signal_and_stops_when_both_relax(
+        ) -> None:
+    v = make_paradigm("velocity")
+    assert needs_decoder("velocity") and not needs_decoder("force")
+    with pytest.raises(DecoderMissingError, match="open and close signals"):
+        v.step(3.0)
+    # closing at 40 % speed asks for the grip of the close level, and never loosens it
+    assert v.step(0.0, Decoded(close=0.4, grip_n=12.0)) == 12.0
+    assert v.command_range == (0.0, 0.4)
+    assert v.step(0.0, Decoded(close=0.2, grip_n=6.0)) == 12.0
+    assert v.command_range == (0.0, 0.2)
+    # both relaxed: the motor stops and the grip reference stays
+    assert v.step(0.0, RELAXED) == 12.0 and v.command_range == (0.0, 0.0)
+    # the open signal releases the grip and opens at its own speed
+    assert v.step(0.0, Decoded(open=0.7)) == 0.0 and v.command_range == (-0.7, 0.0)
+    assert v.step(0.0, Decoded(close=0.3, grip_n=9.0)) == 9.0
+    v.reset()
+    assert v.held_n == 0.0 and v.command_range == (0.0, 0.0)
+
+
+def test_force_hold_also_releases_on_the_open_signal_when_there_is_one() -> None:
+    hold = make_paradigm("force_hold")
+    assert hold.step(5.0) == 5.0 and hold.step(3.0, RELAXED) == 5.0
+    assert hold.step(3.0, Decoded(open=0.5)) == 0.0
+    assert hold.step(2.0, RELAXED) == 2.0

@@ -62,7 +62,7 @@ def test_export_c_without_check_has_no_check_key(files, tmp_path):
     (["--estimator", "ss_kf", "--controller", "pid"], "--controller and --object go together"),
     (["--estimator", "ss_kf", "--target", "cortex-m4"], "found no --check"),
     (["--estimator", "ss_kf", "--paradigm", "hold"],
-     "--paradigm: expected one of ['force', 'force_hold'], found 'hold'"),
+     "--paradigm: expected one of ['force', 'force_hold', 'velocity'], found 'hold'"),
     (["--estimator", "ss_kf", "--drive", "worm"],
      "--drive: expected one of ['backdrivable', 'self_locking'], found 'worm'"),
 ])

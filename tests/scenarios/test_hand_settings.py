@@ -63,9 +63,10 @@ def test_compare_references_gains_by_paradigm(tmp_path) -> None:
 
 @pytest.mark.parametrize("argv, expected", [
     (["episode", "--controller", "pid", "--estimator", "oracle", "--object", "can",
-      "--paradigm", "hold"], "--paradigm: expected one of ['force', 'force_hold'], found 'hold'"),
+      "--paradigm", "hold"],
+     "--paradigm: expected one of ['force', 'force_hold', 'velocity'], found 'hold'"),
     (["eggs", "--controller", "pid", "--estimator", "oracle", "--paradigm", "force,hold"],
-     "--paradigm: expected one of ['force', 'force_hold'], found 'hold'"),
+     "--paradigm: expected one of ['force', 'force_hold', 'velocity'], found 'hold'"),
     (["slip-recovery", "--controller", "pid", "--estimator", "oracle", "--drive", "worm"],
      "--drive: expected one of ['backdrivable', 'self_locking'], found 'worm'"),
     (["compare-references", "--paradigm", "grab"], "--paradigm: expected one of"),

@@ -427,6 +427,39 @@ def test_calibrate_over_lsl_writes_a_file_evaluate_accepts(files, tmp_path, caps
     assert main(["evaluate", "--recording", str(out), "--estimators", "ridge"]) == 0
 
 
+@pytest.mark.slow
+def test_calibrate_open_over_lsl_labels_the_open_cues(files, tmp_path, capsys) -> None:
+    """``--open`` (issue 36): three open cues follow the paper's squeezes, printed as they
+    are, and the recording's ``open_intent`` is each open cue's level; the force label
+    (the cues', without a force stream) stays the squeezes'. Without ``--open`` nothing
+    changes (the test above)."""
+    out = tmp_path / "cal_open.npz"
+    name = _stream_name("calopen")
+    with Streamer(files["cal"], name, "--speed", "16", "--loop", "--no-imu"):
+        assert main(["calibrate", "--lsl", name, "--out", str(out), "--open", "--force-lsl",
+                     "none", "--resolve-timeout-s", "20"]) == 0
+    text = capsys.readouterr().out
+    for cue in ("SQUEEZE SMALL", "SQUEEZE STRONG", "OPEN SMALL", "OPEN MEDIUM", "OPEN STRONG"):
+        assert cue in text, cue
+    assert text.index("SQUEEZE STRONG") < text.index("OPEN SMALL") < text.index("OPEN STRONG")
+    assert "--paradigm velocity" in text
+    rec = load_recording(out)
+    meta = rec.metadata
+    assert rec.n_samples + meta["lost_samples"] == 52 * 200, meta
+    assert meta["open_from_s"] == 28.0 and meta["open_intent_source"] == "cues"
+    assert meta["levels"] == [0.25, 0.5, 0.9] and meta["open_levels"] == [0.3, 0.6, 1.0]
+    t = rec.t_s  # sample times: stream times less the few samples lost, if any
+    middle = {(4.0, 6.0): (0.25, 0.0), (21.0, 23.0): (0.9, 0.0), (25.0, 27.0): (0.0, 0.0),
+              (29.0, 31.0): (0.0, 0.3), (33.0, 35.0): (0.0, 0.0), (37.0, 39.0): (0.0, 0.6),
+              (45.0, 47.0): (0.0, 1.0), (49.0, 51.0): (0.0, 0.0)}
+    for (t0, t1), (squeeze, opening) in middle.items():
+        inside = (t >= t0) & (t < t1)
+        assert np.all(rec.force_n[inside] == squeeze * 40.0), (t0, t1)
+        assert np.all(rec.open_intent[inside] == opening), (t0, t1)
+    n = 28 * 200 - meta["lost_samples"]  # the squeezes (the player loops the file after)
+    assert np.array_equal(rec.emg[:n], load_recording(files["cal"]).emg[:n])
+
+
 # ----------------------------------------------------------------------------- faults (issue 29)
 def _live_status(name: str, files: dict[str, Path], *extra: str) -> int:
     return main(["live", "--lsl", name, "--calibration", str(files["cal"]), "--controller",

@@ -392,7 +392,7 @@ def test_mpc_solver_is_selectable_and_checked():
 
 
 @pytest.mark.parametrize(("text", "line", "where", "known"), [
-    ("base:\n  paradigm: hold\n", 2, "base.paradigm", "force, force_hold"),
+    ("base:\n  paradigm: hold\n", 2, "base.paradigm", "force, force_hold, velocity"),
     ("base:\n  hand:\n    drive: worm\n", 3, "base.hand.drive", "backdrivable, self_locking"),
 ])
 def test_an_unknown_paradigm_or_drive_names_file_line_and_the_known_ones(tmp_path, text, line,

@@ -1,4 +1,5 @@
-"""``griploop calibrate``: record the paper's calibration session from a live person."""
+"""``griploop calibrate``: record the paper's calibration session from a live person (and,
+with ``--open``, open contractions after it)."""
 
 from __future__ import annotations
 
@@ -23,8 +24,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "level each cue asks for times --mvc-n. With the armband's IMU stream (NAME.imu, or "
         "--imu-lsl), the forearm's pitch is recorded beside the sEMG and two arm poses are "
         "asked for after the squeezes (at rest, raised as for a lift): griploop live maps the "
-        "pitch to the wrist's height with them. The file is a recording griploop evaluate and "
-        "griploop live --calibration accept.",
+        "pitch to the wrist's height with them. With --open, open contractions follow the "
+        "squeezes (open small, medium, strong: 30, 60 and 100 % of the person's widest "
+        "opening, each held --squeeze-s and followed by --rest-s), labelled open_intent from "
+        "the cues: an open/close decoder is fitted on them (griploop live --paradigm velocity "
+        "needs it). The file is a recording griploop evaluate and griploop live --calibration "
+        "accept.",
     )
     add_stream_options(p, imu_help="the armband's orientation stream, recorded with the arm "
                        "poses (default: NAME.imu when there is one, on --lsl's host if given; "
@@ -36,8 +41,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "stream; 'none' labels by the cues")
     p.add_argument("--mvc-n", type=float, default=40.0,
                    help="without a force stream: the label of a 100 %% squeeze, N (default 40)")
+    p.add_argument("--open", action="store_true",
+                   help="after the squeezes, cue three open contractions (open small, medium, "
+                   "strong) and label them open_intent: a calibration for --paradigm velocity "
+                   "and --decoder (24 s more by default)")
     p.add_argument("--squeeze-s", type=float, default=4.0,
-                   help="how long each squeeze is held, s (default 4)")
+                   help="how long each squeeze (and open contraction) is held, s (default 4)")
     p.add_argument("--rest-s", type=float, default=4.0,
                    help="rest after each squeeze, s (default 4; 3 s before the first, 5 s "
                    "after the last)")
@@ -52,7 +61,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``griploop calibrate``; returns the exit status."""
     from scenarios.live import lsl
-    from scenarios.live.calibrate import CalibrationStreams, cue_schedule, record_calibration
+    from scenarios.live.calibrate import (
+        OPEN_LEVELS,
+        CalibrationStreams,
+        cue_schedule,
+        record_calibration,
+    )
 
     if args.out.suffix not in (".npz", ".csv"):
         raise UsageError(f"--out: expected a .npz or .csv file, found {args.out.name!r}")
@@ -66,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
     no_imu = args.imu_lsl is not None and args.imu_lsl.strip().lower() == "none"
     if args.imu_lsl is not None and not no_imu:
         stream_query(args, "imu")
-    cues, duration_s = cue_schedule(squeeze_s=args.squeeze_s, rest_s=args.rest_s)
+    cues, duration_s = cue_schedule(squeeze_s=args.squeeze_s, rest_s=args.rest_s,
+                                    open_levels=OPEN_LEVELS if args.open else ())
     # the sEMG and its IMU stream together: --imu-lsl, or NAME.imu if there is one
     wanted = [(query, "lsl", "stream")]
     optional = []
@@ -109,8 +124,9 @@ def run(args: argparse.Namespace) -> int:
                     "arm poses")
     else:
         imu_text = "no IMU stream: no arm poses (griploop live will then need --arm-poses)"
+    open_text = ("; then open contractions (open_intent from the cues)" if args.open else "")
     print(f"calibrate: {duration_s:g} s session on {lsl.describe(info)} from "
-          f"{lsl.source_of(info)}; {force_text}; {imu_text}", flush=True)
+          f"{lsl.source_of(info)}; {force_text}; {imu_text}{open_text}", flush=True)
     # the force inlet first, so that it misses none of the samples the sEMG's start releases;
     # each inlet's clock offset is measured before it connects (the first pull would
     # otherwise wait for it while the player's samples queue: at --speed 16, beyond the
@@ -136,8 +152,10 @@ def run(args: argparse.Namespace) -> int:
           f"{recording.metadata['lost_samples']} lost), peak force "
           f"{float(recording.force_n.max()):.1f} N{pose_text} -> {args.out}")
     imu_next = "" if imu_info is None else f" --imu-lsl {imu_info.name()}"
+    velocity = " --paradigm velocity --drive self_locking" if args.open else ""
     print(f"next: griploop evaluate --recording {args.out}   or   griploop live --lsl "
-          f"{args.lsl}{imu_next} --calibration {args.out} --controller pid --object can")
+          f"{args.lsl}{imu_next} --calibration {args.out} --controller pid --object can"
+          f"{velocity}")
     return 0
 
 

@@ -29,7 +29,7 @@ from scenarios.runners.video import write_video
 from scenarios.schema import parse_scenario
 
 METRIC_KEYS = ("outcome", "attempts", "time_to_lift_s", "safety_margin_pct", "paradigm", "drive",
-               "auto_grip", "user_corrections",
+               "auto_grip", "decoder", "unrequested_opens", "decoder_windows", "user_corrections",
                "practice", "belief_gain", "belief_margin_pct", "tracking_rmse_n",
                "estimation_rmse_n",
                "hold_reference_n",
@@ -109,6 +109,7 @@ def scenario_from_args(args: argparse.Namespace) -> Any:
         "controller": {"kind": args.controller},
         "user": {"kind": args.user, "feedback": args.feedback, "practice": args.practice},
         "hand": {"drive": args.drive}, "paradigm": args.paradigm, "auto_grip": args.auto_grip,
+        **({} if args.decoder is None else {"decoder": args.decoder}),
     }, source="options")
 
 
@@ -118,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--video: expected a .gif file, found {args.video.name!r}")
     check_user_options(args.user, [args.feedback])
     check_practice_window(args.practice, args.window_ms, args.step_ms)
-    check_hand_options([args.paradigm], args.drive)
+    check_hand_options([args.paradigm], args.drive, args.decoder)
     if (args.recording is None) != (args.calibration is None):
         raise UsageError("--recording and --calibration go together; found only "
                          + ("--recording" if args.calibration is None else "--calibration"))
@@ -177,6 +178,7 @@ def _run_recorded(args: argparse.Namespace) -> int:
     """``episode --recording FILE --calibration CAL``: the offline episode on a given recording."""
     from estimation.reproduce import parse_channels
     from scenarios.cli.choices import check_choice
+    from scenarios.cli.commands.live import checked_decoder
     from scenarios.live.arm import ArmPoses
     from scenarios.live.errors import ArmPosesError
     from scenarios.live.recorded import ReplaySpec, episode_on_recording, fit_calibration
@@ -192,16 +194,20 @@ def _run_recorded(args: argparse.Namespace) -> int:
             poses = ArmPoses.from_text(args.arm_poses)
         except ArmPosesError as exc:
             raise UsageError(f"--arm-poses: {exc}") from None
+    hand = HandSettings(args.drive, args.paradigm, args.auto_grip, args.decoder)
+    cal_recording = load_recording(args.calibration)
+    decoder = checked_decoder(cal_recording, hand)  # before the recording is replayed
     recording = load_recording(args.recording)
-    cal = fit_calibration(load_recording(args.calibration), args.estimator, mode=args.mode,
-                          channels=parse_channels(args.channels), seed=args.seed)
+    cal = fit_calibration(cal_recording, args.estimator, mode=args.mode,
+                          channels=parse_channels(args.channels), seed=args.seed,
+                          decoder=decoder)
     overrides = {k: v for k, v in (("mass_kg", args.mass_kg), ("friction", args.friction))
                  if v is not None}
     obj = make_object(args.object, **overrides)
     spec = ReplaySpec(controller=args.controller,
                       episode_s=6.0 if args.episode_s is None else args.episode_s,
                       hold_s=args.hold_s, seed=args.seed,
-                      hand=HandSettings(args.drive, args.paradigm, args.auto_grip))
+                      hand=hand)
     result = episode_on_recording(recording, cal, obj, spec, poses=poses,
                                   record_frames=args.video is not None)
     m = result.metrics
@@ -209,8 +215,10 @@ def _run_recorded(args: argparse.Namespace) -> int:
            else "the scripted lift (no pitch recorded)")
     print(f"episode on {args.recording}: {args.estimator} ({args.mode}, calibration R2 "
           f"{cal.calibration.r2:.3f}) -> {args.controller} on {obj.name} ({obj.mass_kg:g} kg, "
-          f"mu {obj.friction:g}); the wrist follows {arm}")
-    for key in RECORDED_KEYS:
+          f"mu {obj.friction:g}), paradigm {args.paradigm}"
+          f"{'' if decoder is None else f' ({decoder} decoder)'}, {args.drive} drive; "
+          f"the wrist follows {arm}")
+    for key in RECORDED_KEYS + (("decoder_windows", "unrequested_opens") if decoder else ()):
         value = m.get(key)
         text = f"{value:.4g}" if isinstance(value, float) else str(value)
         print(f"  {key:<30} {text}")

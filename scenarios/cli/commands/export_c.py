@@ -28,7 +28,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Fit the estimator on a calibration recording (as evaluate does), design "
         "the controller for an object (as an episode does), and write C99 files: the feature "
         "window, the estimator, the controller, a header with units, rates, state sizes and "
-        "the callbacks you write. --check compiles them with the host C compiler and replays "
+        "the callbacks you write. With --paradigm velocity (or --decoder) the calibration must "
+        "hold open contractions (griploop calibrate --open): the open/close decoder, its MAV "
+        "window over every channel and the paradigm's shaping are exported too. --check "
+        "compiles them with the host C compiler and replays "
         "a recording through C and Python; --target cortex-m4 also runs that replay on an "
         "emulated Cortex-M4F (arm-none-eabi-gcc, qemu-system-arm). docs/DEPLOY.md walks "
         "through it.",
@@ -69,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     if args.controller is not None:
         check_choice("--controller", args.controller, controller_names())
         check_choice("--object", args.object, object_names())
-    check_hand_options([args.paradigm], args.drive)
+    check_hand_options([args.paradigm], args.drive, args.decoder)
     if args.target is not None:
         check_choice("--target", args.target, TARGETS)
         if args.check is None:
@@ -82,7 +85,8 @@ def run(args: argparse.Namespace) -> int:
     check = None if args.check is None else load_with_options(args.check, args)
     spec = ExportSpec(args.estimator, channels, mode=args.mode, controller=args.controller,
                       object_name=args.object, seed=args.seed,
-                      hand=HandSettings(args.drive, args.paradigm, args.auto_grip))
+                      hand=HandSettings(args.drive, args.paradigm, args.auto_grip,
+                                        args.decoder))
     export, report = export_session(calibration, spec, args.out, check_recording=check,
                                     target=args.target)
     print(f"export-c: {len(export.files)} files in {args.out}")
@@ -97,13 +101,21 @@ def run(args: argparse.Namespace) -> int:
               f"control steps; max |C - Python|: features {err['features']:.3g} "
               f"({c['features_max_ulps']:.2g} float32 ulp), estimate {err['estimate_n']:.3g} N, "
               f"reference ({args.paradigm}) {err['reference_n']:.3g} N, command {command}")
+        if "decoder" in c:
+            d = c["decoder"]
+            print(f"decoder: {d['windows']} windows ({d['open_windows']} open, "
+                  f"{d['close_windows']} close); max |C - Python|: levels "
+                  f"{d['max_abs_error']:.3g}, labels differing {d['label_mismatches']}, "
+                  f"command bounds {d['command_range_max_abs_error']:.3g}")
     if "target" in report:
         t = report["target"]
         ipu = t["instructions_per_update"]
         print(f"target {args.target}: flash {t['flash_bytes']} B, RAM {t['ram_bytes']} B, "
               f"instructions per update: features {ipu['features']}, estimator "
-              f"{ipu['estimator']}, controller {ipu['controller']}; matches host: "
-              f"{t['matches_host']}")
+              f"{ipu['estimator']}, controller {ipu['controller']}"
+              + (f", decoder {ipu['decoder']} (features + estimator + decoder "
+                 f"{ipu['features_estimator_decoder']})" if "decoder" in ipu else "")
+              + f"; matches host: {t['matches_host']}")
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(report, indent=1) + "\n")

@@ -60,7 +60,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_hand_options(p)
     p.add_argument("--calibration", required=True, metavar="CAL",
                    help="calibration recording of the same person and armband (.npz or .csv, "
-                   "with force): griploop calibrate --lsl writes one")
+                   "with force): griploop calibrate --lsl writes one; --paradigm velocity and "
+                   "--decoder need one with open contractions (griploop calibrate --open)")
     p.add_argument("--estimator", default=DEFAULT_ESTIMATOR, metavar="NAME",
                    help=f"{one_of(_free_run_estimators())} (default: {DEFAULT_ESTIMATOR}; "
                    "run in free_run: sEMG only)")
@@ -107,7 +108,7 @@ def _check(args: argparse.Namespace) -> None:
     check_choice("--estimator", args.estimator, _free_run_estimators())
     check_choice("--controller", args.controller, controller_names())
     check_choice("--object", args.object, object_names())
-    check_hand_options([args.paradigm], args.drive)
+    check_hand_options([args.paradigm], args.drive, args.decoder)
     for flag, value in (("--duration-s", args.duration_s), ("--timeout-s", args.timeout_s),
                         ("--resolve-timeout-s", args.resolve_timeout_s)):
         if not (math.isfinite(value) and value > 0):
@@ -123,6 +124,24 @@ def _check(args: argparse.Namespace) -> None:
         raise UsageError("--arm-poses: maps the IMU's pitch, expected with --imu-lsl")
     if args.imu_source_id is not None and args.imu_lsl is None:
         raise UsageError("--imu-source-id: expected with --imu-lsl NAME")
+
+
+def checked_decoder(cal_recording: Any, hand: Any) -> str | None:
+    """The decoder the calibration fits for ``hand`` (``None``: none), refused as
+    ``--calibration``'s fault in one line when the recording has no open contractions.
+
+    Raises
+    ------
+    UsageError
+        A paradigm or decoder that needs open contractions, on a calibration without any.
+    """
+    from estimation.decoding import NoOpenContractionsError
+    from scenarios.live.recorded import calibration_decoder
+
+    try:
+        return calibration_decoder(cal_recording, hand)
+    except NoOpenContractionsError as exc:
+        raise UsageError(f"--calibration {exc}") from None
 
 
 def _arm_poses(args: argparse.Namespace, cal_recording: Any) -> Any:
@@ -181,6 +200,7 @@ def run(args: argparse.Namespace) -> int:
     from scenarios.live.inlets import run_session
     from scenarios.live.recorded import fit_calibration
     from scenarios.live.session import LiveGrasp, SessionSettings
+    from scenarios.runners.trial_loop import HandSettings
     from sim.hand.objects import make_object
 
     _check(args)
@@ -189,10 +209,12 @@ def run(args: argparse.Namespace) -> int:
     if args.imu_lsl is not None:
         stream_query(args, "imu")  # its form, before any work
     cal_recording = load_with_options(args.calibration, args)
+    hand = HandSettings(args.drive, args.paradigm, args.auto_grip, args.decoder)
+    decoder = checked_decoder(cal_recording, hand)
     if args.imu_lsl is not None:
         _arm_poses(args, cal_recording)
     cal = fit_calibration(cal_recording, args.estimator, channels=parse_channels(args.channels),
-                          seed=args.seed)
+                          seed=args.seed, decoder=decoder)
     overrides = {k: v for k, v in (("mass_kg", args.mass_kg), ("friction", args.friction))
                  if v is not None}
     obj = make_object(args.object, **overrides)
@@ -201,12 +223,9 @@ def run(args: argparse.Namespace) -> int:
     if video is None and not args.no_video and not viewer_wanted:
         video = (args.json.with_suffix(".gif") if args.json is not None
                  else Path("griploop-live.gif"))
-    from scenarios.runners.trial_loop import HandSettings
-
     settings = SessionSettings(duration_s=args.duration_s, timeout_s=args.timeout_s,
                                frame_dt_s=FRAME_DT_S if video is not None else None,
-                               hand=HandSettings(args.drive, args.paradigm, args.auto_grip),
-                               feedback=args.feedback)
+                               hand=hand, feedback=args.feedback)
     wanted = [(query, "lsl", "stream")]
     if args.imu_lsl is not None:
         wanted.append((stream_query(args, "imu"), "imu", "IMU stream"))
@@ -240,7 +259,8 @@ def run(args: argparse.Namespace) -> int:
         grasp.keep_frames(FRAME_DT_S)
     print(f"live: {args.estimator} (free_run, calibration R2 {cal.calibration.r2:.3f}) -> "
           f"{args.controller} on {obj.name} ({obj.mass_kg:g} kg, mu {obj.friction:g}), "
-          f"paradigm {args.paradigm}, {args.drive} drive"
+          f"paradigm {args.paradigm}"
+          f"{'' if decoder is None else f' ({decoder} decoder)'}, {args.drive} drive"
           f"{', auto-grip' if args.auto_grip else ''}; "
           f"stream {lsl.describe(info)} from {lsl.source_of(info)}; "
           f"{arm_text}; outlets {', '.join(outlets.names)}", flush=True)
