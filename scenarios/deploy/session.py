@@ -1,7 +1,7 @@
 """``griploop export-c`` from start to end: fit, export, build, replay, and the target.
 
 :func:`export_session` fits the estimator on a calibration recording
-(:func:`scenarios.live.recorded.fit_calibration`, as ``evaluate`` and ``live`` fit it),
+(:func:`scenarios.live.calibration_fit.fit_calibration`, as ``evaluate`` and ``live`` fit it),
 designs the controller for the object (:func:`controllers.design_cache.grasp_design`,
 as an episode does), writes the C files, and with ``check`` replays a recording
 through C and Python (:mod:`scenarios.deploy.check`); with ``target`` it also runs the

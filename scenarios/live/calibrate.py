@@ -30,7 +30,7 @@ the level each open cue asks for (a fraction of the person's largest opening), a
 prompted label as the cue force is. The force label is the squeezes' only (0 while the
 hand opens, or the force stream's reading). ``metadata["open_from_s"]`` says where the
 open contractions begin: the estimator is fitted on the squeezes before it
-(:func:`scenarios.live.recorded.fit_calibration`), an open/close decoder on the whole
+(:func:`scenarios.live.calibration_fit.fit_calibration`), an open/close decoder on the whole
 recording. Without open levels the session, its cues and its file are the paper's.
 """
 

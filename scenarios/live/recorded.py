@@ -3,8 +3,9 @@
 A live session and an offline replay of its recording must be comparable, so both run
 the one trial loop (:mod:`scenarios.runners.trial_loop`) from the same pieces:
 
-- :func:`fit_calibration` fits the estimator (and an open/close decoder) on a
-  calibration recording (:mod:`scenarios.live.calibration_fit`, re-exported here);
+- :func:`~scenarios.live.calibration_fit.fit_calibration` fits the estimator (and an
+  open/close decoder) on a calibration recording (:mod:`scenarios.live.calibration_fit`, re-exported
+  here);
 - :func:`grasp_session` records a virtual subject grasping an object, aiming at the
   force an episode's user aims at through that calibration's force mapping, and
   lifting it with their own arm (the forearm's pitch, as an armband's IMU reads it);

@@ -6,19 +6,21 @@ differ from any population in ways no statistic we share captures, so a populati
 from the same ranges as the corpus flatters it. ``make_population(n, seed, variant=...)``
 (:func:`apply_variant`) draws ``n`` subjects of a named *variant*:
 
-=========  ===============================================================================
-variant    subjects
-=========  ===============================================================================
-default    :meth:`sim.user.subjects.VirtualSubject.sample`: the population calibrated
-           against the real recordings (``docs/SUBJECTS.md``)
-wide       the same draws, then the mechanisms the real recordings vary in that change what
-           the sEMG says about grip, drawn from wider ranges (:func:`widen`): the band's
-           placement, co-contraction (size, drift, growth with grip), the protocol's rounds
-extensor_  the same draws with the extensors' sEMG larger (:func:`extensor_dominant`):
-dominant   squeezes whose extensor channels outweigh the flexor ones, as the real
-           recordings' most extensor-dominant subjects' do (flexor/extensor RMS ratio
-           about 0.36-0.7, against the default's 0.45-1.10)
-=========  ===============================================================================
+=================  =======================================================================
+variant            subjects
+=================  =======================================================================
+default            :meth:`sim.user.subjects.VirtualSubject.sample`: the population
+                   calibrated against the real recordings (``docs/SUBJECTS.md``)
+wide               the same draws, then the mechanisms the real recordings vary in that
+                   change what the sEMG says about grip, drawn from wider ranges
+                   (:func:`widen`): the band's placement, co-contraction (size, drift,
+                   growth with grip), the protocol's rounds
+extensor_dominant  the same draws with the extensors' sEMG larger
+                   (:func:`extensor_dominant`): squeezes whose extensor channels outweigh
+                   the flexor ones, as the real recordings' most extensor-dominant
+                   subjects' do (flexor/extensor RMS ratio about 0.3-0.75, against the
+                   default's 0.45-1.10)
+=================  =======================================================================
 
 A variant is a function ``transform(subject, rng) -> VirtualSubject`` applied to each
 default subject with its own generator (``SeedSequence(seed, spawn_key=(subject_id, 2))``),

@@ -6,7 +6,7 @@ armband fit, FSR device) plus the methods that turn an intent profile into a
 
     intent u(t) (0..1), optionally open intent v(t) (0..1)
       -> target force_m(t) = synergy_m u(t) (1 + eta_m(t))  (grip synergy, slow fluctuation)
-         [+ open_synergy_m v(t) (1 + eta_m(t)): the sEMG's drive; the force's is u's alone]
+      -> + open_synergy_m v(t) (1 + eta_m(t)) for the sEMG's drive (the force's is u's alone)
       -> drive_m(t): inverse of the generator's steady force-drive curve
       -> generator: muscle sEMG s_m(t) and force F_m(t)    ("noise" or "motor_units")
       -> sEMG gain (1 + xi_m(t)): amplitude changes that force does not share
@@ -164,8 +164,9 @@ class VirtualSubject:
     def sample(cls, seed: int, subject_id: int) -> VirtualSubject:
         """Draw a subject's parameters from ``SeedSequence(seed, spawn_key=(subject_id, 0))``.
 
-        The opening pattern (``MuscleParams.open_synergy``, :data:`OPEN_PATTERN`) comes from
-        a stream of its own, ``spawn_key=(subject_id, 3)``, so every other parameter keeps
+        The opening pattern (``MuscleParams.open_synergy``,
+        :data:`~sim.user.muscles.OPEN_PATTERN`) comes from a stream of its own,
+        ``spawn_key=(subject_id, 3)``, so every other parameter keeps
         the value it had before the open intent existed.
         """
         rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(subject_id, 0)))

@@ -100,4 +100,4 @@ def test_an_unknown_judge_population_is_refused_before_any_work(capsys, monkeypa
     assert main(["reproduce", "--subjects", "1", "--judge", "nope"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["griploop reproduce: error: unknown population 'nope'; expected one of "
-                   "default, wide"]
+                   "default, wide, extensor_dominant"]

@@ -27,7 +27,7 @@ def _episode_args(controller: str) -> argparse.Namespace:
                               population_seed=0, seed=0, episode_s=None, hold_s=2.0,
                               user="reacting", feedback="none", practice=5, window_ms=400.0,
                               step_ms=125.0, drive="backdrivable", paradigm="force",
-                              auto_grip=False)
+                              auto_grip=False, decoder=None)
 
 
 def test_every_controller_has_default_specs():
