@@ -132,6 +132,26 @@ class CExport:
                 for name, m in parts.items()}
 
 
+def _check_parts(reference: HandReference, has_decoder: bool, pipeline: Any, estimator: str,
+                 window: FeatureWindow) -> None:
+    """:func:`export_c`'s refusals, before anything is made: the paradigm, its decoder, the
+    rest thresholds and the estimator's update period against the feature window's."""
+    check_paradigm_exportable(reference.paradigm)
+    if not has_decoder and needs_decoder(reference.paradigm):
+        raise DecoderMissingError(
+            f"paradigm {reference.paradigm} needs open and close signals; expected a fitted "
+            "open/close decoder (a calibration with open contractions), found none")
+    try:
+        reference.check()
+    except ValueError as exc:
+        raise ExportError(str(exc)) from None
+    period = window.samples[1] / window.fs_hz
+    fitted_dt = getattr(pipeline.estimator_, "dt_s", None)
+    if fitted_dt is not None and abs(float(fitted_dt) - period) > 1e-9:
+        raise ExportError(f"estimator {estimator}: fitted for a window every {fitted_dt} s; "
+                          f"expected the feature window's {period:g} s")
+
+
 def export_c(pipeline: Any, estimator: str, mode: str, window: FeatureWindow,
              out_dir: Path, *, design: Any = None,
              reference: HandReference | None = None,
@@ -179,21 +199,9 @@ def export_c(pipeline: Any, estimator: str, mode: str, window: FeatureWindow,
         A paradigm that needs a decoder (``velocity``) without one.
     """
     reference = HandReference() if reference is None else reference
-    check_paradigm_exportable(reference.paradigm)
-    if decoder is None and needs_decoder(reference.paradigm):
-        raise DecoderMissingError(
-            f"paradigm {reference.paradigm} needs open and close signals; expected a fitted "
-            "open/close decoder (a calibration with open contractions), found none")
-    try:
-        reference.check()
-    except ValueError as exc:
-        raise ExportError(str(exc)) from None
+    _check_parts(reference, decoder is not None, pipeline, estimator, window)
     win, step = window.samples
     period = step / window.fs_hz
-    fitted_dt = getattr(pipeline.estimator_, "dt_s", None)
-    if fitted_dt is not None and abs(float(fitted_dt) - period) > 1e-9:
-        raise ExportError(f"estimator {estimator}: fitted for a window every {fitted_dt} s; "
-                          f"expected the feature window's {period:g} s")
     features = export_features(window)
     est = export_estimator(pipeline, estimator, mode,
                            extra={"update period": f"{period:g} s (one feature window)"})

@@ -101,7 +101,7 @@ class RecordedCalibration:
 
 def has_open_contractions(recording: Recording) -> bool:
     """Whether ``recording`` has an open-intent label reaching :data:`OPEN_ON` somewhere."""
-    opening = getattr(recording, "open_intent", None)
+    opening = recording.open_intent
     return opening is not None and bool(np.any(np.asarray(opening) >= OPEN_ON))
 
 

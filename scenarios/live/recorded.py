@@ -62,7 +62,6 @@ from scenarios.runners.episode import HAND_FORCE_AT_MVC_N
 from scenarios.runners.episode_metrics import contact_peak_ratio, episode_metrics
 from scenarios.runners.reference import RAMP_S, REST_S, intended_grip_n, reference_from_windows
 from scenarios.runners.semg_reference import SemgReference
-from scenarios.runners.trial import NOT_OPENING
 from scenarios.runners.trial_loop import DEFAULT_HAND, Frames, HandSettings, TrialLoop
 from scenarios.runners.trial_outcome import TrialReferee, judge
 from sim.hand.objects import ObjectSpec
@@ -426,26 +425,10 @@ def episode_on_recording(recording: Recording, cal: RecordedCalibration, obj: Ob
                             control_dt_s=spec.control_dt_s,
                             wrist_tremor_m=person.wrist_tremor_m,
                             windows=ReferenceWindows.of(chain, spec.episode_s), oracle_n=oracle)
-    metrics.update(decoder_counts(chain, getattr(recording, "open_intent", None)))
+    metrics.update(chain.decoder_counts(recording.open_intent))
     timings = {**chain.timings, "t_controller_s": loop.controller_s,
                "t_physics_s": loop.physics_s}
     return RecordedEpisode(metrics, traces, design, timings, loop.referee)
-
-
-def decoder_counts(chain: SemgReference, open_intent: np.ndarray | None = None
-                   ) -> dict[str, int | None]:
-    """With a decoder: ``decoder_windows`` (windows decoded) and ``unrequested_opens``
-    (windows decoded open while ``open_intent`` at their last sample was below
-    :data:`scenarios.runners.trial.NOT_OPENING`, as a simulated trial counts them), or
-    ``None`` without an open-intent label (a person's); empty without a decoder."""
-    if chain.decoder is None:
-        return {}
-    ends = np.asarray(chain.window_end, dtype=int)
-    if open_intent is None:
-        return {"decoder_windows": int(ends.size), "unrequested_opens": None}
-    opens = np.array([o > 0.0 for _, o in chain.window_decoded], dtype=bool)
-    asked = open_intent[np.minimum(ends, open_intent.size - 1)] >= NOT_OPENING
-    return {"decoder_windows": int(ends.size), "unrequested_opens": int(np.sum(opens & ~asked))}
 
 
 def session_seed(seed: int) -> int:

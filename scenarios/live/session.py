@@ -68,7 +68,7 @@ from controllers.design_cache import grasp_design
 from controllers.paradigms import RELAXED
 from scenarios.live.arm import LIFT_HEIGHT_M, Arm
 from scenarios.live.hooks import DEFAULT_HOOKS, SessionHooks
-from scenarios.live.recorded import RecordedCalibration, decoder_counts, grasp_metrics, session_seed
+from scenarios.live.recorded import RecordedCalibration, grasp_metrics, session_seed
 from scenarios.live.reference_windows import ReferenceWindows
 from scenarios.live.samples import SampleGuard
 from scenarios.live.timing import percentile, warnings_for
@@ -561,7 +561,7 @@ class LiveGrasp:
         metrics = {**grasp_metrics(traces, info, referee, self.obj, control_dt_s=s.control_dt_s,
                                    wrist_tremor_m=self.wrist_tremor_m,
                                    windows=ReferenceWindows.of(self.chain, s.duration_s)),
-                   **decoder_counts(self.chain)}  # a person's: no open-intent label
+                   **self.chain.decoder_counts(None)}  # a person's: no open-intent label
         out: dict[str, Any] = {
             "samples": {"received": int(self.received), "expected": int(expected),
                         "lost": int(max(expected - self.received, 0))},

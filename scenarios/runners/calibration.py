@@ -277,7 +277,7 @@ def fit_decoder(name: str, recordings: Sequence[Recording], *, window_ms: float 
     xs, ys = [], []
     for rec in recordings:
         intent = rec.intent if rec.intent is not None else np.zeros(rec.n_samples)
-        x, y = decoder_windows(rec.emg, intent, getattr(rec, "open_intent", None),
+        x, y = decoder_windows(rec.emg, intent, rec.open_intent,
                                fs_hz=rec.fs_hz, window_ms=window_ms, step_ms=step_ms)[:2]
         xs.append(x)
         ys.append(y)

@@ -37,6 +37,8 @@ STEP_MS = 125.0
 """The paper's window increment, ms (the default of ``estimator.step_ms``)."""
 CEILING = 1.2
 """References are clipped to this many times the hand force at the user's MVC."""
+NOT_OPENING = 0.05
+"""The open intent below which a person is not opening (the decoder labels' rest edge)."""
 
 @dataclass(frozen=True)
 class HandReference:
@@ -224,6 +226,33 @@ class SemgReference:
             self.window_values_n.append(self.reference_n)
         self.timings["t_estimator_s"] += time.perf_counter() - t1
         return int(ends.size)
+
+    def decoder_counts(self, open_intent: np.ndarray | None) -> dict[str, int | None]:
+        """The windows decoded so far, and those decoded open while the person was not
+        opening.
+
+        Parameters
+        ----------
+        open_intent : ndarray, shape (n_samples,), or None
+            The person's open intent at every sample since the reset (a virtual person's, or a
+            recording's label); ``None``: unlabelled (a live person's).
+
+        Returns
+        -------
+        dict
+            With a decoder: ``decoder_windows`` and ``unrequested_opens`` (windows decoded
+            open while ``open_intent`` at their last sample was below :data:`NOT_OPENING`;
+            ``None`` when unlabelled). Empty without a decoder.
+        """
+        if self.decoder is None:
+            return {}
+        ends = np.asarray(self.window_end, dtype=int)
+        if open_intent is None:
+            return {"decoder_windows": int(ends.size), "unrequested_opens": None}
+        opens = np.array([o > 0.0 for _, o in self.window_decoded], dtype=bool)
+        asked = open_intent[np.minimum(ends, open_intent.size - 1)] >= NOT_OPENING
+        return {"decoder_windows": int(ends.size),
+                "unrequested_opens": int(np.sum(opens & ~asked))}
 
     def _decode(self, rows: np.ndarray) -> None:
         """Decode the MAV rows of the windows just completed (they end where the

@@ -191,25 +191,10 @@ def run_trial(setup: TrialSetup, operator: Operator, task: Task,
     phases = list(operator.phase_log)
     memory = operator.finish()
     return Trial(traces, loop.failure, loop.info, stream, loop.referee, str(loop.ended),
-                 memory, phases, timings, decoding_counts(person))
+                 memory, phases, timings, person.reference.decoder_counts(
+                     np.zeros(person.n_samples) if person.open_intent is None
+                     else person.open_intent))
 
-
-#: The open intent below which a user is not opening (the decoder's labels' rest edge).
-NOT_OPENING = 0.05
-
-
-def decoding_counts(person: VirtualPerson) -> dict[str, int]:
-    """The decoder's windows in a trial and those it decoded as open while the user was not
-    opening (open intent below :data:`NOT_OPENING` at the window's last sample); empty
-    without a decoder."""
-    ref = person.reference
-    if ref.decoder is None:
-        return {}
-    ends = np.asarray(ref.window_end, dtype=int)
-    opens = np.array([o > 0.0 for _, o in ref.window_decoded], dtype=bool)
-    asked = (np.zeros(ends.size, dtype=bool) if person.open_intent is None
-             else person.open_intent[np.minimum(ends, person.n_samples - 1)] >= NOT_OPENING)
-    return {"decoder_windows": int(ends.size), "unrequested_opens": int(np.sum(opens & ~asked))}
 
 
 def _stream(person: VirtualPerson, start_s: float, t_ctrl: np.ndarray,

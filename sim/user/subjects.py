@@ -418,21 +418,9 @@ class VirtualSubject:
         contact = 1.0 + slow_fluctuation(grip_n.size, fs_hz, np.array([self.contact_std]),
                                          self.contact_time_s, g)[:, 0]
         force_n = self.fsr.measure(grip_n * np.clip(contact, 0.0, None), g)
-        metadata = {
-            "subject_id": self.subject_id,
-            "seed": self.seed,
-            "generator": gen.name,
-            "generator_params": gen.params(),
-            "muscles_per_channel": self.channel_muscles(),
-            "muscle_abbreviations": list(MUSCLE_ABBREVIATIONS),
-            "mvc_n": self.mvc_n,
-            "profile": prof.to_metadata(),
-            "cues": [[k, float(t)] for k, t in prof.cues],
-            "n_saturated": n_sat,
-            "rig_lag_s": lag / fs_hz,
-            "generator_info": out.info,
-            "params": self.params(),
-        }
+        metadata = {**self._provenance(gen, prof), "n_saturated": n_sat,
+                    "rig_lag_s": lag / fs_hz, "generator_info": out.info,
+                    "params": self.params()}
         return Recording(
             emg=emg,
             fs_hz=fs_hz,
@@ -445,6 +433,13 @@ class VirtualSubject:
             metadata=metadata,
             source=f"subject{self.subject_id:02d}",
         )
+
+    def _provenance(self, gen: EmgGenerator, prof: IntentProfile) -> dict[str, Any]:
+        """:meth:`record`'s metadata about who recorded what, in its order."""
+        return {"subject_id": self.subject_id, "seed": self.seed, "generator": gen.name,
+                "generator_params": gen.params(), "muscles_per_channel": self.channel_muscles(),
+                "muscle_abbreviations": list(MUSCLE_ABBREVIATIONS), "mvc_n": self.mvc_n,
+                "profile": prof.to_metadata(), "cues": [[k, float(t)] for k, t in prof.cues]}
 
     def _muscle_signals(self, prof: IntentProfile, gen: EmgGenerator, fs_hz: float,
                         g: np.random.Generator) -> tuple[np.ndarray, MuscleSignals]:
