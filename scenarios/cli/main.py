@@ -77,6 +77,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
                        "plot a recording: force above the stacked sEMG channels"),
     "report": ("scenarios.cli.commands.report",
                "write a self-contained HTML report of a results store"),
+    "published": ("scenarios.cli.commands.published",
+                  "the scoreboard: which published human findings griploop reproduces"),
     "reproduce": ("scenarios.cli.commands.reproduce",
                   "reproduce the paper's Tables 2 and 3 on virtual subjects"),
     "slip-recovery": ("scenarios.cli.commands.slip_recovery",
