@@ -11,8 +11,6 @@ raised, is a ``failed`` row with its one-line reason, and the others still print
 
 from __future__ import annotations
 
-import hashlib
-import json
 import tempfile
 import time
 from collections.abc import Iterator
@@ -99,27 +97,57 @@ def run_board(config: BoardConfig, *, workers: int = 1, db: Path | None = None,
     t0 = time.perf_counter()
     plan, errors = plan_findings(config)
     scenarios = plan.pop("__scenarios__")
-    digest = hashlib.sha256(json.dumps(sorted(scenarios)).encode()).hexdigest()[:10]
-    name = f"published-{digest}"
     # each planned scenario keeps its position in the board's sweep
     planned = [replace_index(p, i) for i, p in enumerate(scenarios.values())]
+    name = sweep_name(config)
     with _store(db) as path, ResultStore(path) as store:
         if planned:
             run_sweep(planned, store, SweepExecution(workers=workers, time_limit_s=None),
                       sweep_name=name, progress=progress)
         stored = {r["hash"]: r for r in store.rows(sweep=name)} if planned else {}
+    return judge_board(config, plan, errors, stored, time.perf_counter() - t0)
+
+
+def judge_board(config: BoardConfig, plan: dict[str, Any], errors: dict[str, str],
+                stored: dict[str, dict[str, Any]], elapsed_s: float) -> dict[str, Any]:
+    """The board's JSON (docs/FORMAT.md) from the stored rows of its sweep."""
     rng_root = np.random.SeedSequence(config.seed)
-    rows = []
-    for i, finding in enumerate(FINDINGS):
-        rng = np.random.default_rng(rng_root.spawn(len(FINDINGS))[i])
-        rows.append(board_row(finding, config, plan.get(finding.id), stored,
-                              errors.get(finding.id), rng))
+    streams = rng_root.spawn(len(FINDINGS))
+    rows = [board_row(finding, config, plan.get(finding.id), stored, errors.get(finding.id),
+                      np.random.default_rng(streams[i]))
+            for i, finding in enumerate(FINDINGS)]
     ok = sum(r["status"] == "ok" for r in stored.values())
     return {"rows": rows, "agree": sum(r["verdict"] == AGREES for r in rows),
             "total": len(rows), "subjects": config.subjects, "seed": config.seed,
             "config": asdict(config),
-            "scenarios": {"ok": ok, "failed": len(stored) - ok},
-            "elapsed_s": time.perf_counter() - t0}
+            "scenarios": {"ok": ok, "failed": len(stored) - ok}, "elapsed_s": elapsed_s}
+
+
+SWEEP_PREFIX = "published"
+
+
+def sweep_name(config: BoardConfig) -> str:
+    """The board's sweep in a results store: its configuration, readable back by
+    :func:`config_of_sweep` (the report judges a stored board from it)."""
+    return (f"{SWEEP_PREFIX}-{config.paradigm}-{config.estimator}-{config.decoder}"
+            f"-n{config.subjects}-seed{config.seed}{'-smoke' if config.smoke else ''}")
+
+
+def config_of_sweep(name: str) -> BoardConfig | None:
+    """The board configuration a sweep name says (None: not a board's sweep)."""
+    parts = name.split("-")
+    smoke = parts[-1] == "smoke"
+    if smoke:
+        parts = parts[:-1]
+    if len(parts) != 6 or parts[0] != SWEEP_PREFIX or not parts[4].startswith("n") \
+            or not parts[5].startswith("seed"):
+        return None
+    try:
+        return BoardConfig(subjects=int(parts[4][1:]), seed=int(parts[5][4:]),
+                           paradigm=parts[1], estimator=parts[2], decoder=parts[3],
+                           smoke=smoke)
+    except ValueError:
+        return None
 
 
 def replace_index(planned: Any, index: int) -> Any:

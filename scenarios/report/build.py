@@ -584,6 +584,7 @@ register_section("margins", lambda c: _margin_section(c.designs, c.split.episode
 register_section("frame", lambda c: frame_section(c.split.episodes, c.options["render_frame"],
                                                    c.options.get("frame")), order=80)
 register_section("feedback", "scenarios.report.feedback:feedback_section", order=85)
+register_section("published", "scenarios.published.report:published_section", order=6)
 register_section("failed", lambda c: _failed_section(c.split.failed), order=90)
 register_section("provenance", lambda c: _provenance_section(
     c.results, c.sweep, c.rows, c.members, c.reproduction, c.json_config, c.created), order=100)

@@ -128,8 +128,9 @@ def test_a_smoke_board_is_well_formed(tmp_path, capsys) -> None:
     """The smoke board (1 subject, shortened protocols): its shape only, no outcome."""
     out = tmp_path / "board.json"
     plot = tmp_path / "board.png"
+    db = tmp_path / "board.sqlite"
     code = main(["published", "--smoke", "--no-progress", "--json", str(out),
-                 "--plot", str(plot)])
+                 "--plot", str(plot), "--db", str(db)])
     assert code == 0
     board = json.loads(out.read_text())
     assert set(board) >= {"rows", "agree", "total", "subjects", "seed"}
@@ -148,6 +149,12 @@ def test_a_smoke_board_is_well_formed(tmp_path, capsys) -> None:
     assert plot.stat().st_size > 0
     printed = capsys.readouterr().out
     assert all(i in printed for i in ISSUE_ORDER)
+    # the report judges the stored board again, by the same rules: the same verdicts
+    assert main(["report", str(db), "--out", str(tmp_path / "report")]) == 0
+    html = (tmp_path / "report" / "index.html").read_text()
+    assert "Published findings" in html
+    for row in board["rows"]:
+        assert f">{row['id']}</td>" in html
 
 
 @pytest.mark.parametrize(("argv", "flag"), [

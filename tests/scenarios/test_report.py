@@ -344,11 +344,12 @@ def test_episode_row_missing_a_field_is_rejected(tmp_path):
 def test_report_has_every_section_with_real_content(report):
     result, html = report
     assert [s.anchor for s in result.sections] == [
-        "summary", "combinations", "compare", "paper", "traces", "loops", "outcomes", "margins",
-        "frame", "feedback", "failed", "provenance"]
+        "summary", "published", "combinations", "compare", "paper", "traces", "loops",
+        "outcomes", "margins", "frame", "feedback", "failed", "provenance"]
     # the store holds episodes, no feedback benchmark (tests/scenarios/test_feedback_tasks.py
-    # reports one)
-    assert not any(s.omitted for s in result.sections if s.anchor != "feedback"), \
+    # reports one) and no published board (tests/scenarios/test_published.py reports one)
+    assert not any(s.omitted for s in result.sections
+                   if s.anchor not in ("feedback", "published")), \
         [s.title for s in result.sections]
     # 2 bar charts + the summary's forest plot and held-rate figure + one trace chart per
     # episode + one loop figure (the designs overlaid) + frame; the outcome maps are tables
@@ -476,7 +477,7 @@ def test_sections_without_data_become_a_note(store_path, tmp_path):
     result = build_report(store_path, tmp_path, sweep="tiny_paper", render_frame=False)
     omitted = {s.anchor for s in result.sections if s.omitted}
     assert omitted == {"summary", "combinations", "compare", "traces", "loops", "outcomes",
-                       "margins", "frame", "feedback"}
+                       "margins", "frame", "feedback", "published"}
     html = result.path.read_text()
     assert "No episode rows: section omitted." in section(html, "traces")
     with ResultStore(store_path) as store:
