@@ -1,10 +1,13 @@
 """Closed-loop verdicts of practised users, and what practice changes (docs/results/, issue 27).
 
 For each estimator whose real R2 is at least 0.8 (``mlp``, ``features_mav``, ``ridge``,
-``gbt``, ``latent_kf``), the oracle and the intact-hand reference, and each controller
-(``pid``, ``lead_lag``, ``mpc``), every virtual subject grasps rigid everyday objects drawn
-at random (a can of 0.2-1.0 kg with friction 0.3-1.0, three times in four; the aluminium
-block once in four), each episode with its own seed, vision only, in a 15 s trial: once
+``gbt``, ``latent_kf``) and the oracle, with each controller (``pid``, ``lead_lag``,
+``mpc``), and the two references the user's own force drives with ``pid`` and touch
+(``ideal_interface``, the prosthesis's hand: the "intact hand" row of the results before
+issue 37; ``intact``, the human-speed hand with grip coupled to load), every virtual
+subject grasps rigid everyday objects drawn at random (a can of 0.2-1.0 kg with friction
+0.3-1.0, three times in four; the aluminium block once in four), each episode with its own
+seed, vision only (touch for the two references), in a 15 s trial: once
 as a novice (``practice 0``) and once practised (5 lifts of the object's class). The
 objects, subjects and seeds come from one generator seeded by ``--seed``; no test names
 them. Prints, per user and arm: held with its 95 % Wilson interval, not lifted, dropped,
@@ -32,6 +35,8 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 ESTIMATORS = ("mlp", "features_mav", "ridge", "gbt", "latent_kf")
+#: The references the user's own force drives, felt by touch (scenarios.schema.names.OWN_FORCE).
+OWN_FORCE = ("ideal_interface", "intact")
 CONTROLLERS = ("pid", "lead_lag", "mpc")
 
 
@@ -42,7 +47,7 @@ def _episode(job: tuple) -> dict:
     from sim.user.subjects import VirtualSubject
 
     estimator, controller, subject, obj, seed, practice = job
-    feedback = "touch" if estimator == "intact" else "none"
+    feedback = "touch" if estimator in OWN_FORCE else "none"
     try:
         row = run_episode(VirtualSubject.sample(0, subject), make_object(**obj),
                           EpisodeSpec(estimator=estimator, controller=controller, seed=seed,
@@ -66,7 +71,8 @@ def jobs(subjects: int, objects: int, seed: int) -> list[tuple]:
                 obj = {"name": "can", "mass_kg": round(float(rng.uniform(0.2, 1.0)), 2),
                        "friction": round(float(rng.uniform(0.3, 1.0)), 2)}
             draws.append((subject, obj, int(rng.integers(2**31))))
-    arms = [(e, c) for e in (*ESTIMATORS, "oracle") for c in CONTROLLERS] + [("intact", "pid")]
+    arms = ([(e, c) for e in (*ESTIMATORS, "oracle") for c in CONTROLLERS]
+            + [(e, "pid") for e in OWN_FORCE])
     return [(e, c, s, o, sd, p) for p in (0, 5) for e, c in arms for s, o, sd in draws]
 
 
@@ -75,7 +81,7 @@ def summarize(results: list[dict]) -> list[dict]:
 
     out = []
     keys = sorted({(r["job"][5], r["job"][0], r["job"][1]) for r in results},
-                  key=lambda k: (k[0], (*ESTIMATORS, "oracle", "intact").index(k[1]), k[2]))
+                  key=lambda k: (k[0], (*ESTIMATORS, "oracle", *OWN_FORCE).index(k[1]), k[2]))
     for practice, estimator, controller in keys:
         mine = [r for r in results if (r["job"][5], r["job"][0], r["job"][1])
                 == (practice, estimator, controller)]

@@ -46,8 +46,10 @@ def aggregate_eggs(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
 def aggregate_slip_recovery(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """The ``slip-recovery`` JSON contract (docs/FORMAT.md) from ``slip_recovery`` rows.
 
-    ``{"by_feedback": {MODE: {"n", "recovered", "recovered_rate", "ci95"}}, "excluded":
-    {MODE: {"not_lifted", "no_slip"}}}``.
+    ``{"by_feedback": {MODE: {"n", "recovered", "recovered_rate", "ci95", "no_slip",
+    "reaction_s", "reaction_ci95"}}, "excluded": {MODE: {"not_lifted", "no_slip"}}}``:
+    ``ci95`` the Wilson interval of the recovered rate; ``reaction_s`` the mean over
+    subjects of their mean reaction (rows with one) with a Student-t interval.
     """
     out: dict[str, Any] = {}
     excluded: dict[str, Any] = {}
@@ -55,8 +57,11 @@ def aggregate_slip_recovery(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]
         mine = [r for r in rows if r["feedback"] == mode]
         n = int(sum(r["n"] for r in mine))
         k = int(sum(r["recovered"] for r in mine))
+        reaction = mean_interval([r.get("reaction_s") for r in mine])
         out[mode] = {"n": n, "recovered": k, "recovered_rate": k / n if n else None,
-                     "ci95": _ci(wilson_interval(k, n))}
+                     "ci95": _ci(wilson_interval(k, n)),
+                     "no_slip": int(sum(r["no_slip"] for r in mine)),
+                     "reaction_s": _num(reaction[0]), "reaction_ci95": _ci(reaction[1:])}
         excluded[mode] = {key: int(sum(r[key] for r in mine)) for key in ("not_lifted", "no_slip")}
     return {"by_feedback": out, "excluded": excluded}
 
@@ -92,16 +97,36 @@ def aggregate_force_matching(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any
 def aggregate_transfers(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """The ``transfers`` JSON contract (docs/FORMAT.md) from ``transfers`` rows (one arm).
 
-    ``{"blocks_per_min", "ci95", "transfers", "drops", "breaks", "not_released",
-    "not_lifted", "transfer_s", "subjects", "per_subject"}``: blocks per minute averaged over
-    subjects with a Student-t interval (one row per subject), counts summed (``transfers``:
-    the transfers started), ``transfer_s`` the mean time of a moved block.
+    ``{"blocks_per_min", "ci95", "transfers", "dropped_beyond", "drops", "breaks",
+    "not_released", "not_cleared", "not_lifted", "transfer_s", "subjects", "per_subject"}``:
+    blocks per minute averaged over subjects with a Student-t interval (one row per subject),
+    counts summed (``transfers``: the transfers started; ``dropped_beyond``: blocks that
+    fell after they were carried over the partition, scored as moved), ``transfer_s`` the
+    mean time of a scored block, ``time_per_block_s`` (with ``time_per_block_ci95``) the
+    mean over subjects of their transfers' time over their number (Raveh et al.'s figure),
+    ``blocks_dropped`` the blocks that fell (before or beyond the partition). Rows of
+    several feedback modes (the same subjects and seeds) add ``by_feedback`` (mode -> the
+    same summary); the top level is the first mode's.
     """
+    modes = list(dict.fromkeys(r.get("feedback") for r in rows))
+    if len(modes) > 1:
+        by_mode = {m: _transfers_summary([r for r in rows if r.get("feedback") == m])
+                   for m in modes}
+        return {**by_mode[modes[0]], "by_feedback": by_mode}
+    return _transfers_summary(rows)
+
+
+def _transfers_summary(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     rate = mean_interval([r["blocks_per_min"] for r in rows])
     times = [r["transfer_s"] for r in rows if r.get("transfer_s") is not None]
+    per_block = [r["time_per_block_s"] for r in rows if r.get("time_per_block_s") is not None]
+    per_block_ci = mean_interval(per_block) if per_block else (math.nan, math.nan, math.nan)
     return {"blocks_per_min": _num(rate[0]), "ci95": _ci(rate[1:]),
+            "time_per_block_s": _num(per_block_ci[0]),
+            "time_per_block_ci95": _ci(per_block_ci[1:]),
             **{k: int(sum(r.get(k) or 0 for r in rows))
-               for k in ("transfers", "drops", "breaks", "not_released", "not_lifted")},
+               for k in ("transfers", "dropped_beyond", "drops", "breaks", "not_released",
+                         "not_cleared", "not_lifted", "blocks_dropped")},
             "transfer_s": float(sum(times) / len(times)) if times else None,
             "subjects": len(rows),
             "per_subject": [{"subject_id": r["subject_id"], "blocks_per_min": r["blocks_per_min"]}

@@ -36,7 +36,7 @@ from scenarios.cli.choices import (
     one_of,
 )
 from scenarios.cli.errors import UsageError
-from scenarios.schema.names import INTACT
+from scenarios.schema.names import IDEAL_INTERFACE, INTACT
 
 
 def add_common_options(p: argparse.ArgumentParser, *, default_feedback: str,
@@ -61,8 +61,13 @@ def add_common_options(p: argparse.ArgumentParser, *, default_feedback: str,
     add_practice_window_options(p)
     add_hand_options(p, paradigm_list=True)
     p.add_argument("--intact", action="store_true",
-                   help="also run the intact-hand reference (the user's own force drives the "
-                   "hand, no sEMG path, felt by touch): the JSON's intact")
+                   help="also run the two references driven by the user's own force (no sEMG "
+                   "path, felt by touch) on the same subjects and seeds: the intact hand "
+                   "(human speed, grip coupled to load; the JSON's intact) and the "
+                   "prosthesis's hand (the JSON's ideal_interface)")
+    p.add_argument("--vision", default="on", metavar="on|off",
+                   help="off: the user sees neither the hand nor the object in the measured "
+                   "trials, and hears the hand's motor (default on)")
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write JSON here")
     p.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
 
@@ -89,10 +94,11 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
              table: Callable[[dict[str, Any]], str], feedback_grid: bool = True) -> int:
     """Run a benchmark as the options say; print ``table(result)``, write the JSON.
 
-    With ``--intact`` the same design also runs with the intact-hand reference
-    (estimator ``intact``, feedback ``touch``: the user's own force drives the hand,
-    no sEMG path, paradigm ``force``), into the same store; its summary is the JSON's
-    ``intact``. With several ``--paradigm`` entries they run on the same subjects and
+    With ``--intact`` the same design also runs with the two references the user's own
+    force drives (:func:`reference_arms`: feedback ``touch``, no sEMG path, paradigm
+    ``force``), into the same store: the intact hand (estimator ``intact``, the JSON's
+    ``intact``) and the prosthesis's hand (``ideal_interface``, the JSON's
+    ``ideal_interface``). With several ``--paradigm`` entries they run on the same subjects and
     seeds; the JSON's top level is the first paradigm's and ``by_paradigm`` holds each
     one's, in the same form.
 
@@ -118,6 +124,8 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
     check_practice_window(args.practice, args.window_ms, args.step_ms)
     if args.mode not in ("free_run", "one_step"):
         raise UsageError(f"--mode: expected free_run or one_step, found {args.mode!r}")
+    if args.vision not in ("on", "off"):
+        raise UsageError(f"--vision: expected on or off, found {args.vision!r}")
     if args.subjects < 1:
         raise UsageError(f"--subjects: expected at least 1, found {args.subjects}")
     if args.workers < 1:
@@ -125,14 +133,12 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
     settings = {"controller.kind": args.controller, "estimator.name": args.estimator,
                 "estimator.mode": args.mode, "estimator.window_ms": args.window_ms,
                 "estimator.step_ms": args.step_ms, "user.kind": args.user,
-                "user.practice": args.practice,
+                "user.practice": args.practice, "user.vision": args.vision == "on",
                 "subject.population_seed": args.population_seed, **(base or {}),
                 **hand_settings(args.drive, args.auto_grip, args.decoder)}
     arms = [(settings, feedback, {**(grid or {}), **paradigm_grid(paradigms)})]
-    if getattr(args, "intact", False):
-        intact = {k: v for k, v in settings.items() if k != "decoder"}  # no sEMG to decode
-        arms.append(({**intact, "estimator.name": INTACT, "user.kind": "reacting"},
-                     ["touch"], grid))
+    references = reference_arms(settings, grid) if getattr(args, "intact", False) else []
+    arms.extend(arm for _, arm in references)
     with tempfile.TemporaryDirectory() as tmp:
         db = args.db if args.db is not None else Path(tmp) / "results.sqlite"
         outcomes = [_run_arm(args, kind, arm, modes, arm_grid, feedback_grid, db)
@@ -149,11 +155,10 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
               "scenarios": {"ok": len(ok), "failed": len(failed)}}
     if len(paradigms) > 1:
         result["by_paradigm"] = by_paradigm
-    if len(outcomes) > 1:
-        intact_ok = outcomes[1][1]
-        result["intact"] = aggregate(kind, intact_ok)
-        result["scenarios"]["intact"] = {"ok": len(intact_ok), "failed": len(outcomes[1][2])}
-        failed = failed + outcomes[1][2]
+    for (key, _), (_, ref_ok, ref_failed, _) in zip(references, outcomes[1:], strict=True):
+        result[key] = aggregate(kind, ref_ok)
+        result["scenarios"][key] = {"ok": len(ref_ok), "failed": len(ref_failed)}
+        failed = failed + ref_failed
     print(f"{kind}: {len(ok)} scenarios ok, {len(outcomes[0][2])} failed in {elapsed:.1f} s "
           f"({args.controller}, {args.estimator} {args.mode}, {args.user} user, practice "
           f"{args.practice}, window {args.window_ms:g}/{args.step_ms:g} ms, "
@@ -172,6 +177,22 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
     if args.db is not None:
         print(f"results in {args.db} (sweep {spec.name}; griploop report {args.db} --out DIR)")
     return 0
+
+
+def reference_arms(settings: Mapping[str, Any], grid: Mapping[str, list[Any]] | None
+                   ) -> list[tuple[str, tuple[dict[str, Any], list[str],
+                                              Mapping[str, list[Any]] | None]]]:
+    """``--intact``'s arms, ``(JSON key, (settings, feedback modes, grid))``: the intact hand
+    and the ideal interface, felt by touch, on the benchmark's subjects and seeds.
+
+    Neither has sEMG to decode; the intact hand has no drive or slip response of its own
+    (its digits are a person's, :mod:`sim.hand.human`), the ideal interface keeps the
+    prosthesis's (the intact-hand reference of before issue 37, unchanged).
+    """
+    own = {k: v for k, v in settings.items() if k != "decoder"}
+    human = {k: v for k, v in own.items() if k not in ("hand.drive", "auto_grip")}
+    return [(key, ({**arm, "estimator.name": key, "user.kind": "reacting"}, ["touch"], grid))
+            for key, arm in ((INTACT, human), (IDEAL_INTERFACE, own))]
 
 
 def hand_settings(drive: str, auto_grip: bool, decoder: str | None = None) -> dict[str, Any]:
@@ -243,9 +264,11 @@ def ci_text(ci: list[float | None] | None, spec: str = ".2f", scale: float = 1.0
 
 
 def with_intact(result: Mapping[str, Any], key: str = "by_feedback") -> dict[str, Any]:
-    """``result[key]`` per feedback mode, then (with ``--intact``) the intact hand's as
-    ``"intact (touch)"``: the rows a table prints."""
+    """``result[key]`` per feedback mode, then (with ``--intact``) the intact hand's and the
+    ideal interface's as ``"intact (touch)"`` and ``"ideal_interface (touch)"``: the rows a
+    table prints."""
     rows = dict(result[key])
-    for mode, value in result.get("intact", {}).get(key, {}).items():
-        rows[f"intact ({mode})"] = value
+    for reference in (INTACT, IDEAL_INTERFACE):
+        for mode, value in result.get(reference, {}).get(key, {}).items():
+            rows[f"{reference} ({mode})"] = value
     return rows

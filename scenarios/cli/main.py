@@ -82,8 +82,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "reproduce": ("scenarios.cli.commands.reproduce",
                   "reproduce the paper's Tables 2 and 3 on virtual subjects"),
     "slip-recovery": ("scenarios.cli.commands.slip_recovery",
-                      "recover an object whose load rises until it slips, feedback modes side "
-                      "by side"),
+                      "recover a held object made to slip (rising load or involuntary "
+                      "opening), feedback modes side by side"),
     "stream": ("scenarios.cli.commands.stream",
                "play a recording as a Lab Streaming Layer (LSL) sEMG stream"),
     "subjects": ("scenarios.cli.commands.subjects",
@@ -91,8 +91,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "sweep": ("scenarios.cli.commands.sweep",
               "run a YAML sweep of scenarios into the results store (resumable)"),
     "transfers": ("scenarios.cli.commands.transfers",
-                  "timed transfers (Box and Blocks style): blocks per minute, prosthesis and "
-                  "intact hand"),
+                  "the Box and Blocks Test: blocks per minute, prosthesis and intact hand"),
 }
 
 

@@ -2,11 +2,12 @@
 
 The findings' arms (:mod:`scenarios.published.findings`) expand into scenarios; a
 scenario two findings share (the prosthesis's Box and Blocks with vision only serves
-three rows) runs once. All of them run as one sweep (:func:`scenarios.execution.sweep.
-run_sweep`: local workers, a results store, failures recorded and the rest going on), so
-a ``--db`` board resumes where it stopped. Each finding is then judged from its arms'
-rows; a finding whose scenarios could not be made, or all failed, or whose judging
-raised, is a ``failed`` row with its one-line reason, and the others still print.
+three rows) runs once. All of them run as one sweep
+(:func:`scenarios.execution.sweep.run_sweep`: local workers, a results store, failures
+recorded and the rest going on), so a ``--db`` board resumes where it stopped. Each
+finding is then judged from its arms' rows; a finding whose scenarios could not be made,
+or all failed, or whose judging raised, is a ``failed`` row with its one-line reason,
+and the others still print.
 """
 
 from __future__ import annotations

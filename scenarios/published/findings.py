@@ -32,6 +32,7 @@ from scenarios.published.rules import (
     paired_differences,
     rate_with_interval,
 )
+from scenarios.runners.trial_outcome import margin_over_grip_pct
 
 Rows = Sequence[Mapping[str, Any]]
 Evidence = Mapping[str, Rows]
@@ -165,7 +166,7 @@ def _dark_arms(c: BoardConfig) -> dict[str, Arm]:
 
 def _judge_dark(ev: Evidence, rng: np.random.Generator) -> Judgement:
     time = effect(ev["dark_force_vibration"], ev["dark_none"], "time_per_block_s")
-    drops = effect(ev["dark_force_vibration"], ev["dark_none"], "drops")
+    drops = effect(ev["dark_force_vibration"], ev["dark_none"], "blocks_dropped")
     lower = Direction(-1)
     verdict = combine([lower.verdict(time["ci95"]), lower.verdict(drops["ci95"])])
     return Judgement(time["mean"], time["ci95"], verdict,
@@ -277,15 +278,8 @@ def _margin_arms(c: BoardConfig) -> dict[str, Arm]:
                                 seed_per_variant=True)}
 
 
-def relative_margin_pct(margin_pct: float) -> float:
-    """Westling & Johansson's relative safety margin, % of the grip, from griploop's margin
-    (held grip over the slip force, minus 1, %): ``(G - G_slip) / G = m / (1 + m)``."""
-    m = margin_pct / 100.0
-    return 100.0 * m / (1.0 + m)
-
-
 def _judge_margin(ev: Evidence, rng: np.random.Generator) -> Judgement:
-    values = np.array([relative_margin_pct(float(r["safety_margin_pct"])) for r in
+    values = np.array([margin_over_grip_pct(float(r["safety_margin_pct"])) for r in
                        ev["intact_rigid"] if r.get("safety_margin_pct") is not None])
     figure = float(np.median(values)) if values.size else None
     ci = bootstrap_interval(lambda v: float(np.median(v)), values, rng) if values.size else None
@@ -336,8 +330,9 @@ FINDINGS: tuple[Finding, ...] = (
         "Raveh et al. 2018, Arch Phys Med Rehabil (12 users)",
         "4.2 vs 5.3 s per block; 2.0 vs 4.5 drops",
         "direction, both parts: the paired effects (force vibration - none) on time per "
-        "block and on drops have 95 % intervals below zero: agrees; either above zero: "
-        "disagrees", "s/block", (4.2 - 5.3, 0.0), _dark_arms, _judge_dark),
+        "block and on blocks dropped (before or beyond the partition) have 95 % intervals "
+        "below zero: agrees; either above zero: disagrees", "s/block", (4.2 - 5.3, 0.0),
+        _dark_arms, _judge_dark),
     Finding(
         "slip_opening_discrete",
         "A discrete slip vibration recovers an involuntary opening's slips, better than "

@@ -1,10 +1,11 @@
 """Report section: the published scoreboard of a results store (``griploop published --db``).
 
-A board's sweep is named after its configuration (:func:`~scenarios.published.board.
-sweep_name`), so the report judges a stored board again from its rows, by the same
-rules (:func:`~scenarios.published.board.judge_board`), and shows it as a table and as one
-figure (the published range beside griploop's interval per finding). Registered as
-section ``published`` at order 6, right after what the sweep found.
+A board's sweep is named after its configuration
+(:func:`~scenarios.published.board.sweep_name`), so the report judges a stored board again
+from its rows, by the same rules (:func:`~scenarios.published.board.judge_board`), and
+shows it as a table and as one figure (the published range beside griploop's interval
+per finding). Registered as section ``published`` at order 6, right after what the sweep
+found.
 """
 
 from __future__ import annotations

@@ -39,11 +39,11 @@ class Calibration:
     Attributes
     ----------
     name : str
-        Estimator name (or ``"oracle"``, ``"intact"``).
+        Estimator name (or ``"oracle"``, ``"intact"``, ``"ideal_interface"``).
     mode : {"one_step", "free_run"}
     pipeline : object or None
-        Fitted :class:`estimation.pipeline.ForcePipeline` (``None`` for the oracle and the
-        intact-hand reference).
+        Fitted :class:`estimation.pipeline.ForcePipeline` (``None`` for the oracle, the intact
+        hand and the ideal interface).
     mvc_cal_n : float
         Largest FSR force of the calibration session, N.
     r2 : float or None
@@ -160,7 +160,7 @@ class CalibrationSettings:
     Attributes
     ----------
     estimator, mode : str
-        The estimator (or ``"oracle"``, ``"intact"``) and its mode.
+        The estimator (or ``"oracle"``, ``"intact"``, ``"ideal_interface"``) and its mode.
     order : int
         State-space order of the estimators that take one.
     generator : str
@@ -224,7 +224,8 @@ def calibrate(subject: VirtualSubject, settings: CalibrationSettings, *,
     Returns
     -------
     Calibration
-        The fitted estimator (none for the oracle and the intact hand) and its scores.
+        The fitted estimator (none for the oracle and the references the user's own force
+        drives) and its scores.
 
     Raises
     ------
@@ -237,7 +238,7 @@ def calibrate(subject: VirtualSubject, settings: CalibrationSettings, *,
                                               min_duration_s=s.calibration_s,
                                               window_ms=s.window_ms, step_ms=s.step_ms)
     mvc_cal_n = float(np.max(recording.force_n))
-    if s.estimator in NO_ESTIMATOR:  # the oracle, the intact hand: nothing to fit
+    if s.estimator in NO_ESTIMATOR:  # the oracle, intact, ideal_interface: nothing to fit
         cal = Calibration(s.estimator, s.mode, None, mvc_cal_n, None, 0.0)
     else:
         cal = fit_on_features(features, s.estimator, s.mode, rng=estimator_rng, order=s.order,

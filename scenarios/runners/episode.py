@@ -50,7 +50,7 @@ Conventions (documented choices):
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -123,8 +123,9 @@ class EpisodeSpec:
     Attributes
     ----------
     estimator, mode : str
-        Estimator name (:func:`estimation.registry.estimator_names`, ``"oracle"`` or
-        ``"intact"``) and mode (``free_run``, ``one_step``; module notes).
+        Estimator name (:func:`estimation.registry.estimator_names`, ``"oracle"``,
+        ``"intact"`` or ``"ideal_interface"``) and mode (``free_run``, ``one_step``; module
+        notes).
     controller : str
         Registered controller kind.
     controller_spec : mapping, optional
@@ -158,6 +159,9 @@ class EpisodeSpec:
         The feature window and its increment, ms (the paper's 400 and 125).
     hand : HandSettings
         The hand's drive, paradigm and own slip response (default: today's hand).
+    sees : bool
+        The user sees the hand and the object (``False``: vision occluded,
+        :attr:`sim.user.operator.Plan.sees`; practice is with vision).
     """
 
     estimator: str = "ss_kf"
@@ -181,6 +185,7 @@ class EpisodeSpec:
     window_ms: float = WINDOW_MS
     step_ms: float = STEP_MS
     hand: HandSettings = DEFAULT_HAND
+    sees: bool = True
 
     def calibration_settings(self) -> CalibrationSettings:
         """How the estimator is calibrated."""
@@ -256,7 +261,8 @@ sim.user.operator.OperatorError
         belief = operator.belief  # what the trial is planned with
         setup = TrialSetup(subject, obj, cal, design, spec.generator, spec.control_dt_s,
                            spec.hand_force_at_mvc_n, spec.window_ms, spec.step_ms, hand)
-        task = grasp_task(obj, hold_s=spec.hold_s, limit_s=spec.episode_s)
+        task = replace(grasp_task(obj, hold_s=spec.hold_s, limit_s=spec.episode_s),
+                       sees=spec.sees)
         trial = run_trial(setup, operator, task, (episode_seq, env_seq, operator_seq),
                           TrialHooks(frames=Frames() if record_frames else None))
     trial.raise_if_diverged()
@@ -400,7 +406,7 @@ def episode_spec(scenario: Scenario) -> EpisodeSpec:
         control_dt_s=1.0 / scenario.controller.control_hz, user=scenario.user.kind,
         feedback=scenario.user.feedback, operator_params=scenario.user.operator_params(),
         estimator_options=e.options, practice=scenario.user.practice, window_ms=e.window_ms,
-        step_ms=e.step_ms, hand=hand_settings(scenario))
+        step_ms=e.step_ms, hand=hand_settings(scenario), sees=scenario.user.vision)
 
 
 def hand_settings(scenario: Scenario) -> HandSettings:

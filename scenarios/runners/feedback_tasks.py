@@ -26,8 +26,12 @@ the trials share; the timed transfers are :mod:`scenarios.runners.transfers`.
     ``protocol.load_rate_n_s`` until the object starts to slip (the hand's slip
     speed exceeds 5 mm/s: the disturbance is the task's, the user perceives only
     through their channels), then stays. The trial is *recovered* when the object
-    is still in the hand :data:`RECOVERY_WINDOW_S` later. Trials whose object was
-    not lifted, or never slipped, are counted apart (not in ``n``).
+    is still in the hand
+    :data:`~scenarios.runners.slip_perturbations.RECOVERY_WINDOW_S` later. Trials whose
+    object was not lifted, or never slipped, are counted apart (not in ``n``). With
+    ``protocol.perturbation: opening`` the hand opens involuntarily instead, at an
+    unannounced time (Aboseria et al. 2018's protocol;
+    :mod:`scenarios.runners.slip_perturbations`), and is counted the same way.
 ``force_matching`` (protocol ``force_matching``)
     The hand closes on an object resting on the table (no lift) and the user
     holds ``protocol.target_fraction`` of the hand force at their MVC for
@@ -37,7 +41,8 @@ the trials share; the timed transfers are :mod:`scenarios.runners.transfers`.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -55,6 +60,15 @@ from scenarios.runners.episode import (
 )
 from scenarios.runners.practice import Interface, practice_object_for, practise
 from scenarios.runners.reference import Task, force_task, grasp_task
+from scenarios.runners.slip_perturbations import LOAD_DELAY_S as LOAD_DELAY_S
+from scenarios.runners.slip_perturbations import RECOVERY_WINDOW_S as RECOVERY_WINDOW_S
+from scenarios.runners.slip_perturbations import SLIP_ONSET_M_S as SLIP_ONSET_M_S
+from scenarios.runners.slip_perturbations import (
+    HeldPerturbation,
+    perturbation_for,
+    row_fields,
+)
+from scenarios.runners.slip_perturbations import RisingLoad as RisingLoad
 from scenarios.runners.subject import subject_for
 from scenarios.runners.trial import TIMING_KEYS, Trial, TrialSetup, run_trial
 from scenarios.runners.trial_loop import NO_HOOKS, TrialHooks
@@ -65,12 +79,6 @@ EGG_BREAK_FORCES_N = tuple(float(f) for f in np.round(np.geomspace(0.4, 11.5, 11
 """The 11 eggs' break forces, N: 0.4-11.5 N (Controzzi et al.), log-spaced here."""
 TARGET_FRACTIONS = (0.2, 0.4, 0.6)
 """Force-matching targets, fractions of the hand force at the user's MVC."""
-RECOVERY_WINDOW_S = 2.0
-"""Slip recovery: the object must still be held this long after the slip started, s."""
-LOAD_DELAY_S = 0.5
-"""Slip recovery: the load starts rising this long after the lift ends, s."""
-SLIP_ONSET_M_S = 0.005
-"""Slip recovery: slip speed at which the object has started to slip (a slip event), m/s."""
 FORCE_MATCH_CONTACT_N = 0.5
 TARGET_BAND = 0.1
 """Force matching: the grip has reached its target once within this fraction of it."""
@@ -131,6 +139,8 @@ class TaskSetup:
     def trial(self, i: int, task: Task, hooks: TrialHooks = NO_HOOKS) -> Trial:
         """Trial ``i`` of ``task`` (:func:`scenarios.runners.trial.run_trial`); physics
         divergence raises; its timings add to ``timings``."""
+        if not self.scenario.user.vision:  # vision occluded in the measured trials only
+            task = replace(task, sees=False)
         t = run_trial(self.setup, self.operator, task, tuple(self.trial_seqs[i]), hooks)
         t.raise_if_diverged()
         for key, value in t.timings.items():
@@ -186,104 +196,64 @@ def run_eggs_scenario(scenario: Scenario) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------- slip recovery
-class RisingLoad:
-    """The slip-recovery disturbance: a load that rises until the object slips, then stays.
+def slip_trials(setup: TaskSetup, scenario: Scenario) -> Iterator[tuple[Any, HeldPerturbation]]:
+    """The slip-recovery trials of ``scenario``, each with its perturbation, as they end.
 
-    It starts :data:`LOAD_DELAY_S` after the wrist has reached the top of the lift with
-    the object in the hand (on the scripted schedule or where the user lifted it). Reads
-    the hand's ground truth (wrist, slip speed): it is the task, not the user.
-    """
-
-    def __init__(self, lift_height_m: float, rate_n_s: float) -> None:
-        self.lift_height_m = lift_height_m
-        self.rate = rate_n_s
-        self.onset_s: float | None = None
-        self.load_n = 0.0
-        self._top_s: float | None = None
-        self._t0: float | None = None
-
-    def __call__(self, t_s: float, info: Mapping[str, Any]) -> float:
-        if self._t0 is None:
-            touching = info["thumb_contact"] or info["finger_contact"]
-            if (self._top_s is None and touching
-                    and info["wrist_height_m"] >= self.lift_height_m - 1e-6):
-                self._top_s = t_s
-            if (self._top_s is not None and t_s >= self._top_s + LOAD_DELAY_S
-                    and touching and not info["object_out_of_hand"]):
-                self._t0 = t_s
-            return 0.0
-        if self.onset_s is None:
-            touching = info["thumb_contact"] or info["finger_contact"]
-            if (touching and info["slip_speed_m_s"] > SLIP_ONSET_M_S) or info["dropped"]:
-                self.onset_s = t_s
-            else:
-                self.load_n = self.rate * (t_s - self._t0)
-        return self.load_n
-
-    @property
-    def started(self) -> bool:
-        """The load began to rise (the object was lifted and held)."""
-        return self._t0 is not None
-
-    def done(self, t_s: float, info: Mapping[str, Any]) -> bool:
-        """The trial has its answer: dropped, or held for the recovery window after the onset."""
-        return self.onset_s is not None and (bool(info["dropped"])
-                                             or t_s >= self.onset_s + RECOVERY_WINDOW_S)
-
-
-def slip_trials(setup: TaskSetup, scenario: Scenario) -> Iterator[tuple[Any, RisingLoad]]:
-    """The slip-recovery trials of ``scenario``, each with its load, as they end.
-
-    Yields ``(trial, load)`` for each of ``protocol.trials`` rising loads on the held
-    object (:func:`run_slip_recovery_scenario` counts them; an analysis reads their
-    traces: ``load.onset_s`` is the slip onset, ``None`` when it never slipped).
+    Yields ``(trial, perturbation)`` for each of ``protocol.trials`` perturbations of
+    the held object (:mod:`scenarios.runners.slip_perturbations`: a rising load or an
+    involuntary opening; :func:`run_slip_recovery_scenario` counts them; an analysis
+    reads their traces: ``perturbation.onset_s`` is the slip onset, ``None`` when it
+    never slipped).
     """
     p = scenario.protocol
     task = setup.grasp_task(hold_s=p.hold_s, place=False)  # held to the end
     for i in range(p.trials):
-        load = RisingLoad(task.lift_height_m, p.load_rate_n_s)
-        yield setup.trial(i, task, TrialHooks(load=load, until=load.done)), load
+        perturbation, hooks = perturbation_for(p, task.lift_height_m, setup.trial_seqs[i])
+        yield setup.trial(i, task, hooks), perturbation
 
 
 def run_slip_recovery_scenario(scenario: Scenario) -> dict[str, Any]:
-    """Runner of kind ``slip_recovery``: ``protocol.trials`` rising loads (module notes).
+    """Runner of kind ``slip_recovery``: ``protocol.trials`` perturbations (module notes).
 
     Returns
     -------
     dict
-        The identity fields, ``n`` (trials that slipped), ``recovered``,
-        ``not_lifted`` (the object was not lifted or fell before the load),
-        ``no_slip`` (the load never made it slip within the episode),
-        ``recovered_rate`` (``recovered / n``, None when ``n`` is 0),
-        ``user_corrections``, ``slip_load_n`` (mean load at the slip onset)
-        and ``reaction_s`` (mean time from the onset to the user's first
-        correction decided after it, over trials with one).
+        The identity fields, the perturbation's own
+        (:func:`~scenarios.runners.slip_perturbations.row_fields`: ``load_rate_n_s`` and
+        ``slip_load_n`` (mean load at the slip onset) for the rising load;
+        ``perturbation``, ``opening``, ``opening_window_s`` and ``drop_n`` for the
+        opening), ``n`` (trials that slipped), ``recovered``, ``not_lifted`` (the
+        object was not lifted or fell before the perturbation), ``no_slip`` (the
+        perturbation did not make it slip), ``recovered_rate`` (``recovered / n``, None
+        when ``n`` is 0), ``user_corrections`` and ``reaction_s`` (mean time from the
+        onset to the user's first correction decided after it, over trials with one).
     """
     p = scenario.protocol
     with one_blas_thread():
         setup = TaskSetup(scenario)
         n = recovered = not_lifted = no_slip = corrections = 0
-        slip_loads: list[float] = []
+        slipped: list[HeldPerturbation] = []
         reactions: list[float] = []
-        for t, load in slip_trials(setup, scenario):
+        for t, perturbation in slip_trials(setup, scenario):
             corrections += setup.operator.corrections
-            if not load.started:
+            if not perturbation.started:
                 not_lifted += 1
                 continue
-            if load.onset_s is None:
+            if perturbation.onset_s is None:
                 no_slip += 1
                 continue
             n += 1
-            slip_loads.append(load.load_n)
-            recovered += int(not t.info["dropped"])
-            after = [c for c in setup.operator.correction_times if c >= load.onset_s]
+            slipped.append(perturbation)
+            recovered += int(perturbation.recovered(t.info))
+            after = [c for c in setup.operator.correction_times if c >= perturbation.onset_s]
             if after:
-                reactions.append(after[0] - load.onset_s)
-    return {**setup.identity(), "load_rate_n_s": p.load_rate_n_s, "n": n,
+                reactions.append(after[0] - perturbation.onset_s)
+    before, own = row_fields(p, slipped)
+    return {**setup.identity(), **before, "n": n,
             "recovered": recovered, "not_lifted": not_lifted, "no_slip": no_slip,
             "recovered_rate": recovered / n if n else None, "user_corrections": corrections,
-            "slip_load_n": float(np.mean(slip_loads)) if slip_loads else None,
-            "reaction_s": float(np.mean(reactions)) if reactions else None, **setup.timings}
+            **own, "reaction_s": float(np.mean(reactions)) if reactions else None,
+            **setup.timings}
 
 
 # ------------------------------------------------------------ force matching

@@ -18,8 +18,12 @@ their whole session recorded before the trial instead
 causal session gives (``tests/sim/test_causal.py``), read as the trial's clock reaches
 them.
 
-The oracle's reference is the user's true grip at each window's end; the intact hand's
-(``intact``: no sEMG path) the user's true grip at every control step.
+The oracle's reference is the user's true grip at each window's end. The references driven
+by the user's own force (:data:`~scenarios.schema.names.OWN_FORCE`, no sEMG path) follow
+the user's true grip at every control step: ``ideal_interface`` on the prosthesis's hand,
+``intact`` on the intact hand (:func:`hand_for`: the digits pre-shaped and at human speed,
+:mod:`sim.hand.human`; its user plans the grip with the load they expect,
+:mod:`sim.user.grip_load`).
 """
 
 from __future__ import annotations
@@ -33,10 +37,20 @@ import numpy as np
 
 from estimation.features import PAPER_CHANNELS
 from scenarios.runners.semg_reference import SemgReference
-from scenarios.schema.names import INTACT
+from scenarios.runners.trial_loop import HandSettings
+from scenarios.schema.names import INTACT, OWN_FORCE
 from sim.user.causal import CausalSession
 from sim.user.operator import Operator, Plan, Scene, WristMove
 from sim.user.subjects import VirtualSubject
+
+
+def hand_for(reference: str, hand: HandSettings) -> HandSettings:
+    """The hand a trial of ``reference`` (an estimator, the oracle, ``intact`` or
+    ``ideal_interface``) runs on: the intact hand's digits for ``intact``
+    (:attr:`~scenarios.runners.trial_loop.HandSettings.human`, backdrivable), else ``hand``."""
+    if reference != INTACT:
+        return hand
+    return replace(hand, drive="backdrivable", human=True)
 
 
 class RecordedSession:
@@ -122,7 +136,7 @@ class VirtualPerson:
         # the open intent of a user who opens the hand on a second signal (else None)
         self.open_intent = np.zeros(n) if plan.open_to_release and operator.reacts else None
         self._n_intent = 0
-        self._intact = calibration.name == INTACT  # no sEMG path: the true force, every step
+        self._own_force = calibration.name in OWN_FORCE  # no sEMG path: the true force
         self.to_hand, self.ceiling = self.reference.to_hand, self.reference.ceiling
         self._next_end = self.reference.window.window - 1  # last sample of the next window
         self._reference = 0.0
@@ -154,7 +168,7 @@ class VirtualPerson:
         while self._next_end < self.n_samples and self._next_end / self.fs_hz <= t + 1e-9:
             self._record_to(self._next_end + 1)
             self._next_end += self.hop
-        if self._intact:  # the hand follows the user's own force as it is now
+        if self._own_force:  # the hand follows the user's own force as it is now
             n = min(int(t * self.fs_hz + 1e-9) + 1, self.n_samples)
             self._record_to(n)
             grip_n, _ = self.forces()

@@ -18,6 +18,7 @@ import numpy as np
 
 from controllers.bounds import slip_threshold_n
 from scenarios.runners.calibration import Calibration
+from scenarios.schema.names import INTACT
 from sim.hand.objects import ObjectSpec
 from sim.hand.wrist import LIFT_HEIGHT_M
 from sim.user.intent import GraspLiftTiming, IntentProfile, grasp_lift_hold
@@ -65,6 +66,9 @@ class Task:
     limit_s : float or None
         The trial's time limit, s (``None``: the user's own default,
         :attr:`sim.user.operator.Operator.default_trial_s`).
+    sees : bool
+        The user sees the hand and the object (``False``: vision occluded,
+        :attr:`sim.user.operator.Plan.sees`).
     """
 
     need_n: float | None
@@ -75,6 +79,7 @@ class Task:
     place: bool = True
     move_s: float | None = None
     limit_s: float | None = None
+    sees: bool = True
 
 
 def grasp_task(obj: ObjectSpec, *, hold_s: float, lift_height_m: float | None = LIFT_HEIGHT_M,
@@ -163,7 +168,9 @@ def plan_for(task: Task, limit_s: float, subject: VirtualSubject, cal: Calibrati
 
     The script rests, ramps to the level asking for ``task.goal_n`` through the
     calibration's mapping and holds to ``limit_s`` (timings jittered by 10 %, drawn
-    from ``rng``: the same draws the trial's sEMG session then continues from).
+    from ``rng``: the same draws the trial's sEMG session then continues from). The
+    intact hand's user (``cal.name`` ``intact``) couples grip to load
+    (``Plan.couples_load``, :mod:`sim.user.grip_load`).
     """
     hold_level = hold_level_for(task.goal_n, cal, subject, hand_force_at_mvc_n)
     profile, start_s = episode_profile(rng, hold_level, limit_s)
@@ -173,5 +180,6 @@ def plan_for(task: Task, limit_s: float, subject: VirtualSubject, cal: Calibrati
                 level_per_n=level_per_newton(cal, subject, hand_force_at_mvc_n),
                 lift_height_m=task.lift_height_m, hold_s=task.hold_s, place=task.place,
                 move_s=task.move_s, limit_s=float(limit_s),
-                open_to_release=getattr(cal, "decoder", None) is not None)
+                open_to_release=getattr(cal, "decoder", None) is not None,
+                couples_load=cal.name == INTACT, sees=task.sees)
     return plan, start_s

@@ -20,7 +20,7 @@ import numpy as np
 from controllers.design import ControllerDesign
 from scenarios.runners.calibration import Calibration
 from scenarios.runners.dispatch import DivergedError, UnsupportedScenarioError
-from scenarios.runners.person import VirtualPerson
+from scenarios.runners.person import VirtualPerson, hand_for
 from scenarios.runners.reference import ReferenceStream, Task, plan_for, reference_from_windows
 from scenarios.runners.semg_reference import STEP_MS, WINDOW_MS
 from scenarios.runners.trial_loop import (
@@ -176,7 +176,7 @@ def run_trial(setup: TrialSetup, operator: Operator, task: Task,
         raise UnsupportedScenarioError(f"user {operator.name}: {exc}") from None
     loop = TrialLoop(setup.obj, setup.design, person, TrialTiming(limit_s, setup.control_dt_s),
                      lift_height_m=task.lift_height_m, seed=int(env_seq.generate_state(1)[0]),
-                     hooks=hooks, hand=setup.hand)
+                     hooks=hooks, hand=hand_for(setup.calibration.name, setup.hand))
     loop.run()
     # the user goes on to the limit seeing the last scene, so the windows and the true
     # force cover the whole trial (its estimation metrics), as a scripted session does

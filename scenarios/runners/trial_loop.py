@@ -41,6 +41,7 @@ import numpy as np
 
 from controllers.drive import HandLoop
 from controllers.paradigms import (
+    FULL_RANGE,
     DecoderMissingError,
     make_paradigm,
     needs_decoder,
@@ -151,12 +152,25 @@ class HandSettings:
         the calibration fits on open contractions too; ``None``: none, unless the
         paradigm needs one (``velocity``), which then gets the default
         (:attr:`effective_decoder`).
+    human : bool
+        The digits are the intact hand's (:mod:`sim.hand.human`: pre-shaped to the object,
+        closing in human time), not the prosthesis's: set for the ``intact`` reference
+        (:func:`scenarios.runners.person.hand_for`); its drive is then backdrivable.
     """
 
     drive: str = "backdrivable"
     paradigm: str = "force"
     auto_grip: bool = False
     decoder: str | None = None
+    human: bool = False
+
+    def env_specs(self, limit_s: float) -> tuple[HandSpec, GraspTask]:
+        """The simulated hand and the episode of a trial of ``limit_s`` on this hand."""
+        if not self.human:
+            return HandSpec(drive=self.drive), GraspTask(episode_s=limit_s)
+        from controllers.design_spec import DesignSpec
+        from sim.hand.human import human_hand, human_task
+        return human_hand(DesignSpec().closing_command), human_task(limit_s)
 
     @property
     def effective_decoder(self) -> str | None:
@@ -227,6 +241,13 @@ class TrialHooks:
         the step before.
     until : callable, optional
         ``until(t_s, info) -> bool``: the task has its answer after the step at ``t_s``.
+    command : callable, optional
+        ``command(t_s, info, reference_n) -> N``: what the hand does to the reference the
+        paradigm made at ``t_s`` (from the readings after the step before), e.g. an
+        involuntary opening (:class:`~scenarios.runners.slip_perturbations.Opening`).
+        While it lowers the reference below the grip, the motor may open at full speed
+        whatever the paradigm bounds it to (the lower bound becomes -1): the hand opens
+        under ``velocity`` too, where a relaxed person stops the motor.
     frames : Frames, optional
         Keep frames for a video (``traces["frames"]`` for RGB frames).
     keep_observations : bool
@@ -236,6 +257,7 @@ class TrialHooks:
 
     load: Callable[[float, Mapping[str, Any]], float] | None = None
     until: Callable[[float, Mapping[str, Any]], bool] | None = None
+    command: Callable[[float, Mapping[str, Any], float], float] | None = None
     frames: Frames | None = None
     keep_observations: bool = False
 
@@ -372,8 +394,9 @@ class TrialLoop:
         self.n_steps = int(round(limit_s / control_dt_s))
         self.t_s = np.arange(self.n_steps) * self.dt
         rgb = frames is not None and frames.kind == "rgb"
+        hand_spec, task = hand.env_specs(limit_s)
         self.env = GraspEnv(obj, 0.0, control_dt_s=control_dt_s, wrist="commanded",
-                            hand=HandSpec(drive=hand.drive), task=GraspTask(episode_s=limit_s),
+                            hand=hand_spec, task=task,
                             render_mode="rgb_array" if rgb else None)
         self.hand_loop = HandLoop(self.env, design.controller)
         self.lift_height_m = lift_height_m
@@ -381,6 +404,7 @@ class TrialLoop:
         self.recorder = TrialRecorder(self.n_steps, with_load=load is not None,
                                       keep_observations=hooks.keep_observations)
         self.load, self.until, self.frames = load, until, frames
+        self.command = hooks.command
         self._frame_every = (None if frames is None
                              else max(1, int(round(frames.every_s / control_dt_s))))
         self._load_n = 0.0
@@ -424,6 +448,10 @@ class TrialLoop:
             ref = self.paradigm.step(ref, getattr(self.person, "decoded", None))
         else:
             ref = self.paradigm.step(ref)
+        # a paradigm that bounds the motor (velocity) says so; the others leave it alone
+        bounds = getattr(self.paradigm, "command_range", None)
+        if self.command is not None:
+            ref, bounds = self._commanded(t, info, ref, bounds)
         if reference_n is not None:
             ref = reference_n
         if move is not None:
@@ -435,9 +463,7 @@ class TrialLoop:
                 self._load_n = new_load
             rec.loads[k] = self._load_n
         env.set_reference(ref)
-        # a paradigm that bounds the motor (velocity) says so; the others leave it alone
-        _, command, _ = self.hand_loop.step(ref, bounds=getattr(self.paradigm,
-                                                                "command_range", None))
+        _, command, _ = self.hand_loop.step(ref, bounds=bounds)
         self.info = info = self.hand_loop.info
         rec.record(k, ref, info, command, max(ref, self.design.core.last_reference_n))
         if rec.observations is not None:
@@ -450,6 +476,16 @@ class TrialLoop:
         self.k = k + 1
         self.ended = self._ending(t, info)
         return self.ended is not None
+
+    def _commanded(self, t: float, info: Mapping[str, Any], ref: float,
+                   bounds: tuple[float, float] | None
+                   ) -> tuple[float, tuple[float, float] | None]:
+        """The task's ``command`` hook on the paradigm's reference ``ref`` (N) and the motor's
+        bounds: opening allowed while the hook holds the reference below the grip."""
+        hooked = float(self.command(t, info, ref))
+        if bounds is not None and hooked < ref and hooked < info["grip_force_n"]:
+            bounds = (FULL_RANGE[0], bounds[1])
+        return hooked, bounds
 
     def _ending(self, t: float, info: Mapping[str, Any]) -> str | None:
         """The ending rule (module notes), after the step at ``t``."""

@@ -156,6 +156,31 @@ def safety_margin_pct(grip_n: np.ndarray, hold: np.ndarray, obj: ObjectSpec) -> 
                           - 1.0))
 
 
+def relative_safety_margin_pct(grip_n: np.ndarray, hold: np.ndarray,
+                               obj: ObjectSpec) -> float | None:
+    """The held grip's excess over the slip force as a share of the grip, in percent:
+    ``100 (G - G_slip) / G``, ``G`` the mean grip of the hold and ``G_slip = m g / (2 mu)``
+    (None without a hold).
+
+    The safety margin of Westling and Johansson (1984, Exp Brain Res 53:277) is the grip
+    above the slip force, ``G - G_slip`` (in newtons, or as the grip/load ratio above the
+    slip ratio); expressed relative to the grip it is the "proportion of safety margin in
+    the static grip force" (Hiramatsu et al. 2015, PLoS ONE 10:e0138506).
+    :func:`safety_margin_pct` gives the same excess relative to the slip force,
+    ``(G - G_slip) / G_slip``; :func:`margin_over_grip_pct` converts one to the other.
+    """
+    margin = safety_margin_pct(grip_n, hold, obj)
+    return None if margin is None else margin_over_grip_pct(margin)
+
+
+def margin_over_grip_pct(margin_pct: float) -> float:
+    """griploop's margin (over the slip force, %) as a share of the grip, %:
+    ``m / (1 + m)`` with ``m = margin_pct / 100`` (``(G - G_slip) / G`` from
+    ``(G - G_slip) / G_slip``)."""
+    m = margin_pct / 100.0
+    return 100.0 * m / (1.0 + m)
+
+
 @dataclass(frozen=True)
 class Verdict:
     """How one trial is judged, the same for every trial (module notes).

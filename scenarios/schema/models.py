@@ -12,8 +12,8 @@ import json
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
-from pydantic_core import PydanticUndefined
 
+from scenarios.schema.canonical import added_field, omit_added_defaults  # noqa: F401
 from scenarios.schema.names import (  # noqa: F401  (re-exported: the schema's public names)
     INTACT,
     NO_ESTIMATOR,
@@ -55,33 +55,6 @@ def __getattr__(attr: str) -> Any:
 
 class ScenarioError(GriploopError, ValueError):
     """A scenario or sweep file is malformed, has unknown keys or bad values."""
-
-
-def added_field(default: Any = PydanticUndefined, **kwargs: Any) -> Any:
-    """A field added after scenario seeds were first derived from the canonical JSON.
-
-    Left at its default it stays out of :meth:`Scenario.canonical_dict`, so adding it
-    moves no existing scenario's content hash, seed or figure; set to anything else it
-    is part of the scenario as any field is. Every field added to the schema is made
-    with this (``tests/scenarios/test_seeds.py`` holds the canonical form of a default
-    scenario).
-    """
-    extra = {**kwargs.pop("json_schema_extra", {}), "canonical": "omit_default"}
-    return Field(default, json_schema_extra=extra, **kwargs)
-
-
-def omit_added_defaults(model: BaseModel, data: dict[str, Any]) -> dict[str, Any]:
-    """``data`` (``model`` dumped as JSON) without the :func:`added_field` fields at their
-    defaults, in ``model`` and every section below it."""
-    for name, field in type(model).model_fields.items():
-        value = getattr(model, name)
-        extra = field.json_schema_extra
-        if (isinstance(extra, dict) and extra.get("canonical") == "omit_default"
-                and value == field.get_default(call_default_factory=True)):
-            data.pop(name, None)
-        elif isinstance(value, BaseModel) and isinstance(data.get(name), dict):
-            omit_added_defaults(value, data[name])
-    return data
 
 
 class StrictModel(BaseModel):
@@ -164,9 +137,21 @@ class ProtocolConfig(StrictModel):
         force at the user's MVC.
     load_rate_n_s : float
         ``slip_recovery``: rate at which the load on the held object rises, N/s.
+    perturbation, opening, opening_window_s : {"rising_load", "opening"}, float, float
+        ``slip_recovery``: griploop's rising load, or Aboseria et al. 2018's involuntary
+        opening: the fraction of the command lost, (0, 1], at a time drawn uniformly
+        over the window, s (defaults' reasons: :mod:`scenarios.runners.slip_perturbations`).
     duration_s : float
         ``timed_transfers``: how long the user moves blocks, s (the Box and
         Blocks Test's 60).
+    reach_s, transport_s : float or None
+        ``timed_transfers``: how long the arm takes to reach back for the next
+        block, and to carry one over the partition (up in half of it, down in
+        the other half), s; ``None``: the user's ``lift_s`` (0.6 s), as before
+        these fields existed (:mod:`scenarios.runners.transfers`).
+    blocks : int or None
+        ``timed_transfers``: move this many blocks, untimed (Raveh et al. 2018's
+        16), instead of blocks in ``duration_s``; ``None``: the timed test.
     """
 
     name: Literal["paper_calibration", "grasp_lift_hold", "fragile_handling", "virtual_eggs",
@@ -178,7 +163,13 @@ class ProtocolConfig(StrictModel):
     trials: int = Field(3, ge=1, le=100)
     target_fraction: float = Field(0.4, gt=0.0, le=1.0)
     load_rate_n_s: float = Field(1.0, gt=0.0, le=50.0)
+    perturbation: Literal["rising_load", "opening"] = added_field("rising_load")
+    opening: float = added_field(0.5, gt=0.0, le=1.0)
+    opening_window_s: float = added_field(2.0, gt=0.0, le=10.0)
     duration_s: float = Field(60.0, ge=10.0, le=600.0)
+    reach_s: float | None = added_field(None, ge=0.1, le=3.0)
+    transport_s: float | None = added_field(None, ge=0.1, le=3.0)
+    blocks: int | None = added_field(None, ge=1, le=60)
 
     @model_validator(mode="after")
     def _hold_fits(self) -> ProtocolConfig:
@@ -203,7 +194,7 @@ class ObjectConfig(StrictModel):
     shape : {"sphere", "cylinder", "box"} or None
         Geometry override.
     mass_kg : float or None
-        Mass, 0.02..2 kg.
+        Mass, 0.005..2 kg.
     friction : float or None
         Sliding friction coefficient with the finger pads, 0.2..1.5.
     size_m : list of float or None
@@ -218,7 +209,7 @@ class ObjectConfig(StrictModel):
 
     name: str = "ball"
     shape: Literal["sphere", "cylinder", "box"] | None = None
-    mass_kg: float | None = Field(None, ge=0.02, le=2.0)
+    mass_kg: float | None = Field(None, ge=0.005, le=2.0)
     friction: float | None = Field(None, ge=0.2, le=1.5)
     size_m: list[Annotated[float, Field(gt=0.0, le=0.2)]] | None = Field(
         None, min_length=1, max_length=3
@@ -451,12 +442,16 @@ class UserConfig(StrictModel):
         Practice lifts of the object's class with the same estimator,
         controller and feedback before the measured trials (0..50; default 5;
         0 is the novice). A user kind that does not learn ignores it.
+    vision : bool
+        The user sees the hand and the object in the measured trials (``False``: not;
+        :mod:`sim.user.reacting`, "without vision"). Practice is with vision.
     """
 
     kind: str = "reacting"
     feedback: str = "none"
     practice: int = Field(5, ge=PRACTICE_RANGE[0], le=PRACTICE_RANGE[1])
     params: OperatorParamsConfig = Field(default_factory=OperatorParamsConfig)  # type: ignore[valid-type]
+    vision: bool = added_field(True)
 
     @field_validator("kind")
     @classmethod
@@ -571,7 +566,7 @@ class Scenario(StrictModel):
     def canonical_dict(self) -> dict[str, Any]:
         """Every field as JSON types, without the fields added later left at their defaults.
 
-        The fields made with :func:`~scenarios.schema.models.added_field` (the kinds'
+        The fields made with :func:`~scenarios.schema.canonical.added_field` (the kinds'
         ``options`` among them) are
         left out while at their defaults, so a scenario that sets none of them hashes and
         seeds as it did before they existed.

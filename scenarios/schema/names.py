@@ -18,11 +18,19 @@ from sim.errors import GriploopError
 
 #: Reference source that is not an estimator: the user's true intent (a perfect estimate).
 ORACLE = "oracle"
-#: The intact-hand reference: the user's true grip force at every control step, no sEMG path
-#: (no window, no estimator); its user feels through touch (feedback ``touch``).
+#: The intact hand: a human-speed hand (pre-shaped to the object, closing in human time:
+#: :mod:`sim.hand.human`) that follows the user's true grip force at every control step, no
+#: sEMG path, planned with the anticipatory coupling of grip to load
+#: (:mod:`sim.user.grip_load`); its user feels through touch (feedback ``touch``).
 INTACT = "intact"
+#: The ideal interface: the prosthesis's own hand driven by the user's true grip force at every
+#: control step (no window, no estimator); its user feels through touch. Called the
+#: intact-hand reference (``intact``) before issue 37.
+IDEAL_INTERFACE = "ideal_interface"
+#: References whose hand follows the user's own force at every control step.
+OWN_FORCE = (INTACT, IDEAL_INTERFACE)
 #: Reference sources that fit no estimator.
-NO_ESTIMATOR = (ORACLE, INTACT)
+NO_ESTIMATOR = (ORACLE, *OWN_FORCE)
 #: Feature windows a scenario may use, ms (``estimator.window_ms``, ``--window-ms``).
 WINDOW_RANGE_MS = (50.0, 1000.0)
 #: Window increments a scenario may use, ms (``estimator.step_ms``, ``--step-ms``).
@@ -61,8 +69,8 @@ def object_names() -> tuple[str, ...]:
 
 def estimator_choices() -> tuple[str, ...]:
     """Estimators registered in :mod:`estimation.registry`, then
-    :data:`~scenarios.schema.names.ORACLE` and
-    :data:`~scenarios.schema.names.INTACT`."""
+    :data:`~scenarios.schema.names.ORACLE`, :data:`~scenarios.schema.names.INTACT` and
+    :data:`~scenarios.schema.names.IDEAL_INTERFACE`."""
     from estimation.registry import estimator_names
 
     return (*estimator_names(), *NO_ESTIMATOR)
@@ -192,7 +200,7 @@ def estimator_own_options(name: str) -> dict[str, Any]:
 
     What the estimator declares (scikit-learn's ``get_params``), less what its
     registration fixes and what an evaluation sets (order, seed, feature period).
-    The oracle and the intact-hand reference have none.
+    The oracle, the intact hand and the ideal interface have none.
     """
     if name in NO_ESTIMATOR:
         return {}

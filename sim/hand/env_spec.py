@@ -87,6 +87,11 @@ class GraspTask:
     position_jitter_m : float
         Half-width of a uniform random offset of the object in x and y at reset,
         m (0..0.01; 0 = none), drawn from the environment's ``np_random``.
+    preshape_aperture_m : float or None
+        The digits start pre-shaped to the object (the intact hand, :mod:`sim.hand.human`):
+        open by this much beyond the object's width, both sides together, m (0..0.05), and
+        they open no wider during the episode. ``None`` (default): the digits start
+        straight and open to the joints' range. Draws nothing at random.
     """
 
     episode_s: float = 4.0
@@ -95,3 +100,4 @@ class GraspTask:
     slip_threshold_m_s: float = 0.005
     drop_distance_m: float = 0.03
     position_jitter_m: float = 0.0
+    preshape_aperture_m: float | None = None

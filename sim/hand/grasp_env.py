@@ -39,6 +39,7 @@ from sim.hand.env_spec import GraspTask, HandSpec, RewardWeights
 from sim.hand.errors import GraspFailedError, HandSpecError
 from sim.hand.model import HandIds, build_model
 from sim.hand.objects import ObjectSpec, as_object_spec
+from sim.hand.preshape import Preshape
 from sim.hand.wrist import CommandedWrist, WristSchedule, min_jerk
 from sim.references import Reference, StreamReference, as_reference
 
@@ -113,6 +114,9 @@ class GraspEnv(gym.Env):
             raise HandSpecError(
                 f"position_jitter_m: expected 0..0.01 m, found {position_jitter_m!r}"
             )
+        if task.preshape_aperture_m is not None and make_drive(hand.drive).self_locking:
+            raise HandSpecError("preshape_aperture_m: a self-locking drive holds its digits "
+                                "with stops of its own; expected the backdrivable drive")
         self.hand, self.task = hand, task
         self.control_dt_s = float(control_dt_s)
         self.physics_dt_s = float(physics_dt_s)
@@ -169,6 +173,7 @@ class GraspEnv(gym.Env):
                                    * self.motor.torque_constant_nm_a)
         self._windows: tuple[tuple[float, float], ...] = ()
         self._windows_key: tuple[WristSchedule, float] | None = None
+        self._preshape = Preshape(self.model)  # the digits' start pose (the intact hand)
         # a self-locking drive holds each digit with stops that follow it
         self._lock = (DigitLock(self.model, self.data, self.drive, self.motor,
                                 self.control_dt_s) if self.drive.self_locking else None)
@@ -250,6 +255,10 @@ class GraspEnv(gym.Env):
         if self.position_jitter_m > 0:
             jitter = self.np_random.uniform(-self.position_jitter_m, self.position_jitter_m, 2)
             d.qpos[ids.object_qpos:ids.object_qpos + 2] += jitter
+        if self.task.preshape_aperture_m is not None:  # the digits pre-shaped to the object
+            self._preshape.apply(d, self.task.preshape_aperture_m)
+        elif self._preshape.angle_rad is not None:
+            self._preshape.clear()
         mujoco.mj_forward(m, d)
         self._step_count = 0
         self._lift_start_s: float | None = None

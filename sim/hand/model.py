@@ -215,14 +215,49 @@ class PadSpec:
 GRASP_CENTRE_X_M = 0.5 * ((-0.06 + 0.011) + (0.06 - 0.010))
 
 
+#: Fingertip clearance over the table of straight digits at the approach pose, m; and the
+#: least one, where the hand comes down to meet a small object's sides (approach_height_m).
+TABLE_CLEARANCE_M = 0.01
+SMALL_OBJECT_CLEARANCE_M = 0.001
+#: x of the finger hinges (the thumb's is at -x), and the pads' radii, m (hand.xml).
+FINGER_HINGE_X_M = 0.06
+FINGER_PAD_RADIUS_M = 0.010
+THUMB_PAD_RADIUS_M = 0.011
+
+
+def fingertip_meet_depth_m(obj: ObjectSpec) -> float:
+    """How far below the hinge line the fingertips are when they meet the object's side, m.
+
+    A fingertip (the round end of its pad, ``FINGER_LENGTH_M`` from the hinge) reaches the
+    side of a box or an upright cylinder, ``width_m / 2`` from the grasp centre, at the
+    digit angle ``asin((hinge x - centre - half width - pad radius) / length)``.
+    """
+    reach_m = FINGER_HINGE_X_M - GRASP_CENTRE_X_M - 0.5 * obj.width_m - FINGER_PAD_RADIUS_M
+    sin_angle = min(max(reach_m / FINGER_LENGTH_M, -1.0), 1.0)
+    return FINGER_LENGTH_M * math.sqrt(1.0 - sin_angle * sin_angle)
+
+
 def approach_height_m(obj: ObjectSpec) -> float:
     """Wrist (palm centre) height so that the pads meet the object near its middle.
 
     The hinge line sits ``PAD_LEVER_M`` above the object's centre, but high
-    enough that the fingertips clear the table by 1 cm when the digits hang
-    straight down.
+    enough that the fingertips clear the table by ``TABLE_CLEARANCE_M`` (1 cm)
+    when the digits hang straight down. A box or an upright cylinder so low that
+    the closing fingertips would meet it less than a pad radius below its top
+    (the Box and Blocks Test's 25 mm cube: on its top edges, which squeeze it out
+    of the hand as it is carried) is met on its sides: the hand comes down until
+    the fingertips meet the side at its middle, or as low as straight digits
+    clear the table by ``SMALL_OBJECT_CLEARANCE_M``, as a person lowers their
+    hand to pick a small block from a table with the fingertips. No object of
+    the library before ``bbt_cube`` is met this way.
     """
-    hinge_z = max(obj.half_height_m + PAD_LEVER_M, FINGER_LENGTH_M + 0.011 + 0.01)
+    hinge_z = max(obj.half_height_m + PAD_LEVER_M,
+                  FINGER_LENGTH_M + THUMB_PAD_RADIUS_M + TABLE_CLEARANCE_M)
+    if obj.shape != "sphere":
+        depth_m = fingertip_meet_depth_m(obj)
+        if hinge_z - depth_m > obj.height_m - FINGER_PAD_RADIUS_M:
+            hinge_z = max(obj.half_height_m + depth_m, FINGER_LENGTH_M + THUMB_PAD_RADIUS_M
+                          + SMALL_OBJECT_CLEARANCE_M)
     return hinge_z + HINGE_BELOW_PALM_M
 
 

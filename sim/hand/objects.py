@@ -9,7 +9,8 @@ and the valid range.
 Library defaults (CALIBRATION.md "Prosthetic hands"): the paper's anti-stress
 ball (about 70 mm, soft), a soda can (0.386 kg, 66 mm x 122 mm), a paper cup
 (light, crushes at a few newtons), an egg (about 0.06 kg; the Virtual Eggs Test
-uses break forces of 0.4-11.5 N) and an aluminium block (0.461 kg).
+uses break forces of 0.4-11.5 N), an aluminium block (0.461 kg), the blocks of the
+benchmarks and the Box and Blocks Test's 25 mm wooden cube (``bbt_cube``).
 
 The library is a registry of object factories: a new object is a function
 returning its :class:`ObjectSpec` plus one call,
@@ -29,7 +30,8 @@ from sim.errors import GriploopError
 from sim.registry import Registry
 
 SHAPES = ("sphere", "cylinder", "box")
-MASS_RANGE_KG = (0.02, 2.0)
+MASS_RANGE_KG = (0.005, 2.0)
+"""Object masses accepted, kg (the Box and Blocks Test's 25 mm wooden cube weighs about 9 g)."""
 FRICTION_RANGE = (0.2, 1.5)
 # Largest object the open hand can surround (inner gap about 0.16 m), and the
 # smallest it can close on (fully closed, the digits cross at about 0 mm).
@@ -55,7 +57,7 @@ class ObjectSpec:
         Sphere: ``(radius,)``; cylinder: ``(radius, half_height)``; box:
         ``(half_x, half_y, half_z)``. Metres, MuJoCo's half-size convention.
     mass_kg : float
-        Mass in kg, within 0.02..2.
+        Mass in kg, within 0.005..2.
     friction : float
         Sliding (Coulomb) friction coefficient, within 0.2..1.5. The object geom
         has contact priority, so this is the coefficient of every hand-object and
@@ -209,7 +211,8 @@ def _can() -> ObjectSpec:
 
 
 def _cup() -> ObjectSpec:
-    """Paper cup: 75 mm x 90 mm, 10 g (at the 0.02 kg lower bound), crushes at ~4 N."""
+    """Paper cup: 75 mm x 90 mm, 20 g (a paper cup weighs about 10 g; 20 g was the mass range's
+    lower bound when it was made, kept so that no figure moves), crushes at ~4 N."""
     return ObjectSpec("cup", "cylinder", (0.0375, 0.045), 0.02, friction=0.8,
                       solref=(0.01, 1.0), solimp=(0.8, 0.95, 0.003), break_force_n=4.0,
                       rgba=(0.95, 0.95, 0.9, 1.0))
@@ -241,22 +244,49 @@ def _vet_block() -> ObjectSpec:
 
 
 def _transfer_block() -> ObjectSpec:
-    """A block for timed transfers (Box and Blocks style): a 50 mm wooden cube of 30 g.
+    """A block for timed transfers: a 50 mm wooden cube of 30 g (griploop's variant).
 
-    The Box and Blocks Test's blocks are 2.5 cm wooden cubes (Mathiowetz et al. 1985).
-    This hand's fingertips hold a 25 mm cube by their edges and shake it out at the
-    accelerations of a transport over the partition (about 1 g, measured in simulation),
-    so the transfer block is 50 mm, as the Virtual Eggs Test's blocks; 30 g and friction
-    0.6 (wood on the pads) are our choice. It does not break (override
-    ``break_force_n`` for a fragile block).
+    The Box and Blocks Test's blocks are 25 mm cubes (:func:`_bbt_cube`, the default of
+    ``griploop transfers``); this larger block, as the Virtual Eggs Test's, was the
+    transfers' block while the hand met a 25 mm cube on its top edges. 30 g and friction
+    0.6 (wood on the pads) are our choice. It does not break (override ``break_force_n``
+    for a fragile block).
     """
     return ObjectSpec("transfer_block", "box", (0.025, 0.025, 0.025), 0.03, friction=0.6,
                       rgba=(0.2, 0.45, 0.8, 1.0))
 
 
+BBT_CUBE_EDGE_M = 0.025
+"""Edge of the Box and Blocks Test's cubes, m: "2.5 cm" wooden blocks (Mathiowetz et al. 1985,
+Am J Occup Ther 39:386)."""
+WOOD_DENSITY_KG_M3 = 650.0
+"""Density of the test's wooden cubes, kg/m^3: the middle of 0.60-0.70, the specific weight of
+kiln-dried "heavy woods" (maple, beech, birch, ash; Roth 1895, US Forest Service Bulletin 10,
+p. 28, as tabulated in Noyes, *Wood and Forest*). The test's sources name no species: a
+hardwood is our assumption; the range gives 9.4-10.9 g for the cube."""
+BBT_CUBE_FRICTION = 0.6
+"""Friction of the painted wooden cube on the silicone pads (and on the table). No published
+coefficient for that pair was found: 0.6 is our choice, the project's wood-on-pad value (the
+``transfer_block``'s), of the order measured for fingertip skin on a smooth rigid material
+(0.6 on aluminium, averaged over 1-20 N; Seo et al. 2009, Ergonomics 52:609)."""
+
+
+def _bbt_cube() -> ObjectSpec:
+    """The Box and Blocks Test's block: a 25 mm wooden cube of ``edge^3 x density`` (10.2 g).
+
+    Mass from :data:`BBT_CUBE_EDGE_M` and :data:`WOOD_DENSITY_KG_M3`, friction
+    :data:`BBT_CUBE_FRICTION`; it does not break. The hand meets a box this small on its
+    sides with its fingertips (:func:`sim.hand.model.approach_height_m`).
+    """
+    half = 0.5 * BBT_CUBE_EDGE_M
+    return ObjectSpec("bbt_cube", "box", (half, half, half),
+                      BBT_CUBE_EDGE_M ** 3 * WOOD_DENSITY_KG_M3, friction=BBT_CUBE_FRICTION,
+                      rgba=(0.85, 0.25, 0.2, 1.0))
+
+
 for _name, _factory in (("ball", _ball), ("can", _can), ("cup", _cup), ("egg", _egg),
                         ("block", _block), ("vet_block", _vet_block),
-                        ("transfer_block", _transfer_block)):
+                        ("transfer_block", _transfer_block), ("bbt_cube", _bbt_cube)):
     register_object(_name, _factory)
 
 

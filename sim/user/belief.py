@@ -29,6 +29,10 @@ every parameter and its source):
   A novice's ``u`` is the prior that gives ``novice_margin``; a user whose lifts all go as
   planned (an intact hand, the oracle reference) sees ``u`` shrink and their margin come
   down to the intact hand's; a noisy estimator keeps it up.
+
+A user whose plan couples grip to load (``Plan.couples_load``, the intact hand) aims, while
+holding still, at the coupled grip of :mod:`sim.user.grip_load` (their pre-load plus the
+margin over the weight's slip force); :meth:`ProsthesisBelief.aim_n` gives either aim.
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from sim.user.grip_load import anticipated_grip_n
 from sim.user.operator import Plan, TrialMemory
 from sim.user.operator_params import OperatorParams
 
@@ -72,9 +77,20 @@ class ProsthesisBelief:
         return (1.0 + params.intact_margin) * math.exp(
             params.margin_per_uncertainty * self.uncertainty) - 1.0
 
+    def aim_n(self, plan: Plan, params: OperatorParams) -> float:
+        """The hand grip the user aims at while holding the object still, N: the plan's
+        aim at this belief's margin, or for a plan that couples grip to load
+        (``plan.couples_load`` with an object to hold)
+        :func:`sim.user.grip_load.anticipated_grip_n` under the object's weight alone
+        (module notes)."""
+        margin = self.margin(params)
+        if plan.couples_load and plan.need_n is not None:
+            return anticipated_grip_n(plan.need_n, margin, params.preload_n, 1.0, plan.break_n)
+        return plan.aim_n(margin)
+
     def level(self, plan: Plan, params: OperatorParams) -> float:
         """The contraction (fraction of MVC, 0..1) the user plans for ``plan``."""
-        base = plan.level_of(plan.aim_n(self.margin(params)))
+        base = plan.level_of(self.aim_n(plan, params))
         return float(min(max(self.gain * base, 0.0), 1.0))
 
     def learn(self, memory: TrialMemory, params: OperatorParams) -> ProsthesisBelief:

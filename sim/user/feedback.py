@@ -22,7 +22,8 @@ Registered modes (:mod:`sim.user.operators`):
     discrete event-driven control); the user perceives the burst's onset with
     a delay.
 ``touch``
-    An intact hand's own touch, for the intact-hand reference: contact and slips
+    An intact hand's own touch, for the references the user's own force drives
+    (``intact``, ``ideal_interface``): contact and slips
     felt ``touch_delay_s`` late (the grip responds to a slip 74 ms after it
     starts, Johansson and Westling 1987). A user who feels contact knows the
     grasp is secure without watching the hand and lifts without a careful

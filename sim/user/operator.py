@@ -153,6 +153,15 @@ class Plan:
     open_to_release : bool
         The hand opens on a second, open signal (a calibration with open contractions
         and a decoder): the user lets go by contracting to open, not only by relaxing.
+    couples_load : bool
+        The user plans their grip from the load they expect, as intact hands do (the
+        ``intact`` reference: :mod:`sim.user.grip_load`); a user who reacts then aims
+        at :meth:`sim.user.belief.ProsthesisBelief.aim_n`'s coupled grip.
+    sees : bool
+        The user sees the hand and the object. ``False``: vision occluded (Raveh et
+        al. 2018's test without vision); a user who reacts then perceives only the
+        incidental cue of the hand's digits moving (the motor's sound, or an intact
+        hand's proprioception) and their feedback (:mod:`sim.user.reacting`).
     """
 
     intent: np.ndarray
@@ -169,6 +178,8 @@ class Plan:
     move_s: float | None = None
     limit_s: float = math.inf
     open_to_release: bool = False
+    couples_load: bool = False
+    sees: bool = True
 
     def aim_n(self, margin: float) -> float:
         """The hand grip force a user with safety ``margin`` aims at, N.

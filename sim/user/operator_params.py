@@ -175,6 +175,25 @@ class OperatorParams:
         log units): 1.0, a margin that covers one standard deviation of the
         errors met. Safety margins scale with the variability a person
         experiences (Hadjiosif and Smith 2015, J Neurosci 35:9106).
+
+    The intact hand's anticipatory grip-load coupling (:mod:`sim.user.grip_load`; only a
+    plan that couples grip to load, the ``intact`` reference's, uses these):
+
+    preload_n : float
+        The grip the user builds at contact before any load, N: 0.5. The preload phase
+        of a lift raises the grip a little before the load starts (Johansson and
+        Westling 1984, Exp Brain Res 56:550); the coupled grip is this plus the load's
+        share (chosen small against the slip forces of the objects lifted: no figure of
+        the preload's size was read for it).
+    grip_lead_s : float
+        How far ahead of the load the user commands the grip they plan for it, s: 0.2,
+        their own delay from command to force, so that grip and load rise together as
+        an internal model predicts them (Flanagan and Wing 1997, J Neurosci 17:1519):
+        the electromechanical delay (40-140 ms, middle 90 ms) plus the activation's
+        group delay (a critically damped second order at about 3 Hz, 2 / (2 pi 3 Hz) =
+        106 ms; CALIBRATION.md, "Physiology"). The user starts raising the grip when
+        they decide to lift and moves the arm this much later: the loading phase before
+        lift-off (Johansson and Westling 1984).
     """
 
     vision_delay_s: float = _param(0.2, 0.0, 1.0, "s")
@@ -208,6 +227,8 @@ class OperatorParams:
     novice_margin: float = _param(0.5, 0.0, 3.0, "")
     uncertainty_rate: float = _param(0.3, 0.0, 1.0, "")
     margin_per_uncertainty: float = _param(2.0, 0.0, 5.0, "", open_low=True)
+    preload_n: float = _param(0.5, 0.0, 5.0, "N", added=True)
+    grip_lead_s: float = _param(0.2, 0.0, 1.0, "s", added=True)
 
     def __post_init__(self) -> None:
         for f in fields(self):

@@ -15,7 +15,7 @@ feedback mode             device and perception (:mod:`sim.user.feedback`)
 none                      vision only
 force_vibration           grip force as a few vibration intensities
 slip_vibration            a discrete burst at each slip event
-touch                     an intact hand's touch (the intact-hand reference)
+touch                     an intact hand's touch (intact, ideal_interface)
 ========================  ===================================================
 
 A new operator model is a class ``Model(params, feedback)`` satisfying

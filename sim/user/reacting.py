@@ -8,6 +8,18 @@ their sources):
   still move, the object sliding in the hand (seen once it has slid at least
   ``visible_slip_m`` from where it sat), the object out of the hand, a broken
   object; delay ``vision_delay_s``, noise on the seen slide;
+* **without vision** (a plan with ``sees`` false: the test without vision of Raveh et al.
+  2018, Arch Phys Med Rehabil 99:2263): none of the above. What stays is the incidental
+  cue of the digits moving: a powered hand's motor is heard running or silent (users
+  rely on it, Markovic et al. 2018, J NeuroEng Rehabil 15:28; Wilke et al. 2019, J
+  NeuroEng Rehabil 16:120), an intact hand's own digits are felt moving; same delay as
+  vision (chosen: auditory reactions are, if anything, faster). The user then judges
+  the grasp secure once the hand was heard closing and fell silent, lifts without a
+  careful lift-off (there is nothing to watch), squeezes harder while the hand is not
+  heard moving at all, perceives a drop or a break only through feedback, and takes the
+  hand as open once it was heard opening and fell silent. With force feedback the grip's
+  vibration also tells contact: the grasp is secure only once it is felt (silent
+  without it: squeeze harder), and its stop during the lift is a drop;
 * **feedback** (optional, :mod:`sim.user.feedback`): ``force_vibration`` or
   ``slip_vibration``; delay ``feedback_delay_s``.
 
@@ -16,8 +28,8 @@ its moves to the hand's commanded wrist)::
 
     grasp    contract to the planned level; the hand closes. Once the hand is seen
              closed on the object and still for ``dwell_s`` and the contraction is
-             complete, lift off. (A user who feels contact through touch, the
-             intact-hand reference, lifts once it has been felt for
+             complete, lift off. (A user who feels contact through touch, as with
+             the intact hand or the ideal interface, lifts once it has been felt for
              ``touch_dwell_s``, without a careful lift-off.)
     liftoff  raise the wrist ``liftoff_height_m`` in ``liftoff_s`` and watch one
              vision delay more. The object seen sliding in the hand (it stays on
@@ -59,6 +71,14 @@ prosthesis, and the safety margin its variability calls for); every finished
 trial updates it, so a user who practised plans differently from a novice.
 **Motor noise**: the intent carries multiplicative Ornstein-Uhlenbeck noise of
 coefficient of variation ``motor_noise_cv`` (force SD grows with mean force).
+
+**Grip coupled to load** (a plan with ``couples_load``: the intact hand). The planned level
+is the grip while holding still (:meth:`~sim.user.belief.ProsthesisBelief.aim_n`); the
+intent scales it by the grip planned for the load the user expects now over that grip
+(:mod:`sim.user.grip_load`): the pre-load only before the lift, the load of the arm's
+moves while the object is in the hand. Deciding to lift, such a user raises the grip at
+once and starts the arm ``grip_lead_s`` later (the loading phase), without a careful
+lift-off whether they feel the grasp or see it.
 """
 
 from __future__ import annotations
@@ -70,6 +90,7 @@ from typing import Any
 import numpy as np
 
 from sim.user.belief import ProsthesisBelief
+from sim.user.grip_load import LoadPlan, anticipated_grip_n
 from sim.user.operator import (
     PACED_TRIAL_S,
     DelayLine,
@@ -167,8 +188,10 @@ class ReactingOperator:
         self.feedback.start(control_dt_s=self._dt, force_range_n=plan.force_range_n,
                             rng=feedback_rng)
         self._feels = getattr(self.feedback, "name", "") != "none"  # vision only: no call
-        self._goal_level = (self.feedback.level_of(plan.aim_n(self.belief.margin(p)))
+        self._goal_level = (self.feedback.level_of(self.belief.aim_n(plan, p))
                             if self.feedback.codes_force else None)
+        self._load: LoadPlan | None = None  # the load a coupling user expects (none yet)
+        self._lift_at_s: float | None = None  # a coupling user's arm lift, due then
         self._anchor: float | None = None  # where the object sat in the hand, as seen
         self._next_ok_s = -math.inf
         self._released_s = math.inf  # let go (a drop or a break seen)
@@ -183,6 +206,9 @@ class ReactingOperator:
         self._move: WristMove | None = None
         self._rest_height_m: float | None = None
         self._carried = False  # seen carried up in the hand: out of it now is a drop
+        self._heard: float | None = None  # without vision: the digits' speed, heard (rad/s)
+        self._heard_moving = False  # the digits were heard moving in this phase
+        self._vibrated = False  # a grip's vibration felt in this lift
         self._n = 0
         self.attempts = 0
         self.done = False
@@ -192,7 +218,7 @@ class ReactingOperator:
         self.corrections = 0
         self.correction_times = []
         self._trial = TrialMemory(self._planned, self._planned,
-                                  aim_n=plan.aim_n(self.belief.margin(p)))
+                                  aim_n=self.belief.aim_n(plan, p))
 
     def level(self, t_s: float) -> float:
         """The intended hold level at ``t_s`` (fraction of MVC), ramps included."""
@@ -215,6 +241,7 @@ class ReactingOperator:
 
     def _enter(self, t_s: float, phase: str) -> None:
         self.phase = phase
+        self._heard_moving = False
         self.phase_log.append((float(t_s), phase))
 
     def _arm(self, height_m: float, duration_s: float) -> None:
@@ -232,6 +259,9 @@ class ReactingOperator:
         p = self.params
         t = scene.t_s
         seen = self._vision.push(scene)
+        if seen is not None and not started(self._plan).sees:  # only the digits, heard
+            self._heard, seen = seen.finger_speed_rad_s, None
+            self._heard_moving |= self._heard >= p.still_rad_s
         felt = self.feedback.perceive(scene) if self._feels else None
         slide = None
         if seen is not None:  # vision: the delayed scene, with noise on the seen slide
@@ -259,6 +289,13 @@ class ReactingOperator:
             elif t >= self._phase_end_s:
                 self._lift(t)
         elif phase == "lift":
+            if self._lift_at_s is not None and t >= self._lift_at_s - 1e-9:
+                self._arm(float(started(self._plan).lift_height_m or 0.0), self._move_s())
+                self._lift_at_s = None
+            if not started(self._plan).sees and self._vibration_lost(felt):
+                self._trial.drop_seen = True  # the grip's vibration stopped: gone
+                self._let_go(t)
+                return
             if seen is not None and seen.dropped:
                 if not self._carried:  # it stayed behind or slid out low: try again
                     self._retry(t)
@@ -281,6 +318,8 @@ class ReactingOperator:
         elif phase == "release":  # done once the hand is seen (felt) open, or the user gives up
             if felt is not None and felt.contact is not None:
                 opened = not felt.contact
+            elif not started(self._plan).sees:  # heard opening, then silent
+                opened = self._heard_moving and self._silent()
             else:
                 opened = seen is not None and not seen.touching
             if t >= self._phase_end_s and (opened or t >= self._phase_end_s + p.release_wait_s):
@@ -315,8 +354,12 @@ class ReactingOperator:
         p = self.params
         still = seen is not None and seen.finger_speed_rad_s < p.still_rad_s
         touch = felt is not None and felt.contact is not None
+        sees = started(self._plan).sees
+        gripped = not self.feedback.codes_force or (felt is not None and felt.level is not None)
         if touch:  # an intact hand feels the grasp closed: no need to watch, no careful lift
             secure, dwell = bool(felt.contact), p.touch_dwell_s
+        elif not sees:  # heard closing, then silent (and a grip felt, with force feedback)
+            secure, dwell = self._heard_moving and self._silent() and gripped, p.dwell_s
         else:
             secure, dwell = seen is not None and seen.contact and still, p.dwell_s
         if secure:
@@ -333,18 +376,33 @@ class ReactingOperator:
         if self._still_since is not None and t - self._still_since >= dwell and t >= self._ready_s:
             self.attempts += 1
             self._trial.attempts = self.attempts
-            if touch:
-                self._lift(t)
+            if touch or not sees or started(self._plan).couples_load:
+                self._lift(t)  # no careful lift-off: felt, nothing to watch, or planned
             else:
                 self._arm(p.liftoff_height_m, p.liftoff_s)
                 self._phase_end_s = t + p.liftoff_s + p.vision_delay_s
                 self._enter(t, "liftoff")
             return
-        if (seen is not None and still and not seen.touching
-                and t >= self._ready_s + p.dwell_s and t >= self._next_ok_s):
+        stays_open = (seen is not None and still and not seen.touching if sees
+                      else self._silent() and not (self._heard_moving and gripped))
+        if stays_open and t >= self._ready_s + p.dwell_s and t >= self._next_ok_s:
             self._change(t, 1.0 + p.correction_gain)  # the hand does not close: harder
             return
         self._feedback_step(t, felt)
+
+    def _vibration_lost(self, felt: Any) -> bool:
+        """Without vision, with force feedback: the grip's vibration, felt earlier in this
+        lift, has stopped (the object is out of the hand)."""
+        if not self.feedback.codes_force or felt is None:
+            return False
+        if felt.level is not None:
+            self._vibrated = True
+            return False
+        return self._vibrated
+
+    def _silent(self) -> bool:
+        """Without vision: the digits are heard still (the motor is silent)."""
+        return self._heard is not None and self._heard < self.params.still_rad_s
 
     def _move_s(self) -> float:
         """Duration of the lift and of the set-down: the task's, or the user's own."""
@@ -352,10 +410,18 @@ class ReactingOperator:
         return self.params.lift_s if plan.move_s is None else plan.move_s
 
     def _lift(self, t: float) -> None:
-        """Lift to the plan's height, then hold it there for the plan's hold."""
+        """Lift to the plan's height, then hold it there for the plan's hold (a user who
+        couples grip to load raises the grip now and the arm ``grip_lead_s`` later)."""
         plan = started(self._plan)
-        self._arm(float(plan.lift_height_m or 0.0), self._move_s())
-        self._lift_end_s = t + self._move_s()
+        arm_s = t
+        if plan.couples_load:
+            arm_s = t + self.params.grip_lead_s
+            self._load = LoadPlan(arm_s, float(plan.lift_height_m or 0.0), self._move_s(),
+                                  plan.hold_s, plan.place)
+            self._lift_at_s = arm_s
+        else:
+            self._arm(float(plan.lift_height_m or 0.0), self._move_s())
+        self._lift_end_s = arm_s + self._move_s()
         self._phase_end_s = self._lift_end_s + plan.hold_s
         self._enter(t, "lift")
 
@@ -368,6 +434,7 @@ class ReactingOperator:
         p = self.params
         self._trial.slip_seen = True
         self._arm(0.0, p.lift_s)
+        self._load, self._lift_at_s = None, None  # put down: no load expected
         self._change(t, 1.0 + p.correction_gain)
         self._ready_s = max(self._ready_s, t + p.lift_s)
         self._still_since = None
@@ -439,9 +506,25 @@ class ReactingOperator:
             after = t >= t_c
             if after.any():
                 level[after] = ramp(t[after] - t_c, lo, hi, rise)
+        if plan.couples_load:
+            level = level * self._load_ratio(t)
         out = np.clip(self._shape[idx] * level * self._noise[idx], 0.0, 1.0)
         out[t >= self._released_s] = 0.0
         return out
+
+    def _load_ratio(self, t_s: np.ndarray) -> np.ndarray:
+        """A coupling user's planned grip at ``t_s`` over their grip while holding still:
+        the grip for the load expected ``grip_lead_s`` ahead (module notes)."""
+        plan, p = started(self._plan), self.params
+        hold = self.belief.aim_n(plan, p)
+        if plan.need_n is None or hold <= 0:
+            return np.ones(t_s.size)
+        margin = self.belief.margin(p)
+        load = self._load
+        return np.array([anticipated_grip_n(plan.need_n, margin, p.preload_n,
+                                            0.0 if load is None
+                                            else load.load_factor(t + p.grip_lead_s),
+                                            plan.break_n) / hold for t in t_s.tolist()])
 
     def finish(self) -> TrialMemory:
         """End the trial; what the user learnt updates their belief and plans the next one."""

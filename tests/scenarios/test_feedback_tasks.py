@@ -46,7 +46,9 @@ def test_slip_recovery_and_force_matching_contracts_from_rows() -> None:
         {"feedback": "none", "n": 3, "recovered": 1, "not_lifted": 0, "no_slip": 0},
         {"feedback": "none", "n": 2, "recovered": 2, "not_lifted": 1, "no_slip": 0}])
     assert slip["by_feedback"]["none"] == {"n": 5, "recovered": 3, "recovered_rate": 0.6,
-                                           "ci95": pytest.approx(list(wilson_interval(3, 5)))}
+                                           "ci95": pytest.approx(list(wilson_interval(3, 5))),
+                                           "no_slip": 0, "reaction_s": None,
+                                           "reaction_ci95": [None, None]}
     assert slip["excluded"]["none"] == {"not_lifted": 1, "no_slip": 0}
     force = aggregate("force_matching", [
         {"feedback": "none", "target_fraction": 0.4, "abs_error_n": e, "cv": 0.05,
@@ -107,7 +109,8 @@ def test_slip_recovery_and_force_matching_commands_write_their_contracts(tmp_pat
                  "--no-progress"]) == 0
     modes = json.loads(slip.read_text())["by_feedback"]
     assert set(modes) == {"none", "slip_vibration"}
-    assert all({"n", "recovered", "recovered_rate", "ci95"} == set(m) for m in modes.values())
+    assert all({"n", "recovered", "recovered_rate", "ci95", "no_slip", "reaction_s",
+                "reaction_ci95"} == set(m) for m in modes.values())
     force = tmp_path / "force.json"
     assert main(["force-matching", "--controller", "pid", "--estimator", "latent_kf",
                  "--subjects", "1", "--targets", "0.4", "--feedback", "none",

@@ -12,7 +12,7 @@ import pytest
 from scenarios.cli import main
 from scenarios.published.arms import BoardConfig, subject_seed
 from scenarios.published.board import ROW_KEYS, board_row
-from scenarios.published.findings import FINDING_IDS, FINDINGS, relative_margin_pct
+from scenarios.published.findings import FINDING_IDS, FINDINGS
 from scenarios.published.rules import (
     AGREES,
     DISAGREES,
@@ -25,6 +25,7 @@ from scenarios.published.rules import (
     combine,
     paired_differences,
 )
+from scenarios.runners.trial_outcome import margin_over_grip_pct
 
 ISSUE_ORDER = ("bbt_intact", "bbt_prosthesis", "bbt_ratio", "bbt_feedback_with_vision",
                "dark_transfers_feedback", "slip_opening_discrete", "eggs_break_force",
@@ -86,9 +87,9 @@ def test_the_bootstrap_interval_is_seeded_and_covers_the_mean() -> None:
 
 def test_the_relative_margin_is_westling_and_johanssons() -> None:
     # grip 1.25 x the slip force: 25 % above it, i.e. 20 % of the grip
-    assert math.isclose(relative_margin_pct(25.0), 20.0)
-    assert math.isclose(relative_margin_pct(0.0), 0.0)
-    assert math.isclose(relative_margin_pct(100.0), 50.0)
+    assert math.isclose(margin_over_grip_pct(25.0), 20.0)
+    assert math.isclose(margin_over_grip_pct(0.0), 0.0)
+    assert math.isclose(margin_over_grip_pct(100.0), 50.0)
 
 
 # ------------------------------------------------------------------ the board

@@ -91,8 +91,9 @@ def test_default_scenario_is_valid_and_canonical_json_is_sorted_and_stable():
 
 def test_names_match_the_project():
     assert set(ESTIMATORS) >= {"ss_kf", "ss", "mlp", "narx", "lda_qpf", "latent_kf", "oracle",
-                               "intact"}
-    assert set(OBJECTS) == {"ball", "can", "cup", "egg", "block", "vet_block", "transfer_block"}
+                               "intact", "ideal_interface"}
+    assert set(OBJECTS) == {"ball", "can", "cup", "egg", "block", "vet_block", "transfer_block",
+                            "bbt_cube"}
     assert "object.mass_kg" in field_paths()
     assert "controller.slip_reflex.latency_s" in field_paths()
 
@@ -123,7 +124,7 @@ def test_mpc_gets_a_default_horizon_and_pid_rejects_one():
 @pytest.mark.parametrize(
     ("data", "reason"),
     [
-        ({"object": {"mass_kg": 0.01}}, "greater than or equal to 0.02"),
+        ({"object": {"mass_kg": 0.001}}, "greater than or equal to 0.005"),
         ({"object": {"friction": 1.6}}, "less than or equal to 1.5"),
         ({"object": {"shape": "box", "size_m": [0.02]}}, "size_m of a box needs 3"),
         ({"estimator": {"name": "kalman"}}, "ss_kf"),

@@ -2,7 +2,7 @@
 
 A scenario's seed (and content hash) derives from its canonical JSON. The canonical form
 of a default scenario is written out below: a field added without
-:func:`scenarios.schema.models.added_field` changes it and fails here, before any figure
+:func:`scenarios.schema.canonical.added_field` changes it and fails here, before any figure
 moves. The library sweeps' seeds are held by their digest.
 """
 
@@ -86,7 +86,7 @@ def test_an_added_field_at_its_default_stays_out_of_the_canonical_form() -> None
 
 def test_an_operator_parameter_can_be_added_without_moving_a_seed() -> None:
     # the parameters are of the original form but those added later (issue 36's
-    # open_level); one declared added=True is made an added_field of the schema
-    # (scenarios.schema.models._operator_params_model)
+    # open_level, issue 37's preload_n and grip_lead_s); one declared added=True is made an
+    # added_field of the schema (scenarios.schema.models._operator_params_model)
     assert {name for name, spec in OperatorParams.ranges().items() if spec["added"]} == {
-        "open_level"}
+        "open_level", "preload_n", "grip_lead_s"}

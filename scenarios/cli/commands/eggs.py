@@ -54,9 +54,9 @@ def run(args: argparse.Namespace) -> int:
 def format_eggs(result: dict[str, Any]) -> str:
     """Success rate per mode, then success / broken / dropped per egg and mode."""
     modes = with_intact(result)
-    lines = [f"{'feedback':<18}{'success rate':>13}{'95 % CI':>18}{'transfers':>11}"]
+    lines = [f"{'feedback':<24}{'success rate':>13}{'95 % CI':>18}{'transfers':>11}"]
     for mode, m in modes.items():
-        lines.append(f"{mode:<18}{fmt(m['success_rate'], '.0f', 100) + ' %':>13}"
+        lines.append(f"{mode:<24}{fmt(m['success_rate'], '.0f', 100) + ' %':>13}"
                      f"{ci_text(m['ci95'], '.0f', 100):>18}{m['transfers']:>11}")
     lines.append("")
     lines.append(f"{'break N':>8}" + "".join(f"{mode + ' s/b/d':>26}" for mode in modes))

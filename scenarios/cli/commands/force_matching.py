@@ -45,12 +45,12 @@ def run(args: argparse.Namespace) -> int:
 
 def format_force_matching(result: dict[str, Any]) -> str:
     """Absolute error and CV per target and mode, with their intervals."""
-    lines = [f"{'target':>7}  {'feedback':<18}{'abs error N':>12}{'95 % CI':>16}{'CV %':>7}"
+    lines = [f"{'target':>7}  {'feedback':<24}{'abs error N':>12}{'95 % CI':>16}{'CV %':>7}"
              f"{'95 % CI':>16}{'user CV %':>10}{'n':>4}"]
     rows = [(t["target_fraction"], mode, t) for mode, m in with_intact(result).items()
             for t in m["targets"]]
     for frac, mode, t in sorted(rows, key=lambda r: r[0]):
-        lines.append(f"{frac:>7.0%}  {mode:<18}{fmt(t['abs_error_n']):>12}"
+        lines.append(f"{frac:>7.0%}  {mode:<24}{fmt(t['abs_error_n']):>12}"
                      f"{ci_text(t['abs_error_ci95']):>16}{fmt(t['cv'], '.1f', 100):>7}"
                      f"{ci_text(t['cv_ci95'], '.1f', 100):>16}"
                      f"{fmt(t.get('user_cv'), '.1f', 100):>10}{t['n']:>4}")
