@@ -14,9 +14,9 @@ their sources):
   rely on it, Markovic et al. 2018, J NeuroEng Rehabil 15:28; Wilke et al. 2019, J
   NeuroEng Rehabil 16:120), an intact hand's own digits are felt moving; same delay as
   vision (chosen: auditory reactions are, if anything, faster). The user then judges
-  the grasp secure once the hand was heard closing and fell silent, lifts without a
-  careful lift-off (there is nothing to watch), squeezes harder while the hand is not
-  heard moving at all, perceives a drop or a break only through feedback, and takes the
+  the grasp secure once the hand was heard closing (moving after their contraction
+  began) and fell silent, lifts without a careful lift-off (there is nothing to watch),
+  squeezes harder while the hand is not heard moving at all, perceives a drop or a break only through feedback, and takes the
   hand as open once it was heard opening and fell silent. With force feedback the grip's
   vibration also tells contact: the grasp is secure only once it is felt (silent
   without it: squeeze harder), and its stop during the lift is a drop;
@@ -198,6 +198,8 @@ class ReactingOperator:
         self._opens: list[tuple[float, float, float, float]] = []  # open intent's ramps
         full = np.flatnonzero(self._shape >= 0.99)
         self._ready_s = float(full[0] / plan.fs_hz) if full.size else 0.0
+        onset = np.flatnonzero(self._shape > 0.0)  # the contraction begins (to close)
+        self._onset_s = float(onset[0] / plan.fs_hz) if onset.size else 0.0
         self._still_since: float | None = None
         self._contact_since: float | None = None  # on the table: contact perceived since
         self._seen_sum, self._seen_n = 0.0, 0
@@ -261,7 +263,8 @@ class ReactingOperator:
         seen = self._vision.push(scene)
         if seen is not None and not started(self._plan).sees:  # only the digits, heard
             self._heard, seen = seen.finger_speed_rad_s, None
-            self._heard_moving |= self._heard >= p.still_rad_s
+            # movement heard before the user contracts (the hand set open) is not theirs
+            self._heard_moving |= self._heard >= p.still_rad_s and t >= self._onset_s
         felt = self.feedback.perceive(scene) if self._feels else None
         slide = None
         if seen is not None:  # vision: the delayed scene, with noise on the seen slide

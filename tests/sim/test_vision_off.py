@@ -79,6 +79,16 @@ def test_without_vision_the_user_lifts_once_the_motor_fell_silent_without_a_care
     assert lift <= CLOSING_S[1] + p.vision_delay_s + p.dwell_s + p.correction_rise_s + 0.1
 
 
+def test_the_hand_heard_moving_before_the_contraction_is_not_a_closing() -> None:
+    # the hand is set open in the first half second (its motor runs), then never moves:
+    # the user, who has not contracted yet, does not take that for their hand closing
+    blind = ReactingOperator(_params())
+    _run(blind, _lift_plan(sees=False),
+         lambda t: _scene(t, contact=False, grip=0.0, moving=t < 0.5), steps=600)
+    assert "lift" not in [name for _, name in blind.phase_log]
+    assert blind.corrections >= 2  # silent while contracting: squeezed for harder
+
+
 def test_a_drop_is_seen_with_vision_and_missed_without_it() -> None:
     def dropping(t: float) -> Scene:
         return _scene(t, dropped=t >= 4.5)
