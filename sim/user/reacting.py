@@ -8,18 +8,19 @@ their sources):
   still move, the object sliding in the hand (seen once it has slid at least
   ``visible_slip_m`` from where it sat), the object out of the hand, a broken
   object; delay ``vision_delay_s``, noise on the seen slide;
-* **without vision** (a plan with ``sees`` false: the test without vision of Raveh et al.
-  2018, Arch Phys Med Rehabil 99:2263): none of the above. What stays is the incidental
-  cue of the digits moving: a powered hand's motor is heard running or silent (users
-  rely on it, Markovic et al. 2018, J NeuroEng Rehabil 15:28; Wilke et al. 2019, J
-  NeuroEng Rehabil 16:120), an intact hand's own digits are felt moving; same delay as
-  vision (chosen: auditory reactions are, if anything, faster). The user then judges
-  the grasp secure once the hand was heard closing (moving after their contraction
-  began) and fell silent, lifts without a careful lift-off (there is nothing to watch),
-  squeezes harder while the hand is not heard moving at all, perceives a drop or a break only through feedback, and takes the
-  hand as open once it was heard opening and fell silent. With force feedback the grip's
-  vibration also tells contact: the grasp is secure only once it is felt (silent
-  without it: squeeze harder), and its stop during the lift is a drop;
+* **without vision** (a plan with ``sees`` false: the test without vision of Raveh et
+  al. 2018, Arch Phys Med Rehabil 99:2263): none of the above. What stays is the
+  incidental cue of the digits moving: a powered hand's motor is heard running or silent
+  (users rely on it, Markovic et al. 2018, J NeuroEng Rehabil 15:28; Wilke et al. 2019,
+  J NeuroEng Rehabil 16:120), an intact hand's own digits are felt moving; same delay as
+  vision (chosen: auditory reactions are, if anything, faster). The user then judges the
+  grasp secure once the hand was heard closing (moving after their contraction began)
+  and fell silent, lifts without a careful lift-off (there is nothing to watch),
+  squeezes harder while the hand is not heard moving at all, perceives a drop or a break
+  only through feedback, and takes the hand as open once it was heard opening and fell
+  silent. With force feedback the grip's vibration also tells contact: the grasp is
+  secure only once it is felt (silent without it: squeeze harder), and its stop during
+  the lift is a drop;
 * **feedback** (optional, :mod:`sim.user.feedback`): ``force_vibration`` or
   ``slip_vibration``; delay ``feedback_delay_s``.
 
