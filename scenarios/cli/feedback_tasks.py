@@ -115,21 +115,7 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
     """
     from scenarios.feedback_summary import aggregate
 
-    feedback = comma_list("--feedback", args.feedback)
-    paradigms = comma_list("--paradigm", args.paradigm)
-    check_user_options(args.user, feedback)
-    check_hand_options(paradigms, args.drive, args.decoder)
-    check_choice("--controller", args.controller, controller_names())
-    check_choice("--estimator", args.estimator, estimator_choices())
-    check_practice_window(args.practice, args.window_ms, args.step_ms)
-    if args.mode not in ("free_run", "one_step"):
-        raise UsageError(f"--mode: expected free_run or one_step, found {args.mode!r}")
-    if args.vision not in ("on", "off"):
-        raise UsageError(f"--vision: expected on or off, found {args.vision!r}")
-    if args.subjects < 1:
-        raise UsageError(f"--subjects: expected at least 1, found {args.subjects}")
-    if args.workers < 1:
-        raise UsageError(f"--workers: expected at least 1, found {args.workers}")
+    feedback, paradigms = _checked_lists(args)
     settings = {"controller.kind": args.controller, "estimator.name": args.estimator,
                 "estimator.mode": args.mode, "estimator.window_ms": args.window_ms,
                 "estimator.step_ms": args.step_ms, "user.kind": args.user,
@@ -177,6 +163,32 @@ def run_task(args: argparse.Namespace, kind: str, *, base: Mapping[str, Any] | N
     if args.db is not None:
         print(f"results in {args.db} (sweep {spec.name}; griploop report {args.db} --out DIR)")
     return 0
+
+
+def _checked_lists(args: argparse.Namespace) -> tuple[list[str], list[str]]:
+    """The ``--feedback`` and ``--paradigm`` lists, once every common option is checked.
+
+    Raises
+    ------
+    UsageError
+        The first option out of its choices or range, named in one line.
+    """
+    feedback = comma_list("--feedback", args.feedback)
+    paradigms = comma_list("--paradigm", args.paradigm)
+    check_user_options(args.user, feedback)
+    check_hand_options(paradigms, args.drive, args.decoder)
+    check_choice("--controller", args.controller, controller_names())
+    check_choice("--estimator", args.estimator, estimator_choices())
+    check_practice_window(args.practice, args.window_ms, args.step_ms)
+    if args.mode not in ("free_run", "one_step"):
+        raise UsageError(f"--mode: expected free_run or one_step, found {args.mode!r}")
+    if args.vision not in ("on", "off"):
+        raise UsageError(f"--vision: expected on or off, found {args.vision!r}")
+    if args.subjects < 1:
+        raise UsageError(f"--subjects: expected at least 1, found {args.subjects}")
+    if args.workers < 1:
+        raise UsageError(f"--workers: expected at least 1, found {args.workers}")
+    return feedback, paradigms
 
 
 def reference_arms(settings: Mapping[str, Any], grid: Mapping[str, list[Any]] | None

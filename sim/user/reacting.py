@@ -258,25 +258,10 @@ class ReactingOperator:
     # ------------------------------------------------------------------ step
     def perceive(self, scene: Scene) -> None:
         """Perceive ``scene`` through the channels and decide (module notes)."""
-        started(self._plan)
         p = self.params
         t = scene.t_s
-        seen = self._vision.push(scene)
-        if seen is not None and not started(self._plan).sees:  # only the digits, heard
-            self._heard, seen = seen.finger_speed_rad_s, None
-            # movement heard before the user contracts (the hand set open) is not theirs
-            self._heard_moving |= self._heard >= p.still_rad_s and t >= self._onset_s
+        seen, slide = self._look(scene)
         felt = self.feedback.perceive(scene) if self._feels else None
-        slide = None
-        if seen is not None:  # vision: the delayed scene, with noise on the seen slide
-            noise = self._vision_noise
-            slide = seen.object_in_hand_m + noise[self._step % len(noise)]
-            if self._rest_height_m is None:
-                self._rest_height_m = seen.object_height_m
-            plan = started(self._plan)
-            if (plan.lift_height_m is not None and seen.touching and seen.object_height_m
-                    - self._rest_height_m >= CARRIED_FRACTION * plan.lift_height_m):
-                self._carried = True
         self._step += 1
         if self.done:
             return
@@ -337,6 +322,30 @@ class ReactingOperator:
             if felt is not None and felt.slip and not holding:
                 felt = replace(felt, slip=False)  # the object pushed as the hand closes on it
             self._correct(t, seen, slide, felt)
+
+    def _look(self, scene: Scene) -> tuple[Scene | None, float | None]:
+        """What the eyes give at this step: the scene one vision delay ago and the object's
+        seen place in the hand (with the vision noise); ``(None, None)`` before the first
+        delay has passed, and without vision, where only the digits are heard (module
+        notes)."""
+        plan = started(self._plan)
+        seen = self._vision.push(scene)
+        if seen is None:
+            return None, None
+        if not plan.sees:
+            self._heard = seen.finger_speed_rad_s
+            # movement heard before the user contracts (the hand set open) is not theirs
+            self._heard_moving |= (self._heard >= self.params.still_rad_s
+                                   and scene.t_s >= self._onset_s)
+            return None, None
+        noise = self._vision_noise
+        slide = seen.object_in_hand_m + noise[self._step % len(noise)]
+        if self._rest_height_m is None:
+            self._rest_height_m = seen.object_height_m
+        if (plan.lift_height_m is not None and seen.touching and seen.object_height_m
+                - self._rest_height_m >= CARRIED_FRACTION * plan.lift_height_m):
+            self._carried = True
+        return seen, slide
 
     def _holding(self, t: float, seen: Scene | None, felt: Any) -> bool:
         """The hand has held the object for ``touch_dwell_s`` (its grip formed), as perceived.
